@@ -1,0 +1,69 @@
+//! The crate's error type: every way an input can be refused, with what to fix.
+
+use thiserror::Error;
+
+/// Why an input was refused. Nothing is dropped silently: each variant names the offending data.
+#[derive(Debug, Error, Clone, PartialEq)]
+pub enum Error {
+    /// No points at all.
+    #[error("the input has no points")]
+    Empty,
+    /// More points than 32-bit indices can number.
+    #[error("the input has {0} points; at most 4294967294 are supported")]
+    TooManyPoints(usize),
+    /// A coordinate is NaN or infinite.
+    #[error("point {index} has a non-finite coordinate ({x}, {y})")]
+    NonFinite {
+        /// Input index of the point.
+        index: usize,
+        /// Its x coordinate.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+    },
+    /// The bounding box is too large for f64 arithmetic on its extent.
+    #[error(
+        "coordinates span [{lo:?}, {hi:?}], too wide to compute with in f64; rescale the input"
+    )]
+    CoordinateRange {
+        /// Lower-left corner of the bounding box.
+        lo: [f64; 2],
+        /// Upper-right corner of the bounding box.
+        hi: [f64; 2],
+    },
+    /// Two distinct points that even the 64-bit-per-axis grid puts in one cell.
+    #[error(
+        "points {a} ({:?}) and {b} ({:?}) are distinct but too close to separate on a 64-bit grid \
+         over the input's extent; merge or move them",
+        pa,
+        pb
+    )]
+    Inseparable {
+        /// Input index of the first point.
+        a: usize,
+        /// Its coordinates.
+        pa: [f64; 2],
+        /// Input index of the second point.
+        b: usize,
+        /// Its coordinates.
+        pb: [f64; 2],
+    },
+    /// A line of an input file could not be read.
+    #[error("{source_name}:{line}: {message}")]
+    Parse {
+        /// File name (or `<input>`).
+        source_name: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The operating system refused to read or write a file.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The system's message.
+        message: String,
+    },
+}

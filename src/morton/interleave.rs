@@ -1,0 +1,195 @@
+//! Bit interleaving: BMI2 `pdep` where the CPU has it (checked at run time), magic bits elsewhere.
+//!
+//! This is the one module of the crate with `unsafe`: calling a `#[target_feature]` function is
+//! only sound once the feature has been detected.
+#![allow(unsafe_code)]
+
+use std::mem::MaybeUninit;
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use super::key::MortonKey;
+
+use super::quantize::Grid;
+use super::sort::Pair;
+
+const EVEN_BITS: u64 = 0x5555_5555_5555_5555;
+const ODD_BITS: u64 = 0xAAAA_AAAA_AAAA_AAAA;
+
+/// Spreads the 32 bits of `v` onto the even bit positions of a u64.
+#[inline(always)]
+fn spread_even(v: u32) -> u64 {
+    let mut x = v as u64;
+    x = (x | (x << 16)) & 0x0000_FFFF_0000_FFFF;
+    x = (x | (x << 8)) & 0x00FF_00FF_00FF_00FF;
+    x = (x | (x << 4)) & 0x0F0F_0F0F_0F0F_0F0F;
+    x = (x | (x << 2)) & 0x3333_3333_3333_3333;
+    (x | (x << 1)) & EVEN_BITS
+}
+
+/// Gathers the even bits of `v` into a u32 (inverse of [`spread_even`]).
+#[inline(always)]
+pub(crate) fn compact_even(v: u64) -> u32 {
+    let mut x = v & EVEN_BITS;
+    x = (x | (x >> 1)) & 0x3333_3333_3333_3333;
+    x = (x | (x >> 2)) & 0x0F0F_0F0F_0F0F_0F0F;
+    x = (x | (x >> 4)) & 0x00FF_00FF_00FF_00FF;
+    x = (x | (x >> 8)) & 0x0000_FFFF_0000_FFFF;
+    ((x | (x >> 16)) & 0xFFFF_FFFF) as u32
+}
+
+/// Interleaves two 32-bit coordinates, x bit above y bit (portable magic-bits version).
+#[inline(always)]
+pub(crate) fn interleave32(x: u32, y: u32) -> u64 {
+    (spread_even(x) << 1) | spread_even(y)
+}
+
+/// Points per task when encoding: large enough to amortize the task, small enough to balance.
+const ENCODE_CHUNK: usize = 1 << 14;
+
+/// The (key, index) pairs of all points, encoded in parallel straight into fresh memory (so the
+/// first-touch page faults are spread over the threads too).
+pub(crate) fn encode_all<K: MortonKey>(points: &[DVec2], grid: &Grid) -> Vec<Pair<K>> {
+    let mut pairs: Vec<Pair<K>> = crate::par::with_capacity_huge(points.len());
+    pairs.spare_capacity_mut()[..points.len()]
+        .par_chunks_mut(ENCODE_CHUNK)
+        .zip(points.par_chunks(ENCODE_CHUNK))
+        .enumerate()
+        .for_each(|(chunk, (out, pts))| {
+            let first = (chunk * ENCODE_CHUNK) as u32;
+            K::encode_points(pts, first, grid, out);
+        });
+    // SAFETY: the chunks cover the first `points.len()` slots, and `encode_points` of both key
+    // types (below, in this module) writes every slot of its output.
+    unsafe { pairs.set_len(points.len()) };
+    pairs
+}
+
+/// Whether the running CPU has BMI2 (`pdep`). The standard library caches the answer.
+#[inline]
+pub fn has_pdep() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("bmi2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// Quantizes `points` on `grid` and writes their narrow keys.
+/// `out[i]` gets the key of `points[i]` and the index `first + i`; every slot is written.
+pub(crate) fn encode_narrow(
+    points: &[DVec2],
+    first: u32,
+    grid: &Grid,
+    out: &mut [MaybeUninit<Pair<u64>>],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if has_pdep() {
+        // SAFETY: BMI2 was detected on this CPU just above.
+        unsafe { encode_narrow_bmi2(points, first, grid, out) };
+        return;
+    }
+    for (i, (p, k)) in points.iter().zip(out.iter_mut()).enumerate() {
+        let (x, y) = grid.quantize(*p);
+        k.write(Pair::new(
+            interleave32(x as u32, y as u32),
+            first + i as u32,
+        ));
+    }
+}
+
+/// Quantizes `points` on `grid` and writes their wide keys.
+/// `out[i]` gets the key of `points[i]` and the index `first + i`; every slot is written.
+pub(crate) fn encode_wide(
+    points: &[DVec2],
+    first: u32,
+    grid: &Grid,
+    out: &mut [MaybeUninit<Pair<u128>>],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if has_pdep() {
+        // SAFETY: BMI2 was detected on this CPU just above.
+        unsafe { encode_wide_bmi2(points, first, grid, out) };
+        return;
+    }
+    for (i, (p, k)) in points.iter().zip(out.iter_mut()).enumerate() {
+        let (x, y) = grid.quantize(*p);
+        let low = interleave32(x as u32, y as u32) as u128;
+        let high = interleave32((x >> 32) as u32, (y >> 32) as u32) as u128;
+        k.write(Pair::new((high << 64) | low, first + i as u32));
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "bmi2")]
+fn encode_narrow_bmi2(
+    points: &[DVec2],
+    first: u32,
+    grid: &Grid,
+    out: &mut [MaybeUninit<Pair<u64>>],
+) {
+    use std::arch::x86_64::_pdep_u64;
+    for (i, (p, k)) in points.iter().zip(out.iter_mut()).enumerate() {
+        let (x, y) = grid.quantize(*p);
+        k.write(Pair::new(
+            _pdep_u64(x, ODD_BITS) | _pdep_u64(y, EVEN_BITS),
+            first + i as u32,
+        ));
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "bmi2")]
+fn encode_wide_bmi2(
+    points: &[DVec2],
+    first: u32,
+    grid: &Grid,
+    out: &mut [MaybeUninit<Pair<u128>>],
+) {
+    use std::arch::x86_64::_pdep_u64;
+    for (i, (p, k)) in points.iter().zip(out.iter_mut()).enumerate() {
+        let (x, y) = grid.quantize(*p);
+        let low = _pdep_u64(x & 0xFFFF_FFFF, ODD_BITS) | _pdep_u64(y & 0xFFFF_FFFF, EVEN_BITS);
+        let high = _pdep_u64(x >> 32, ODD_BITS) | _pdep_u64(y >> 32, EVEN_BITS);
+        k.write(Pair::new(
+            ((high as u128) << 64) | low as u128,
+            first + i as u32,
+        ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spread_and_compact_are_inverse() {
+        for v in [0u32, 1, 2, 0xFFFF_FFFF, 0xDEAD_BEEF, 0x8000_0001] {
+            assert_eq!(compact_even(spread_even(v)), v);
+        }
+    }
+
+    #[test]
+    fn pdep_agrees_with_magic_bits() {
+        let grid = Grid::for_test(32);
+        let pts: Vec<DVec2> = (0..1000)
+            .map(|i| DVec2::new((i as f64 * 0.618).fract(), (i as f64 * 0.377).fract()))
+            .collect();
+        let a: Vec<Pair<u64>> = encode_all(&pts, &grid);
+        for (i, (p, k)) in pts.iter().zip(&a).enumerate() {
+            let (x, y) = grid.quantize(*p);
+            assert_eq!(k.key, interleave32(x as u32, y as u32));
+            assert_eq!(k.idx, i as u32);
+        }
+        let grid = Grid::for_test(64);
+        let w: Vec<Pair<u128>> = encode_all(&pts, &grid);
+        for (p, k) in pts.iter().zip(&w) {
+            let (x, y) = grid.quantize(*p);
+            assert_eq!(<u128 as crate::morton::MortonKey>::decode(k.key), (x, y));
+        }
+    }
+}

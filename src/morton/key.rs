@@ -1,0 +1,230 @@
+//! Morton keys: the bit-interleaving of two fixed-point coordinates.
+//!
+//! The x bit comes before the y bit at every level (BET §2), so the quadrant digit of a cell's
+//! child is `2 * xbit + ybit`: 0 = lower left, 1 = upper left, 2 = lower right, 3 = upper right.
+
+use std::fmt::Debug;
+use std::hash::Hash;
+use std::mem::MaybeUninit;
+
+use glam::DVec2;
+
+use super::quantize::Grid;
+use super::sort::{Pair, SortPairs};
+
+/// A Morton key of `2 * AXIS_BITS` bits, naming a point of the grid or, with a level, a cell.
+///
+/// Implemented for `u64` (32 bits per axis) and `u128` (64 bits per axis); the pipeline picks the
+/// narrow one unless the input's spread needs the wide one, and runs the same generic code on both.
+pub trait MortonKey:
+    Copy
+    + Ord
+    + Eq
+    + Hash
+    + Debug
+    + Default
+    + Send
+    + Sync
+    + 'static
+    + std::ops::BitXor<Output = Self>
+    + SortPairs
+{
+    /// Quantizes `points` on `grid`; `out[i]` gets the key of `points[i]` and index `first + i`.
+    fn encode_points(
+        points: &[DVec2],
+        first: u32,
+        grid: &Grid,
+        out: &mut [MaybeUninit<Pair<Self>>],
+    );
+
+    /// Bits per axis; also the deepest level a cell can have.
+    const AXIS_BITS: u32;
+    /// Interleaves two grid coordinates (each below `2^AXIS_BITS`), x bit first.
+    fn encode(x: u64, y: u64) -> Self;
+    /// Splits a key back into its grid coordinates.
+    fn decode(self) -> (u64, u64);
+    /// Number of leading zero bits of the full `2 * AXIS_BITS`-bit key.
+    fn leading_zeros(self) -> u32;
+    /// Number of trailing zero bits (`2 * AXIS_BITS` for zero).
+    fn trailing_zeros(self) -> u32;
+    /// Number of one bits.
+    fn count_ones(self) -> u32;
+    /// The key with every bit below the cell of `level` cleared: the anchor of that cell.
+    fn cell_anchor(self, level: u8) -> Self;
+    /// The key as a u128 (lossless for both key widths).
+    fn to_u128(self) -> u128;
+    /// The key from a u128 that fits in `2 * AXIS_BITS` bits.
+    fn from_u128(v: u128) -> Self;
+
+    /// Level of the smallest cell holding both keys (their derived square); `AXIS_BITS` if equal.
+    #[inline]
+    fn common_level(self, other: Self) -> u8 {
+        ((self ^ other).leading_zeros() / 2) as u8
+    }
+
+    /// Sum of the quadrant digits of the first `level` levels of this key: how many earlier
+    /// sibling subtrees the path from the root to the cell passes by.
+    #[inline]
+    fn digit_sum(self, level: u8) -> u32 {
+        let top = self.cell_anchor(level);
+        let x_mask = Self::from_u128(X_BITS & full_mask(Self::AXIS_BITS));
+        let x_ones = (top.to_u128() & x_mask.to_u128()).count_ones();
+        2 * x_ones + (top.count_ones() - x_ones)
+    }
+}
+
+/// Every x bit of a 128-bit key (the upper bit of each pair).
+const X_BITS: u128 = 0xAAAA_AAAA_AAAA_AAAA_AAAA_AAAA_AAAA_AAAA;
+
+fn full_mask(axis_bits: u32) -> u128 {
+    if axis_bits == 64 {
+        u128::MAX
+    } else {
+        (1u128 << (2 * axis_bits)) - 1
+    }
+}
+
+impl MortonKey for u64 {
+    const AXIS_BITS: u32 = 32;
+    fn encode_points(
+        points: &[DVec2],
+        first: u32,
+        grid: &Grid,
+        out: &mut [MaybeUninit<Pair<Self>>],
+    ) {
+        crate::morton::interleave::encode_narrow(points, first, grid, out);
+    }
+    #[inline]
+    fn encode(x: u64, y: u64) -> Self {
+        crate::morton::interleave::interleave32(x as u32, y as u32)
+    }
+    #[inline]
+    fn decode(self) -> (u64, u64) {
+        (
+            crate::morton::interleave::compact_even(self >> 1) as u64,
+            crate::morton::interleave::compact_even(self) as u64,
+        )
+    }
+    #[inline]
+    fn leading_zeros(self) -> u32 {
+        u64::leading_zeros(self)
+    }
+    #[inline]
+    fn trailing_zeros(self) -> u32 {
+        u64::trailing_zeros(self)
+    }
+    #[inline]
+    fn count_ones(self) -> u32 {
+        u64::count_ones(self)
+    }
+    #[inline]
+    fn cell_anchor(self, level: u8) -> Self {
+        let low = 2 * (Self::AXIS_BITS - level as u32);
+        if low >= 64 { 0 } else { (self >> low) << low }
+    }
+    #[inline]
+    fn to_u128(self) -> u128 {
+        self as u128
+    }
+    #[inline]
+    fn from_u128(v: u128) -> Self {
+        v as u64
+    }
+}
+
+impl MortonKey for u128 {
+    const AXIS_BITS: u32 = 64;
+    fn encode_points(
+        points: &[DVec2],
+        first: u32,
+        grid: &Grid,
+        out: &mut [MaybeUninit<Pair<Self>>],
+    ) {
+        crate::morton::interleave::encode_wide(points, first, grid, out);
+    }
+    #[inline]
+    fn encode(x: u64, y: u64) -> Self {
+        use crate::morton::interleave::interleave32;
+        let low = interleave32(x as u32, y as u32) as u128;
+        let high = interleave32((x >> 32) as u32, (y >> 32) as u32) as u128;
+        (high << 64) | low
+    }
+    #[inline]
+    fn decode(self) -> (u64, u64) {
+        let (xl, yl) = (self as u64).decode();
+        let (xh, yh) = ((self >> 64) as u64).decode();
+        ((xh << 32) | xl, (yh << 32) | yl)
+    }
+    #[inline]
+    fn leading_zeros(self) -> u32 {
+        u128::leading_zeros(self)
+    }
+    #[inline]
+    fn trailing_zeros(self) -> u32 {
+        u128::trailing_zeros(self)
+    }
+    #[inline]
+    fn count_ones(self) -> u32 {
+        u128::count_ones(self)
+    }
+    #[inline]
+    fn cell_anchor(self, level: u8) -> Self {
+        let low = 2 * (Self::AXIS_BITS - level as u32);
+        if low >= 128 { 0 } else { (self >> low) << low }
+    }
+    #[inline]
+    fn to_u128(self) -> u128 {
+        self
+    }
+    #[inline]
+    fn from_u128(v: u128) -> Self {
+        v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn encode_decode_round_trip() {
+        for &(x, y) in &[
+            (0u64, 0u64),
+            (1, 0),
+            (0, 1),
+            (0xFFFF_FFFF, 0x1234_5678),
+            (7, 9),
+        ] {
+            assert_eq!(u64::encode(x, y).decode(), (x, y));
+        }
+        for &(x, y) in &[
+            (u64::MAX, 0u64),
+            (0x8000_0000_0000_0001, 0x7FFF_FFFF_0000_0003),
+        ] {
+            assert_eq!(u128::encode(x, y).decode(), (x, y));
+        }
+    }
+
+    #[test]
+    fn x_bit_is_the_upper_bit_of_each_pair() {
+        assert_eq!(u64::encode(1, 0), 0b10);
+        assert_eq!(u64::encode(0, 1), 0b01);
+        assert_eq!(u64::encode(1 << 31, 0), 1 << 63);
+        assert_eq!(u128::encode(1 << 63, 0), 1 << 127);
+    }
+
+    #[test]
+    fn common_level_and_digit_sum() {
+        let a = u64::encode(0, 0);
+        let b = u64::encode(1 << 31, 0);
+        assert_eq!(a.common_level(b), 0);
+        let c = u64::encode(1 << 30, 1 << 30);
+        assert_eq!(a.common_level(c), 1);
+        assert_eq!(a.common_level(a), 32);
+        // Quadrant 3 at level 1, quadrant 2 at level 2.
+        let k = u64::encode((1 << 31) | (1 << 30), 1 << 31);
+        assert_eq!(k.digit_sum(1), 3);
+        assert_eq!(k.digit_sum(2), 5);
+        assert_eq!(k.digit_sum(0), 0);
+    }
+}

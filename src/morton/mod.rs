@@ -1,0 +1,298 @@
+//! Morton order: quantize the points onto a fixed-point grid over the root square, interleave
+//! the coordinates into keys, sort (key, index) pairs in parallel, merge exact duplicates.
+//!
+//! The grid has 32 bits per axis (u64 keys) unless two distinct points share a cell on it; then
+//! the same code runs again with 64 bits per axis (u128 keys). Points that even that grid cannot
+//! separate are an error naming them.
+
+mod cell;
+mod interleave;
+mod key;
+mod quantize;
+mod sort;
+
+use std::ops::Range;
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+pub use cell::Cell;
+pub use interleave::has_pdep;
+pub use key::MortonKey;
+pub use quantize::{GUARD_LEVELS, Grid};
+pub use sort::{Pair, SortAlgorithm, SortPairs, equal_key_runs};
+
+use crate::error::Error;
+use crate::par::collect_indexed;
+
+/// How many duplicate pairs a report keeps as examples.
+pub const DUPLICATE_EXAMPLES: usize = 8;
+
+/// Exact duplicates that were merged: the first input index of each point is kept.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Duplicates {
+    /// How many input points were dropped as copies of an earlier one.
+    pub count: usize,
+    /// The first few `(kept, dropped)` input indices, in Morton order.
+    pub examples: Vec<(u32, u32)>,
+}
+
+/// Distinct points in Morton order on one grid.
+#[derive(Clone, Debug)]
+pub struct MortonOrder<K> {
+    /// Strictly increasing keys, one per distinct point.
+    pub keys: Vec<K>,
+    /// `order[i]` is the input index of the point with key `keys[i]`.
+    pub order: Vec<u32>,
+    /// The grid the keys live on.
+    pub grid: Grid,
+    /// The exact duplicates merged away.
+    pub duplicates: Duplicates,
+}
+
+/// Morton order on the grid the input needs.
+#[derive(Clone, Debug)]
+pub enum Morton {
+    /// 32 bits per axis, u64 keys.
+    Narrow(MortonOrder<u64>),
+    /// 64 bits per axis, u128 keys.
+    Wide(MortonOrder<u128>),
+}
+
+/// Puts `points` into Morton order, choosing the narrowest grid that separates them.
+///
+/// # Errors
+/// [`Error::Empty`], [`Error::TooManyPoints`], [`Error::NonFinite`], [`Error::CoordinateRange`],
+/// and [`Error::Inseparable`] for distinct points the 64-bit grid cannot tell apart.
+///
+/// # Complexity
+/// O(n) work for encoding plus the sort's; all steps run on the current rayon pool.
+pub fn morton_order(points: &[DVec2], sort: SortAlgorithm) -> Result<Morton, Error> {
+    validate(points)?;
+    let (lo, hi) = bounding_box(points);
+    let grid = Grid::around(lo, hi, u64::AXIS_BITS)?;
+    let mut narrow: Vec<Pair<u64>> = interleave::encode_all(points, &grid);
+    u64::sort_pairs(&mut narrow, sort);
+    let runs = equal_key_runs(&narrow);
+    if first_collision(points, &narrow, &runs).is_none() {
+        return Ok(Morton::Narrow(separated(&narrow, &runs, grid)));
+    }
+    let grid = Grid::around(lo, hi, u128::AXIS_BITS)?;
+    let wide = refine_to_wide(points, &narrow, &runs, &grid);
+    drop(narrow);
+    let runs = equal_key_runs(&wide);
+    match first_collision(points, &wide, &runs) {
+        None => Ok(Morton::Wide(separated(&wide, &runs, grid))),
+        Some((a, b)) => Err(Error::Inseparable {
+            a,
+            pa: points[a].into(),
+            b,
+            pb: points[b].into(),
+        }),
+    }
+}
+
+/// Runs longer than this are re-sorted in parallel.
+const PARALLEL_RUN_SORT: usize = 1 << 15;
+
+/// Wide keys of narrow-sorted pairs, in wide Morton order. Both grids quantize the same scaled
+/// coordinate (their scales differ by exactly 2^32), so at every level the narrow grid resolves,
+/// the two keys name the same cell: pairs with different narrow keys are already in wide order,
+/// and only runs of equal narrow keys need sorting again.
+fn refine_to_wide(
+    points: &[DVec2],
+    narrow: &[Pair<u64>],
+    runs: &[Range<usize>],
+    grid: &Grid,
+) -> Vec<Pair<u128>> {
+    let mut wide = collect_indexed(narrow.len(), |i| {
+        let idx = narrow[i].idx;
+        let (x, y) = grid.quantize(points[idx as usize]);
+        Pair::new(u128::encode(x, y), idx)
+    });
+    for run in runs {
+        let run = &mut wide[run.clone()];
+        if run.len() >= PARALLEL_RUN_SORT {
+            run.par_sort_unstable();
+        } else {
+            run.sort_unstable();
+        }
+    }
+    wide
+}
+
+/// Refuses empty input, too many points and non-finite coordinates.
+fn validate(points: &[DVec2]) -> Result<(), Error> {
+    if points.is_empty() {
+        return Err(Error::Empty);
+    }
+    if points.len() >= u32::MAX as usize {
+        return Err(Error::TooManyPoints(points.len()));
+    }
+    match points.par_iter().position_first(|p| !p.is_finite()) {
+        Some(index) => Err(Error::NonFinite {
+            index,
+            x: points[index].x,
+            y: points[index].y,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// The bounding box of non-empty, finite points.
+pub fn bounding_box(points: &[DVec2]) -> (DVec2, DVec2) {
+    points
+        .par_iter()
+        .fold(
+            || (DVec2::INFINITY, DVec2::NEG_INFINITY),
+            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+        )
+        .reduce(
+            || (DVec2::INFINITY, DVec2::NEG_INFINITY),
+            |(a, b), (c, d)| (a.min(c), b.max(d)),
+        )
+}
+
+/// The distinct points of sorted pairs that have no collision.
+fn separated<K: MortonKey>(pairs: &[Pair<K>], runs: &[Range<usize>], grid: Grid) -> MortonOrder<K> {
+    let duplicates = duplicates_of(pairs, runs);
+    let (keys, order) = split_distinct(pairs, !runs.is_empty());
+    MortonOrder {
+        keys,
+        order,
+        grid,
+        duplicates,
+    }
+}
+
+/// Two distinct points with equal keys, if any. Runs are in index order, so the first of a run
+/// is the point that would be kept.
+fn first_collision<K>(
+    points: &[DVec2],
+    pairs: &[Pair<K>],
+    runs: &[Range<usize>],
+) -> Option<(usize, usize)> {
+    runs.iter().find_map(|run| {
+        let kept = pairs[run.start].idx as usize;
+        pairs[run.clone()]
+            .iter()
+            .map(|p| p.idx as usize)
+            .find(|&i| points[i] != points[kept])
+            .map(|other| (kept, other))
+    })
+}
+
+fn duplicates_of<K>(pairs: &[Pair<K>], runs: &[Range<usize>]) -> Duplicates {
+    let count = runs.iter().map(|r| r.len() - 1).sum();
+    let examples = runs
+        .iter()
+        .flat_map(|r| {
+            pairs[r.start + 1..r.end]
+                .iter()
+                .map(|p| (pairs[r.start].idx, p.idx))
+        })
+        .take(DUPLICATE_EXAMPLES)
+        .collect();
+    Duplicates { count, examples }
+}
+
+/// Splits sorted pairs into keys and input indices, keeping the first pair of each key.
+fn split_distinct<K: MortonKey>(pairs: &[Pair<K>], has_duplicates: bool) -> (Vec<K>, Vec<u32>) {
+    if !has_duplicates {
+        return (
+            collect_indexed(pairs.len(), |i| pairs[i].key),
+            collect_indexed(pairs.len(), |i| pairs[i].idx),
+        );
+    }
+    let first_of_key = |i: &usize| *i == 0 || pairs[*i].key != pairs[*i - 1].key;
+    let kept: Vec<usize> = (0..pairs.len())
+        .into_par_iter()
+        .filter(first_of_key)
+        .collect();
+    (
+        collect_indexed(kept.len(), |i| pairs[kept[i]].key),
+        collect_indexed(kept.len(), |i| pairs[kept[i]].idx),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pts(v: &[(f64, f64)]) -> Vec<DVec2> {
+        v.iter().map(|&(x, y)| DVec2::new(x, y)).collect()
+    }
+
+    #[test]
+    fn errors_on_bad_input() {
+        assert_eq!(
+            morton_order(&[], SortAlgorithm::default()).unwrap_err(),
+            Error::Empty
+        );
+        let e = morton_order(
+            &pts(&[(0.0, 0.0), (f64::NAN, 1.0)]),
+            SortAlgorithm::default(),
+        );
+        assert!(matches!(e, Err(Error::NonFinite { index: 1, .. })));
+        let e = morton_order(
+            &pts(&[(0.0, 0.0), (1.0, f64::INFINITY)]),
+            SortAlgorithm::default(),
+        );
+        assert!(matches!(e, Err(Error::NonFinite { index: 1, .. })));
+    }
+
+    #[test]
+    fn duplicates_are_merged_and_reported() {
+        let p = pts(&[
+            (1.0, 1.0),
+            (0.0, 0.0),
+            (1.0, 1.0),
+            (0.5, 0.25),
+            (0.0, 0.0),
+            (1.0, 1.0),
+        ]);
+        let Morton::Narrow(m) = morton_order(&p, SortAlgorithm::default()).unwrap() else {
+            panic!("narrow grid expected")
+        };
+        assert_eq!(m.keys.len(), 3);
+        assert_eq!(m.duplicates.count, 3);
+        let mut kept: Vec<u32> = m.order.clone();
+        kept.sort();
+        assert_eq!(kept, vec![0, 1, 3]);
+        assert!(m.duplicates.examples.contains(&(0, 2)));
+        assert!(m.duplicates.examples.contains(&(1, 4)));
+    }
+
+    #[test]
+    fn close_points_widen_the_grid() {
+        let p = pts(&[(0.0, 0.0), (1.0, 1.0), (0.5, 0.5), (0.5 + 1e-12, 0.5)]);
+        assert!(matches!(
+            morton_order(&p, SortAlgorithm::default()).unwrap(),
+            Morton::Wide(_)
+        ));
+    }
+
+    #[test]
+    fn refined_wide_order_equals_a_full_wide_sort() {
+        let mut p = crate::generate::points(crate::generate::Distribution2d::Cluster, 30_000, 2);
+        p.extend_from_within(..3000);
+        let Morton::Wide(m) = morton_order(&p, SortAlgorithm::default()).unwrap() else {
+            panic!("clusters down to sigma 1e-6 need the wide grid")
+        };
+        let mut all: Vec<Pair<u128>> = interleave::encode_all(&p, &m.grid);
+        all.sort();
+        all.dedup_by_key(|q| q.key);
+        assert_eq!(m.keys, all.iter().map(|q| q.key).collect::<Vec<_>>());
+        assert_eq!(m.order, all.iter().map(|q| q.idx).collect::<Vec<_>>());
+        assert_eq!(m.duplicates.count, 3000);
+    }
+
+    #[test]
+    fn inseparable_points_are_named() {
+        let p = pts(&[(0.0, 0.0), (1.0, 1.0), (0.0, 0.5), (1e-30, 0.5)]);
+        match morton_order(&p, SortAlgorithm::default()) {
+            Err(Error::Inseparable { a, b, .. }) => assert_eq!((a.min(b), a.max(b)), (2, 3)),
+            other => panic!("expected Inseparable, got {other:?}"),
+        }
+    }
+}

@@ -1,0 +1,209 @@
+//! Data-parallel helpers the stages share: prefix sums for allocation, and filling an output
+//! array whose segments belong to different input items.
+
+use rayon::prelude::*;
+
+/// Items per task in scans and segment fills: large enough that rayon's task overhead is small.
+pub const GRAIN: usize = 1 << 13;
+
+/// Exclusive prefix sum of `counts`, with the total appended (`len + 1` entries).
+///
+/// # Complexity
+/// O(n) work in two parallel passes over chunks and one sequential pass over chunk sums.
+pub fn exclusive_scan(counts: &[u32]) -> Vec<usize> {
+    let sums: Vec<usize> = counts
+        .par_chunks(GRAIN)
+        .map(|c| c.iter().map(|&x| x as usize).sum())
+        .collect();
+    let mut starts = Vec::with_capacity(sums.len());
+    let mut total = 0usize;
+    for s in &sums {
+        starts.push(total);
+        total += s;
+    }
+    let chunks = chunk_offsets(counts.len(), GRAIN);
+    let mut out = collect_segments(&chunks, |c| {
+        counts[chunks[c]..chunks[c + 1]]
+            .iter()
+            .scan(starts[c], |acc, &count| {
+                let here = *acc;
+                *acc += count as usize;
+                Some(here)
+            })
+    });
+    out.push(total);
+    out
+}
+
+/// Fills `out` in parallel, where item `i` owns `out[offsets[i]..offsets[i + 1]]`:
+/// `fill(i, segment)` is called once per item with its segment. The result does not depend on
+/// the thread count.
+pub fn fill_segments<T, F>(offsets: &[usize], out: &mut [T], fill: F)
+where
+    T: Send,
+    F: Fn(usize, &mut [T]) + Sync,
+{
+    let items = offsets.len() - 1;
+    assert_eq!(
+        offsets[items] - offsets[0],
+        out.len(),
+        "segments must cover the output"
+    );
+    let mut groups: Vec<(usize, &mut [T])> = Vec::with_capacity(items / GRAIN + 1);
+    let mut rest = out;
+    for first in (0..items).step_by(GRAIN) {
+        let last = (first + GRAIN).min(items);
+        let (head, tail) = rest.split_at_mut(offsets[last] - offsets[first]);
+        groups.push((first, head));
+        rest = tail;
+    }
+    groups.into_par_iter().for_each(|(first, mut segment)| {
+        let last = (first + GRAIN).min(items);
+        for i in first..last {
+            let (head, tail) = segment.split_at_mut(offsets[i + 1] - offsets[i]);
+            fill(i, head);
+            segment = tail;
+        }
+    });
+}
+
+/// Builds a vector in parallel, straight into fresh memory (the first-touch page faults are spread
+/// over the threads too): item `i` owns `offsets[i]..offsets[i + 1]` and `produce(i)` yields
+/// exactly that many values for it.
+///
+/// # Panics
+/// If `produce(i)` yields a different number of values than its segment holds.
+pub fn collect_segments<T, I, F>(offsets: &[usize], produce: F) -> Vec<T>
+where
+    T: Send,
+    I: Iterator<Item = T>,
+    F: Fn(usize) -> I + Sync,
+{
+    let total = offsets[offsets.len() - 1] - offsets[0];
+    let mut out: Vec<T> = with_capacity_huge(total);
+    fill_segments(
+        offsets,
+        &mut out.spare_capacity_mut()[..total],
+        |i, segment| {
+            let mut written = 0;
+            for (slot, value) in segment.iter_mut().zip(produce(i)) {
+                slot.write(value);
+                written += 1;
+            }
+            assert_eq!(written, segment.len(), "item {i} yielded too few values");
+        },
+    );
+    set_len_after_fill(&mut out, total);
+    out
+}
+
+/// `f(0), f(1), ..., f(n - 1)` computed in parallel into fresh memory.
+pub fn collect_indexed<T, F>(n: usize, f: F) -> Vec<T>
+where
+    T: Send,
+    F: Fn(usize) -> T + Sync,
+{
+    let offsets = chunk_offsets(n, GRAIN);
+    collect_segments(&offsets, |c| (offsets[c]..offsets[c + 1]).map(&f))
+}
+
+/// Arrays at least this large ask the kernel for transparent huge pages.
+const HUGE_PAGE_MIN_BYTES: usize = 4 << 20;
+
+/// An empty vector with room for `n` values. Large buffers are marked for transparent huge pages
+/// before they are first touched: a 4 KiB page fault costs about 2.3 µs here, so first touch of
+/// fresh memory would otherwise cost more than the stages' own work.
+pub fn with_capacity_huge<T>(n: usize) -> Vec<T> {
+    let v = Vec::with_capacity(n);
+    let bytes = n.saturating_mul(std::mem::size_of::<T>());
+    if bytes >= HUGE_PAGE_MIN_BYTES {
+        advise_huge_pages(v.as_ptr() as usize, bytes);
+    }
+    v
+}
+
+#[cfg(target_os = "linux")]
+#[allow(unsafe_code)]
+fn advise_huge_pages(start: usize, bytes: usize) {
+    const HUGE: usize = 2 << 20;
+    let first = start.next_multiple_of(HUGE);
+    let end = (start + bytes) / HUGE * HUGE;
+    if end > first {
+        // SAFETY: the range lies inside an allocation this process owns; MADV_HUGEPAGE only
+        // changes how the kernel backs it, never its contents. Failure is harmless and ignored.
+        unsafe { libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE) };
+    }
+}
+
+#[cfg(not(target_os = "linux"))]
+fn advise_huge_pages(_start: usize, _bytes: usize) {}
+
+/// Items of a fixed-size chunking, as segment offsets: `0, chunk, 2 chunk, ..., n`.
+pub fn chunk_offsets(n: usize, chunk: usize) -> Vec<usize> {
+    (0..n)
+        .step_by(chunk.max(1))
+        .chain(std::iter::once(n))
+        .collect()
+}
+
+#[allow(unsafe_code)]
+fn set_len_after_fill<T>(out: &mut Vec<T>, total: usize) {
+    // SAFETY: `collect_segments` has written every one of the first `total` slots: the segments
+    // partition them, and each segment's count was checked (a short one panics before this).
+    unsafe { out.set_len(total) };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scan_matches_sequential() {
+        for n in [0usize, 1, 5, GRAIN, 3 * GRAIN + 7] {
+            let counts: Vec<u32> = (0..n).map(|i| (i * 7 % 5) as u32).collect();
+            let got = exclusive_scan(&counts);
+            let mut acc = 0usize;
+            for (i, &c) in counts.iter().enumerate() {
+                assert_eq!(got[i], acc);
+                acc += c as usize;
+            }
+            assert_eq!(got[n], acc);
+        }
+    }
+
+    #[test]
+    fn collected_segments_hold_their_owners_values() {
+        let offsets = chunk_offsets(3 * GRAIN + 5, 7);
+        let v = collect_segments(&offsets, |i| {
+            (offsets[i]..offsets[i + 1]).map(move |j| (i, j))
+        });
+        assert_eq!(v.len(), 3 * GRAIN + 5);
+        assert!(
+            v.iter()
+                .enumerate()
+                .all(|(j, &(i, jj))| j == jj && offsets[i] <= j && j < offsets[i + 1])
+        );
+    }
+
+    #[test]
+    #[should_panic(expected = "too few")]
+    fn short_segments_are_refused() {
+        let offsets = vec![0, 3, 6];
+        let _ = collect_segments(&offsets, |i| {
+            (0..if i == 0 { 3 } else { 2 }).map(|x| x as u8)
+        });
+    }
+
+    #[test]
+    fn segments_are_filled_by_their_owner() {
+        let counts: Vec<u32> = (0..3 * GRAIN + 5).map(|i| (i % 4) as u32).collect();
+        let offsets = exclusive_scan(&counts);
+        let mut out = vec![usize::MAX; offsets[counts.len()]];
+        fill_segments(&offsets, &mut out, |i, seg| {
+            seg.iter_mut().for_each(|x| *x = i)
+        });
+        for (i, w) in offsets.windows(2).enumerate() {
+            assert!(out[w[0]..w[1]].iter().all(|&x| x == i));
+        }
+    }
+}

@@ -1,0 +1,265 @@
+//! The unbalanced quadtree: every internal square has four children and every input point is
+//! alone in its leaf. Built from the framework by expanding each framework edge into its path
+//! of squares (BET §2), with work allocated by prefix sums.
+//!
+//! Internal squares are stored in preorder, leaves in Morton order. Internal squares are exactly
+//! the squares holding two or more points (plus the root); they are the framework nodes and the
+//! squares on the paths between them.
+
+pub mod reference;
+
+pub use crate::morton::Cell;
+
+use crate::framework::{Framework, NONE};
+use crate::morton::MortonKey;
+use crate::par::{collect_indexed, collect_segments, exclusive_scan};
+
+/// A leaf and the point in it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Leaf<K> {
+    /// The square.
+    pub cell: Cell<K>,
+    /// Morton position of its point, [`NONE`] if empty.
+    pub point: u32,
+}
+
+/// An internal square and the first point inside it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct Internal<K> {
+    /// The square.
+    pub cell: Cell<K>,
+    /// Morton position of the first point inside it.
+    pub first: u32,
+}
+
+/// The unbalanced quadtree as flat arrays.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Quadtree<K> {
+    /// Internal squares in preorder.
+    pub internal: Vec<Internal<K>>,
+    /// Leaves in Morton order; they tile the root.
+    pub leaves: Vec<Leaf<K>>,
+}
+
+/// Expands the framework of `keys` into the unbalanced quadtree.
+///
+/// # Complexity
+/// O(n + k) work for k squares: one prefix sum over framework nodes, then each internal square
+/// and each leaf is written once, in parallel.
+pub fn expand<K: MortonKey>(fw: &Framework<K>, keys: &[K]) -> Quadtree<K> {
+    if fw.is_empty() {
+        let point = if keys.is_empty() { NONE } else { 0 };
+        return Quadtree {
+            internal: Vec::new(),
+            leaves: vec![Leaf {
+                cell: Cell::root(),
+                point,
+            }],
+        };
+    }
+    let internal = internal_squares(fw);
+    let leaves = leaves_of(&internal, keys);
+    Quadtree { internal, leaves }
+}
+
+/// The squares on every framework edge: node `u` owns the levels below its parent's down to its
+/// own. In framework preorder, these paths concatenate to the preorder of internal squares.
+fn internal_squares<K: MortonKey>(fw: &Framework<K>) -> Vec<Internal<K>> {
+    let counts = collect_indexed(fw.len(), |u| {
+        (fw.nodes[u].cell.level as i32 - fw.parent_level(u)) as u32
+    });
+    let offsets = exclusive_scan(&counts);
+    collect_segments(&offsets, |u| {
+        let node = fw.nodes[u];
+        let top = (fw.parent_level(u) + 1) as u8;
+        (top..=node.cell.level).map(move |level| Internal {
+            cell: Cell::containing(node.cell.anchor, level),
+            first: node.first,
+        })
+    })
+}
+
+/// Leaves in Morton order. The leaves before internal square `i` (in preorder) number
+/// `3 (i - level_i) + digit_sum_i`: each of the `i - level_i` internal squares that are not
+/// ancestors of `i` closes a subtree with three more leaves than internal squares, and the path
+/// from the root to `i` passes `digit_sum_i` earlier sibling subtrees. The leaves between two
+/// consecutive internal squares tile the key interval between their corners.
+fn leaves_of<K: MortonKey>(internal: &[Internal<K>], keys: &[K]) -> Vec<Leaf<K>> {
+    let n = internal.len();
+    let offsets = collect_indexed(n + 1, |i| match internal.get(i) {
+        Some(s) => 3 * (i - s.cell.level as usize) + s.cell.anchor.digit_sum(s.cell.level) as usize,
+        None => 3 * n + 1,
+    });
+    collect_segments(&offsets, |i| {
+        let end = internal.get(i + 1).map(|s| s.cell.anchor.to_u128());
+        let count = offsets[i + 1] - offsets[i];
+        GapTiles::new(&internal[i], end, keys).take(count)
+    })
+}
+
+/// The leaves covering keys from an internal square's corner up to `end` (the next internal
+/// square's corner, or the end of the key space), largest aligned squares first, the first one
+/// a child of that square. Points are assigned by merging with the sorted keys.
+struct GapTiles<'a, K> {
+    x: u128,
+    end: u128,
+    cursor: usize,
+    finest: u8,
+    keys: &'a [K],
+}
+
+impl<'a, K: MortonKey> GapTiles<'a, K> {
+    fn new(from: &Internal<K>, end: Option<u128>, keys: &'a [K]) -> Self {
+        // The end of the wide key space, 2^128, wraps to 0; `end - x` then wraps correctly.
+        let key_space_end = 1u128.checked_shl(2 * K::AXIS_BITS).unwrap_or(0);
+        GapTiles {
+            x: from.cell.anchor.to_u128(),
+            end: end.unwrap_or(key_space_end),
+            cursor: from.first as usize,
+            finest: from.cell.level + 1,
+            keys,
+        }
+    }
+}
+
+impl<K: MortonKey> Iterator for GapTiles<'_, K> {
+    type Item = Leaf<K>;
+
+    fn next(&mut self) -> Option<Leaf<K>> {
+        let key_bits = 2 * K::AXIS_BITS;
+        let span = self.end.wrapping_sub(self.x);
+        let span_bits = if span == 0 {
+            128
+        } else {
+            127 - span.leading_zeros()
+        };
+        let align_bits = if self.x == 0 {
+            key_bits
+        } else {
+            self.x.trailing_zeros().min(key_bits)
+        };
+        let half_bits = (span_bits / 2)
+            .min(align_bits / 2)
+            .min(K::AXIS_BITS - self.finest as u32);
+        let size = 1u128 << (2 * half_bits);
+        let point = match self.keys.get(self.cursor) {
+            Some(k) if k.to_u128().wrapping_sub(self.x) < size => {
+                self.cursor += 1;
+                (self.cursor - 1) as u32
+            }
+            _ => NONE,
+        };
+        let cell = Cell {
+            anchor: K::from_u128(self.x),
+            level: (K::AXIS_BITS - half_bits) as u8,
+        };
+        self.x = self.x.wrapping_add(size);
+        self.finest = 0;
+        Some(Leaf { cell, point })
+    }
+}
+
+impl<K: MortonKey> Quadtree<K> {
+    /// Checks the tree against the keys it was built from; returns what is wrong.
+    ///
+    /// Internal squares are in strict preorder, have internal parents and hold two or more
+    /// points (the root excepted); leaves tile the root in Morton order, have internal parents,
+    /// and hold exactly the point recorded for them (at most one).
+    pub fn check(&self, keys: &[K]) -> Result<(), String> {
+        let internal: std::collections::HashSet<Cell<K>> =
+            self.internal.iter().map(|s| s.cell).collect();
+        if internal.len() != self.internal.len() {
+            return Err("an internal square appears twice".into());
+        }
+        self.check_internal(&internal, keys)?;
+        self.check_leaves(&internal, keys)
+    }
+
+    fn check_internal(
+        &self,
+        internal: &std::collections::HashSet<Cell<K>>,
+        keys: &[K],
+    ) -> Result<(), String> {
+        for (i, s) in self.internal.iter().enumerate() {
+            let cell = s.cell;
+            let held = points_in(cell, keys);
+            if (cell.level > 0 && held.len() < 2) || (cell.level == 0 && keys.len() < 2) {
+                return Err(format!(
+                    "internal square {i} {cell:?} holds {} points",
+                    held.len()
+                ));
+            }
+            if held.start != s.first as usize {
+                return Err(format!("internal square {i} has a wrong first point"));
+            }
+            if cell.level > 0 && !internal.contains(&cell.parent()) {
+                return Err(format!("internal square {i} has no internal parent"));
+            }
+            if i > 0
+                && (
+                    self.internal[i - 1].cell.anchor,
+                    self.internal[i - 1].cell.level,
+                ) >= (cell.anchor, cell.level)
+            {
+                return Err(format!(
+                    "internal squares {} and {i} out of preorder",
+                    i - 1
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn check_leaves(
+        &self,
+        internal: &std::collections::HashSet<Cell<K>>,
+        keys: &[K],
+    ) -> Result<(), String> {
+        let mut next = 0u128;
+        let mut located = 0usize;
+        for (j, leaf) in self.leaves.iter().enumerate() {
+            let cell = leaf.cell;
+            if cell.anchor.to_u128() != next {
+                return Err(format!("leaf {j} leaves a gap or overlaps"));
+            }
+            next = next.wrapping_add(1u128.checked_shl(cell.span_bits()).unwrap_or(0));
+            if internal.contains(&cell) || (cell.level > 0 && !internal.contains(&cell.parent())) {
+                return Err(format!(
+                    "leaf {j} {cell:?} is internal or has no internal parent"
+                ));
+            }
+            let held = points_in(cell, keys);
+            let expected = if held.is_empty() {
+                NONE
+            } else {
+                held.start as u32
+            };
+            if held.len() > 1 || leaf.point != expected {
+                return Err(format!(
+                    "leaf {j} holds {held:?} but records {}",
+                    leaf.point
+                ));
+            }
+            located += held.len();
+        }
+        let full = if K::AXIS_BITS == 64 {
+            0
+        } else {
+            1u128 << (2 * K::AXIS_BITS)
+        };
+        if next != full || located != keys.len() {
+            return Err(format!(
+                "leaves cover up to {next:#x} and hold {located} of {} points",
+                keys.len()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The Morton positions of the keys inside a square.
+pub fn points_in<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> std::ops::Range<usize> {
+    let start = keys.partition_point(|k| k.cell_anchor(cell.level) < cell.anchor);
+    let end = start + keys[start..].partition_point(|k| cell.contains(*k));
+    start..end
+}

@@ -1,0 +1,245 @@
+//! The parallel Morton order, framework and unbalanced quadtree against the sequential
+//! reference, on every input family, on one and two threads.
+
+use proptest::prelude::*;
+use quadmesh::framework::{self, Framework, NONE};
+use quadmesh::generate::{Distribution2d, points};
+use quadmesh::morton::{Morton, MortonKey, SortAlgorithm, morton_order};
+use quadmesh::quadtree::reference::build_reference;
+use quadmesh::quadtree::{Cell, Quadtree, expand, points_in};
+use quadmesh::{DVec2, Tree, build_tree};
+
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+/// The framework read off the reference tree: internal squares with two or more non-empty
+/// children, each linked to its deepest such ancestor.
+fn reference_framework<K: MortonKey>(
+    tree: &Quadtree<K>,
+    keys: &[K],
+) -> Vec<(Cell<K>, Option<Cell<K>>)> {
+    let branching = |c: &Cell<K>| {
+        let held = points_in(*c, keys);
+        keys[held.start].cell_anchor(c.level + 1) != keys[held.end - 1].cell_anchor(c.level + 1)
+    };
+    let nodes: Vec<Cell<K>> = tree
+        .internal
+        .iter()
+        .map(|s| s.cell)
+        .filter(branching)
+        .collect();
+    nodes
+        .iter()
+        .map(|c| {
+            let parent = (0..c.level)
+                .rev()
+                .map(|l| Cell::containing(c.anchor, l))
+                .find(|a| nodes.contains(a));
+            (*c, parent)
+        })
+        .collect()
+}
+
+fn framework_pairs<K: MortonKey>(fw: &Framework<K>) -> Vec<(Cell<K>, Option<Cell<K>>)> {
+    let cell = |u: usize| fw.nodes[u].cell;
+    (0..fw.len())
+        .map(|u| {
+            (
+                cell(u),
+                (fw.parent[u] != NONE).then(|| cell(fw.parent[u] as usize)),
+            )
+        })
+        .collect()
+}
+
+fn assert_matches_reference<K: MortonKey>(keys: &[K]) {
+    let fw = framework::build_framework(keys);
+    framework::check(&fw, keys).unwrap();
+    let tree = expand(&fw, keys);
+    tree.check(keys).unwrap();
+    let reference = build_reference(keys);
+    reference.check(keys).unwrap();
+    assert_eq!(tree, reference, "quadtree differs from the reference");
+    assert_eq!(
+        framework_pairs(&fw),
+        reference_framework(&reference, keys),
+        "framework differs"
+    );
+}
+
+fn check_points(pts: &[DVec2]) {
+    match morton_order(pts, SortAlgorithm::default()).unwrap() {
+        Morton::Narrow(m) => assert_matches_reference(&m.keys),
+        Morton::Wide(m) => assert_matches_reference(&m.keys),
+    }
+}
+
+/// Everything the pipeline produces, as bytes, for comparing runs.
+fn fingerprint(tree: &Tree) -> String {
+    match tree {
+        Tree::Narrow(b) => format!(
+            "{:?}{:?}{:?}{:?}",
+            b.morton.keys, b.morton.order, b.framework, b.quadtree
+        ),
+        Tree::Wide(b) => format!(
+            "{:?}{:?}{:?}{:?}",
+            b.morton.keys, b.morton.order, b.framework, b.quadtree
+        ),
+    }
+}
+
+#[test]
+fn every_family_matches_the_reference() {
+    for dist in [
+        Distribution2d::Uniform,
+        Distribution2d::Cluster,
+        Distribution2d::Kuzmin,
+        Distribution2d::Grid,
+    ] {
+        for n in [2, 3, 10, 1000, 20_000] {
+            check_points(&points(dist, n, n as u64));
+        }
+    }
+}
+
+#[test]
+fn kuzmin_at_a_million_needs_and_gets_the_wide_grid() {
+    let pts = points(Distribution2d::Kuzmin, 1_000_000, 3);
+    let (tree, _) = build_tree(&pts, SortAlgorithm::default()).unwrap();
+    let Tree::Wide(b) = &tree else {
+        panic!("Kuzmin 1e6 should need 64 bits per axis")
+    };
+    assert_eq!(b.morton.keys.len(), pts.len());
+    framework::check(&b.framework, &b.morton.keys).unwrap();
+    b.quadtree.check(&b.morton.keys).unwrap();
+}
+
+#[test]
+fn one_and_two_threads_give_identical_trees() {
+    for dist in [
+        Distribution2d::Uniform,
+        Distribution2d::Cluster,
+        Distribution2d::Kuzmin,
+    ] {
+        let pts = points(dist, 200_000, 11);
+        let one = on_threads(1, || build_tree(&pts, SortAlgorithm::default()).unwrap().0);
+        let two = on_threads(2, || build_tree(&pts, SortAlgorithm::default()).unwrap().0);
+        assert_eq!(fingerprint(&one), fingerprint(&two), "{dist:?}");
+    }
+}
+
+#[test]
+fn all_sorts_give_the_same_tree() {
+    let mut pts = points(Distribution2d::Cluster, 50_000, 5);
+    pts.extend_from_within(..5000);
+    let runs: Vec<String> = [
+        SortAlgorithm::Radsort,
+        SortAlgorithm::Voracious,
+        SortAlgorithm::RayonUnstable,
+    ]
+    .into_iter()
+    .map(|s| fingerprint(&build_tree(&pts, s).unwrap().0))
+    .collect();
+    assert_eq!(runs[0], runs[1]);
+    assert_eq!(runs[0], runs[2]);
+}
+
+#[test]
+fn single_point_is_a_root_leaf() {
+    let (tree, _) = build_tree(&[DVec2::new(3.0, -2.0)], SortAlgorithm::default()).unwrap();
+    let Tree::Narrow(b) = tree else {
+        panic!("narrow grid expected")
+    };
+    assert!(b.framework.is_empty() && b.quadtree.internal.is_empty());
+    assert_eq!(b.quadtree.leaves.len(), 1);
+    assert_eq!(b.quadtree.leaves[0].point, 0);
+    b.quadtree.check(&b.morton.keys).unwrap();
+}
+
+#[test]
+fn all_duplicates_collapse_to_one_point() {
+    let pts = vec![DVec2::new(1.0, 1.0); 100];
+    let (tree, _) = build_tree(&pts, SortAlgorithm::default()).unwrap();
+    assert_eq!(tree.duplicates().count, 99);
+    let Tree::Narrow(b) = tree else {
+        panic!("narrow grid expected")
+    };
+    assert_eq!(b.quadtree.leaves.len(), 1);
+}
+
+#[test]
+fn collinear_and_dyadic_boundary_points() {
+    let line: Vec<DVec2> = (0..500).map(|i| DVec2::new(i as f64, 0.0)).collect();
+    check_points(&line);
+    let diagonal: Vec<DVec2> = (0..500).map(|i| DVec2::splat(i as f64 / 512.0)).collect();
+    check_points(&diagonal);
+    // Points on the lines that split the root into dyadic squares, and their corners.
+    let dyadic: Vec<DVec2> = (0..=16)
+        .flat_map(|i| (0..=16).map(move |j| DVec2::new(i as f64 / 16.0, j as f64 / 16.0)))
+        .collect();
+    check_points(&dyadic);
+}
+
+#[test]
+fn tiny_cluster_far_from_the_rest() {
+    let mut pts = points(Distribution2d::Uniform, 1000, 9);
+    pts.extend((0..1000).map(|i| DVec2::new(0.3 + i as f64 * 1e-13, 0.7 - i as f64 * 3e-14)));
+    check_points(&pts);
+}
+
+fn coords() -> impl Strategy<Value = Vec<(f64, f64)>> {
+    let coordinate = prop_oneof![
+        (0u32..64).prop_map(|v| v as f64),
+        (-1.0f64..1.0),
+        (0.0f64..1e-6).prop_map(|v| 0.25 + v),
+    ];
+    prop::collection::vec((coordinate.clone(), coordinate), 1..300)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn random_inputs_match_the_reference(raw in coords()) {
+        let mut pts: Vec<DVec2> = raw.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
+        pts.extend_from_within(..pts.len() / 3);
+        check_points(&pts);
+    }
+}
+
+#[test]
+fn the_checkers_catch_corruption() {
+    let pts = points(Distribution2d::Uniform, 2000, 4);
+    let Morton::Narrow(m) = morton_order(&pts, SortAlgorithm::default()).unwrap() else {
+        panic!("narrow grid expected")
+    };
+    let keys = &m.keys;
+    let fw = framework::build_framework(keys);
+    let tree = expand(&fw, keys);
+
+    let mut bad = fw.clone();
+    bad.parent[5] = 0;
+    assert!(framework::check(&bad, keys).is_err(), "wrong parent");
+    let mut bad = fw.clone();
+    bad.nodes[7].end -= 1;
+    assert!(framework::check(&bad, keys).is_err(), "short interval");
+    let mut bad = fw.clone();
+    bad.nodes.swap(3, 4);
+    assert!(framework::check(&bad, keys).is_err(), "preorder");
+
+    let mut bad = tree.clone();
+    bad.leaves.remove(10);
+    assert!(bad.check(keys).is_err(), "missing leaf");
+    let mut bad = tree.clone();
+    let j = bad.leaves.iter().position(|l| l.point != NONE).unwrap();
+    bad.leaves[j].point = NONE;
+    assert!(bad.check(keys).is_err(), "lost point");
+    let mut bad = tree.clone();
+    bad.internal.pop();
+    assert!(bad.check(keys).is_err(), "missing internal square");
+}
