@@ -14,6 +14,12 @@
 //! seed 1, lazily, so a criterion filter skips the set-up too.
 //! `scripts/bench_stages.sh` runs this and `morton` and tabulates ns per point.
 
+/// Stages allocate large arrays; an allocator that keeps freed memory spares each iteration the
+/// page faults of fresh memory, as it would in a long-running user.
+#[cfg(feature = "mimalloc")]
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use std::cell::OnceCell;
 use std::time::Duration;
 

@@ -1,5 +1,10 @@
 //! Prints the time of each tree stage for generated points, in ns per point:
-//! `cargo run --release --example stage_times -- uniform 10000000 2`.
+//! `cargo run --release --example stage_times -- uniform 10000000 2 [repeats] [voracious|radsort|rayon]`.
+
+/// As in the CLI: an allocator that reuses freed memory.
+#[cfg(feature = "mimalloc")]
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use quadmesh::build_tree;
 use quadmesh::generate::{Distribution2d, points};
@@ -17,15 +22,18 @@ fn main() {
         .map_or(1_000_000, |s| s.parse().expect("point count"));
     let threads: usize = args.get(3).map_or(2, |s| s.parse().expect("thread count"));
     let repeats: usize = args.get(4).map_or(5, |s| s.parse().expect("repeat count"));
+    let sort = match args.get(5).map(|s| s.as_str()) {
+        Some("radsort") => SortAlgorithm::Radsort,
+        Some("rayon") => SortAlgorithm::RayonUnstable,
+        _ => SortAlgorithm::Voracious,
+    };
     let pts = points(dist, n, 1);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .expect("thread pool");
     for _ in 0..repeats {
-        let (tree, times) = pool
-            .install(|| build_tree(&pts, SortAlgorithm::default()))
-            .expect("tree");
+        let (tree, times) = pool.install(|| build_tree(&pts, sort)).expect("tree");
         let per_point: Vec<String> = times
             .0
             .iter()

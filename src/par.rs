@@ -21,18 +21,25 @@ pub fn exclusive_scan(counts: &[u32]) -> Vec<usize> {
         starts.push(total);
         total += s;
     }
-    let chunks = chunk_offsets(counts.len(), GRAIN);
-    let mut out = collect_segments(&chunks, |c| {
-        counts[chunks[c]..chunks[c + 1]]
+    // One segment per chunk of counts; the last one also yields the total.
+    let n = counts.len();
+    let mut chunks = chunk_offsets(n, GRAIN);
+    if n == 0 {
+        chunks.push(0);
+    }
+    *chunks.last_mut().expect("at least two offsets") += 1;
+    collect_segments(&chunks, |c| {
+        let range = chunks[c]..chunks[c + 1].min(n);
+        let last = (c + 2 == chunks.len()).then_some(total);
+        counts[range]
             .iter()
-            .scan(starts[c], |acc, &count| {
+            .scan(starts.get(c).copied().unwrap_or(total), |acc, &count| {
                 let here = *acc;
                 *acc += count as usize;
                 Some(here)
             })
-    });
-    out.push(total);
-    out
+            .chain(last)
+    })
 }
 
 /// Fills `out` in parallel, where item `i` owns `out[offsets[i]..offsets[i + 1]]`:
@@ -49,22 +56,42 @@ where
         out.len(),
         "segments must cover the output"
     );
-    let mut groups: Vec<(usize, &mut [T])> = Vec::with_capacity(items / GRAIN + 1);
+    let bounds = group_bounds(offsets);
+    let mut groups: Vec<(usize, usize, &mut [T])> = Vec::with_capacity(bounds.len());
     let mut rest = out;
-    for first in (0..items).step_by(GRAIN) {
-        let last = (first + GRAIN).min(items);
-        let (head, tail) = rest.split_at_mut(offsets[last] - offsets[first]);
-        groups.push((first, head));
+    for w in bounds.windows(2) {
+        let (head, tail) = rest.split_at_mut(offsets[w[1]] - offsets[w[0]]);
+        groups.push((w[0], w[1], head));
         rest = tail;
     }
-    groups.into_par_iter().for_each(|(first, mut segment)| {
-        let last = (first + GRAIN).min(items);
-        for i in first..last {
-            let (head, tail) = segment.split_at_mut(offsets[i + 1] - offsets[i]);
-            fill(i, head);
-            segment = tail;
-        }
-    });
+    groups
+        .into_par_iter()
+        .for_each(|(first, last, mut segment)| {
+            for i in first..last {
+                let (head, tail) = segment.split_at_mut(offsets[i + 1] - offsets[i]);
+                fill(i, head);
+                segment = tail;
+            }
+        });
+}
+
+/// Output values per task in segment fills.
+const GRAIN_OUT: usize = 1 << 15;
+
+/// Item boundaries of the tasks of a segment fill: a task ends every `GRAIN` items and every
+/// `GRAIN_OUT` output values, so that neither many small segments nor a few large ones end up in
+/// one task. The boundaries depend only on `offsets`, never on the thread count.
+fn group_bounds(offsets: &[usize]) -> Vec<usize> {
+    let items = offsets.len() - 1;
+    let (base, total) = (offsets[0], offsets[items]);
+    let by_items = (0..items).step_by(GRAIN);
+    let by_output = (base..total)
+        .step_by(GRAIN_OUT)
+        .map(|pos| offsets.partition_point(|&o| o <= pos).saturating_sub(1));
+    let mut bounds: Vec<usize> = by_items.chain(by_output).chain([0, items]).collect();
+    bounds.sort_unstable();
+    bounds.dedup();
+    bounds
 }
 
 /// Builds a vector in parallel, straight into fresh memory (the first-touch page faults are spread
@@ -79,6 +106,26 @@ where
     I: Iterator<Item = T>,
     F: Fn(usize) -> I + Sync,
 {
+    collect_segments_in(offsets, false, produce)
+}
+
+/// As [`collect_segments`], but each segment is written from its end backwards, so producers
+/// that find their values in reverse order need no buffer.
+pub fn collect_segments_reversed<T, I, F>(offsets: &[usize], produce: F) -> Vec<T>
+where
+    T: Send,
+    I: Iterator<Item = T>,
+    F: Fn(usize) -> I + Sync,
+{
+    collect_segments_in(offsets, true, produce)
+}
+
+fn collect_segments_in<T, I, F>(offsets: &[usize], reversed: bool, produce: F) -> Vec<T>
+where
+    T: Send,
+    I: Iterator<Item = T>,
+    F: Fn(usize) -> I + Sync,
+{
     let total = offsets[offsets.len() - 1] - offsets[0];
     let mut out: Vec<T> = with_capacity_huge(total);
     fill_segments(
@@ -86,9 +133,18 @@ where
         &mut out.spare_capacity_mut()[..total],
         |i, segment| {
             let mut written = 0;
-            for (slot, value) in segment.iter_mut().zip(produce(i)) {
+            let mut write = |(slot, value): (&mut std::mem::MaybeUninit<T>, T)| {
                 slot.write(value);
                 written += 1;
+            };
+            if reversed {
+                segment
+                    .iter_mut()
+                    .rev()
+                    .zip(produce(i))
+                    .for_each(&mut write);
+            } else {
+                segment.iter_mut().zip(produce(i)).for_each(&mut write);
             }
             assert_eq!(written, segment.len(), "item {i} yielded too few values");
         },

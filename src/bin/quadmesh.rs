@@ -1,6 +1,12 @@
 //! The `quadmesh` command line: build the quadtree of a point file and write its leaves, or
 //! generate point files to try it on.
 
+/// The stages allocate large arrays one after another; mimalloc reuses freed ones instead of
+/// returning them to the system and faulting in fresh pages.
+#[cfg(feature = "mimalloc")]
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::num::NonZeroUsize;

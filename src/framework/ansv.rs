@@ -7,7 +7,7 @@
 
 use rayon::prelude::*;
 
-use crate::par::{chunk_offsets, collect_segments};
+use crate::par::{chunk_offsets, collect_segments, collect_segments_reversed};
 
 /// No such index.
 pub const NONE: u32 = u32::MAX;
@@ -40,10 +40,15 @@ enum Side {
 fn nearest_smaller(values: &[u8], side: Side) -> Vec<u32> {
     let tables = outside_tables(values, side);
     let offsets = chunk_offsets(values.len(), BLOCK);
-    collect_segments(&offsets, |b| {
+    let block = |b: usize| {
         let range = offsets[b]..offsets[b + 1];
-        scan_block(range.start, &values[range], &tables[b], side).into_iter()
-    })
+        scan_block(range.start, &values[range], &tables[b], side)
+    };
+    match side {
+        Side::Left => collect_segments(&offsets, block),
+        // The right-hand scan runs from the block's end, so it fills the block backwards.
+        Side::Right => collect_segments_reversed(&offsets, block),
+    }
 }
 
 /// Per block, the table `t -> nearest index outside the block on `side` with value ≤ t`
@@ -93,28 +98,32 @@ fn nearest_at_most(start: usize, vals: &[u8], side: Side) -> [u32; VALUE_LIMIT] 
     table
 }
 
-/// Stack scan of one block towards `side`; elements with no smaller value inside the block read
-/// the table of the blocks beyond.
-fn scan_block(start: usize, vals: &[u8], outside: &[u32; VALUE_LIMIT], side: Side) -> Vec<u32> {
-    let mut out = vec![NONE; vals.len()];
-    let mut stack: Vec<u32> = Vec::with_capacity(64);
-    let mut visit = |i: usize| {
+/// Stack scan of one block, starting from the end opposite `side`; elements with no smaller value
+/// inside the block read the table of the blocks beyond. Yields the answers in scan order.
+fn scan_block<'a>(
+    start: usize,
+    vals: &'a [u8],
+    outside: &'a [u32; VALUE_LIMIT],
+    side: Side,
+) -> impl Iterator<Item = u32> + 'a {
+    let order: Box<dyn Iterator<Item = usize>> = match side {
+        Side::Left => Box::new(0..vals.len()),
+        Side::Right => Box::new((0..vals.len()).rev()),
+    };
+    let mut stack: Vec<u32> = Vec::with_capacity(VALUE_LIMIT);
+    order.map(move |i| {
         let v = vals[i];
         while stack.last().is_some_and(|&top| vals[top as usize] >= v) {
             stack.pop();
         }
-        out[i] = match stack.last() {
+        let answer = match stack.last() {
             Some(&top) => (start + top as usize) as u32,
             None if v == 0 => NONE,
             None => outside[v as usize - 1].wrapping_sub(1),
         };
         stack.push(i as u32);
-    };
-    match side {
-        Side::Left => (0..vals.len()).for_each(&mut visit),
-        Side::Right => (0..vals.len()).rev().for_each(&mut visit),
-    }
-    out
+        answer
+    })
 }
 
 #[cfg(test)]

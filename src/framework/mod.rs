@@ -19,7 +19,7 @@ pub use ansv::{NONE, VALUE_LIMIT, nearest_smaller_left, nearest_smaller_right};
 
 use crate::morton::Cell;
 use crate::morton::MortonKey;
-use crate::par::{collect_indexed, collect_segments, exclusive_scan};
+use crate::par::{collect_indexed, collect_segments_reversed, exclusive_scan};
 
 /// A framework node: a derived square and the points inside it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -89,18 +89,9 @@ pub fn build_framework<K: MortonKey>(keys: &[K]) -> Framework<K> {
     let counts = collect_indexed(d.len(), |s| chains.walk(s).count() as u32);
     let offsets = exclusive_scan(&counts);
     drop(counts);
-    let nodes = collect_segments(&offsets, |s| {
-        // A chain has strictly decreasing levels, so at most `VALUE_LIMIT` entries.
-        let mut entries = [0u32; VALUE_LIMIT];
-        let mut len = 0;
-        for e in chains.walk(s) {
-            entries[len] = e as u32;
-            len += 1;
-        }
-        (0..len)
-            .rev()
-            .map(move |k| chains.node(s, entries[k] as usize))
-    });
+    // Walks find a chain deepest first; preorder wants it shallowest first.
+    let nodes =
+        collect_segments_reversed(&offsets, |s| chains.walk(s).map(move |e| chains.node(s, e)));
     drop(right);
     let left = nearest_smaller_left(&d);
     let parent = collect_indexed(nodes.len(), |u| parent_of(u, &nodes, &d, &left, &offsets));

@@ -51,6 +51,12 @@ pub trait MortonKey:
     fn count_ones(self) -> u32;
     /// The key with every bit below the cell of `level` cleared: the anchor of that cell.
     fn cell_anchor(self, level: u8) -> Self;
+    /// `self - other`, modulo the key space.
+    fn wrapping_sub(self, other: Self) -> Self;
+    /// `self + other`, modulo the key space.
+    fn wrapping_add(self, other: Self) -> Self;
+    /// `2^bits`, for `bits < 2 * AXIS_BITS`.
+    fn pow2(bits: u32) -> Self;
     /// The key as a u128 (lossless for both key widths).
     fn to_u128(self) -> u128;
     /// The key from a u128 that fits in `2 * AXIS_BITS` bits.
@@ -123,6 +129,18 @@ impl MortonKey for u64 {
         if low >= 64 { 0 } else { (self >> low) << low }
     }
     #[inline]
+    fn wrapping_sub(self, other: Self) -> Self {
+        u64::wrapping_sub(self, other)
+    }
+    #[inline]
+    fn wrapping_add(self, other: Self) -> Self {
+        u64::wrapping_add(self, other)
+    }
+    #[inline]
+    fn pow2(bits: u32) -> Self {
+        1 << bits
+    }
+    #[inline]
     fn to_u128(self) -> u128 {
         self as u128
     }
@@ -171,6 +189,18 @@ impl MortonKey for u128 {
     fn cell_anchor(self, level: u8) -> Self {
         let low = 2 * (Self::AXIS_BITS - level as u32);
         if low >= 128 { 0 } else { (self >> low) << low }
+    }
+    #[inline]
+    fn wrapping_sub(self, other: Self) -> Self {
+        u128::wrapping_sub(self, other)
+    }
+    #[inline]
+    fn wrapping_add(self, other: Self) -> Self {
+        u128::wrapping_add(self, other)
+    }
+    #[inline]
+    fn pow2(bits: u32) -> Self {
+        1 << bits
     }
     #[inline]
     fn to_u128(self) -> u128 {

@@ -91,7 +91,7 @@ fn leaves_of<K: MortonKey>(internal: &[Internal<K>], keys: &[K]) -> Vec<Leaf<K>>
         None => 3 * n + 1,
     });
     collect_segments(&offsets, |i| {
-        let end = internal.get(i + 1).map(|s| s.cell.anchor.to_u128());
+        let end = internal.get(i + 1).map(|s| s.cell.anchor);
         let count = offsets[i + 1] - offsets[i];
         GapTiles::new(&internal[i], end, keys).take(count)
     })
@@ -101,20 +101,19 @@ fn leaves_of<K: MortonKey>(internal: &[Internal<K>], keys: &[K]) -> Vec<Leaf<K>>
 /// square's corner, or the end of the key space), largest aligned squares first, the first one
 /// a child of that square. Points are assigned by merging with the sorted keys.
 struct GapTiles<'a, K> {
-    x: u128,
-    end: u128,
+    x: K,
+    /// Where the gap ends; the end of the key space is 0, so `end - x` wraps to the right span.
+    end: K,
     cursor: usize,
     finest: u8,
     keys: &'a [K],
 }
 
 impl<'a, K: MortonKey> GapTiles<'a, K> {
-    fn new(from: &Internal<K>, end: Option<u128>, keys: &'a [K]) -> Self {
-        // The end of the wide key space, 2^128, wraps to 0; `end - x` then wraps correctly.
-        let key_space_end = 1u128.checked_shl(2 * K::AXIS_BITS).unwrap_or(0);
+    fn new(from: &Internal<K>, end: Option<K>, keys: &'a [K]) -> Self {
         GapTiles {
-            x: from.cell.anchor.to_u128(),
-            end: end.unwrap_or(key_space_end),
+            x: from.cell.anchor,
+            end: end.unwrap_or_default(),
             cursor: from.first as usize,
             finest: from.cell.level + 1,
             keys,
@@ -128,29 +127,26 @@ impl<K: MortonKey> Iterator for GapTiles<'_, K> {
     fn next(&mut self) -> Option<Leaf<K>> {
         let key_bits = 2 * K::AXIS_BITS;
         let span = self.end.wrapping_sub(self.x);
-        let span_bits = if span == 0 {
-            128
-        } else {
-            127 - span.leading_zeros()
-        };
-        let align_bits = if self.x == 0 {
+        let span_bits = if span == K::default() {
             key_bits
         } else {
-            self.x.trailing_zeros().min(key_bits)
+            key_bits - 1 - span.leading_zeros()
         };
+        let align_bits = self.x.trailing_zeros().min(key_bits);
+        // A leaf is never the root here, so its size fits in a key.
         let half_bits = (span_bits / 2)
             .min(align_bits / 2)
             .min(K::AXIS_BITS - self.finest as u32);
-        let size = 1u128 << (2 * half_bits);
+        let size = K::pow2(2 * half_bits);
         let point = match self.keys.get(self.cursor) {
-            Some(k) if k.to_u128().wrapping_sub(self.x) < size => {
+            Some(k) if k.wrapping_sub(self.x) < size => {
                 self.cursor += 1;
                 (self.cursor - 1) as u32
             }
             _ => NONE,
         };
         let cell = Cell {
-            anchor: K::from_u128(self.x),
+            anchor: self.x,
             level: (K::AXIS_BITS - half_bits) as u8,
         };
         self.x = self.x.wrapping_add(size);
