@@ -22,4 +22,4 @@ pub mod warp;
 
 pub use error::Error;
 pub use glam::DVec2;
-pub use pipeline::{Tree, TreeBuild, build_tree};
+pub use pipeline::{Refinement, Tree, TreeBuild, TreeOptions, build_tree};

@@ -21,24 +21,17 @@ pub fn exclusive_scan(counts: &[u32]) -> Vec<usize> {
         starts.push(total);
         total += s;
     }
-    // One segment per chunk of counts; the last one also yields the total.
+    // Output position `i` of chunk `c` is `starts[c]` plus the counts before `i` in the chunk;
+    // the extra last position holds the total.
     let n = counts.len();
-    let mut chunks = chunk_offsets(n, GRAIN);
-    if n == 0 {
-        chunks.push(0);
-    }
-    *chunks.last_mut().expect("at least two offsets") += 1;
+    let chunks = chunk_offsets(n + 1, GRAIN);
     collect_segments(&chunks, |c| {
-        let range = chunks[c]..chunks[c + 1].min(n);
-        let last = (c + 2 == chunks.len()).then_some(total);
-        counts[range]
-            .iter()
-            .scan(starts.get(c).copied().unwrap_or(total), |acc, &count| {
-                let here = *acc;
-                *acc += count as usize;
-                Some(here)
-            })
-            .chain(last)
+        let mut acc = starts.get(c).copied().unwrap_or(total);
+        (chunks[c]..chunks[c + 1]).map(move |i| {
+            let here = acc;
+            acc += counts.get(i).map_or(0, |&k| k as usize);
+            here
+        })
     })
 }
 
@@ -99,7 +92,7 @@ fn group_bounds(offsets: &[usize]) -> Vec<usize> {
 /// exactly that many values for it.
 ///
 /// # Panics
-/// If `produce(i)` yields a different number of values than its segment holds.
+/// If `produce(i)` yields fewer values than its segment holds (extra values are ignored).
 pub fn collect_segments<T, I, F>(offsets: &[usize], produce: F) -> Vec<T>
 where
     T: Send,
@@ -149,7 +142,13 @@ where
             assert_eq!(written, segment.len(), "item {i} yielded too few values");
         },
     );
-    set_len_after_fill(&mut out, total);
+    // SAFETY: every one of the first `total` slots has been written: the segments partition
+    // them, and each segment's count was checked (a short one panics before this line, and the
+    // vector is then dropped with length 0).
+    #[allow(unsafe_code)]
+    unsafe {
+        out.set_len(total)
+    };
     out
 }
 
@@ -200,13 +199,6 @@ pub fn chunk_offsets(n: usize, chunk: usize) -> Vec<usize> {
         .step_by(chunk.max(1))
         .chain(std::iter::once(n))
         .collect()
-}
-
-#[allow(unsafe_code)]
-fn set_len_after_fill<T>(out: &mut Vec<T>, total: usize) {
-    // SAFETY: `collect_segments` has written every one of the first `total` slots: the segments
-    // partition them, and each segment's count was checked (a short one panics before this).
-    unsafe { out.set_len(total) };
 }
 
 #[cfg(test)]

@@ -5,6 +5,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec2;
 
+use crate::balance::{BalancedTree, balance};
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
 use crate::morton::{
@@ -39,6 +40,46 @@ pub struct TreeBuild<K> {
     pub framework: Framework<K>,
     /// The unbalanced quadtree.
     pub quadtree: Quadtree<K>,
+    /// The balanced (or well-separated) tree, when asked for.
+    pub balanced: Option<BalancedTree<K>>,
+}
+
+impl<K: MortonKey> TreeBuild<K> {
+    /// The most refined tree built: the balanced one if there is one.
+    pub fn final_tree(&self) -> &Quadtree<K> {
+        self.balanced.as_ref().map_or(&self.quadtree, |b| &b.tree)
+    }
+}
+
+/// How far to refine the quadtree.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Refinement {
+    /// Every point alone in its leaf.
+    #[default]
+    Unbalanced,
+    /// Also 2:1 balanced, with cross links and point location.
+    Balanced,
+}
+
+/// What [`build_tree`] builds and how.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct TreeOptions {
+    /// The sort used for Morton order.
+    pub sort: SortAlgorithm,
+    /// How far to refine.
+    pub refinement: Refinement,
+}
+
+impl TreeOptions {
+    /// These options with another refinement.
+    pub fn refinement(self, refinement: Refinement) -> Self {
+        TreeOptions { refinement, ..self }
+    }
+
+    /// These options with another sort.
+    pub fn sort(self, sort: SortAlgorithm) -> Self {
+        TreeOptions { sort, ..self }
+    }
 }
 
 /// The trees on whichever grid the input needed.
@@ -68,27 +109,37 @@ impl Tree {
     }
 }
 
-/// Builds the Morton order, the framework and the unbalanced quadtree of `points` on the current
-/// rayon pool, timing each stage.
+/// Builds the Morton order, the framework, the unbalanced quadtree and, if asked, the balanced
+/// tree of `points` on the current rayon pool, timing each stage.
 ///
 /// # Errors
 /// Whatever [`morton_order`] refuses: empty input, non-finite coordinates, inseparable points.
-pub fn build_tree(points: &[DVec2], sort: SortAlgorithm) -> Result<(Tree, StageTimes), Error> {
+pub fn build_tree(points: &[DVec2], options: &TreeOptions) -> Result<(Tree, StageTimes), Error> {
     let mut times = StageTimes::default();
-    let morton = times.time("morton", || morton_order(points, sort))?;
+    let morton = times.time("morton", || morton_order(points, options.sort))?;
     let tree = match morton {
-        Morton::Narrow(m) => Tree::Narrow(trees_of(m, &mut times)),
-        Morton::Wide(m) => Tree::Wide(trees_of(m, &mut times)),
+        Morton::Narrow(m) => Tree::Narrow(trees_of(m, options, &mut times)),
+        Morton::Wide(m) => Tree::Wide(trees_of(m, options, &mut times)),
     };
     Ok((tree, times))
 }
 
-fn trees_of<K: MortonKey>(morton: MortonOrder<K>, times: &mut StageTimes) -> TreeBuild<K> {
-    let framework = times.time("framework", || build_framework(&morton.keys));
-    let quadtree = times.time("quadtree", || expand(&framework, &morton.keys));
+fn trees_of<K: MortonKey>(
+    morton: MortonOrder<K>,
+    options: &TreeOptions,
+    times: &mut StageTimes,
+) -> TreeBuild<K> {
+    let keys = &morton.keys;
+    let framework = times.time("framework", || build_framework(keys));
+    let quadtree = times.time("quadtree", || expand(&framework, keys));
+    let balanced = match options.refinement {
+        Refinement::Unbalanced => None,
+        Refinement::Balanced => Some(times.time("balance", || balance(&quadtree, keys))),
+    };
     TreeBuild {
         morton,
         framework,
         quadtree,
+        balanced,
     }
 }

@@ -7,7 +7,7 @@ use quadmesh::generate::{Distribution2d, points};
 use quadmesh::morton::{Morton, MortonKey, SortAlgorithm, morton_order};
 use quadmesh::quadtree::reference::build_reference;
 use quadmesh::quadtree::{Cell, Quadtree, expand, points_in};
-use quadmesh::{DVec2, Tree, build_tree};
+use quadmesh::{DVec2, Tree, TreeOptions, build_tree};
 
 fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new()
@@ -61,9 +61,9 @@ fn assert_matches_reference<K: MortonKey>(keys: &[K]) {
     let fw = framework::build_framework(keys);
     framework::check(&fw, keys).unwrap();
     let tree = expand(&fw, keys);
-    tree.check(keys).unwrap();
+    tree.check_unbalanced(keys).unwrap();
     let reference = build_reference(keys);
-    reference.check(keys).unwrap();
+    reference.check_unbalanced(keys).unwrap();
     assert_eq!(tree, reference, "quadtree differs from the reference");
     assert_eq!(
         framework_pairs(&fw),
@@ -110,13 +110,13 @@ fn every_family_matches_the_reference() {
 #[test]
 fn kuzmin_at_a_million_needs_and_gets_the_wide_grid() {
     let pts = points(Distribution2d::Kuzmin, 1_000_000, 3);
-    let (tree, _) = build_tree(&pts, SortAlgorithm::default()).unwrap();
+    let (tree, _) = build_tree(&pts, &TreeOptions::default()).unwrap();
     let Tree::Wide(b) = &tree else {
         panic!("Kuzmin 1e6 should need 64 bits per axis")
     };
     assert_eq!(b.morton.keys.len(), pts.len());
     framework::check(&b.framework, &b.morton.keys).unwrap();
-    b.quadtree.check(&b.morton.keys).unwrap();
+    b.quadtree.check_unbalanced(&b.morton.keys).unwrap();
 }
 
 #[test]
@@ -127,8 +127,8 @@ fn one_and_two_threads_give_identical_trees() {
         Distribution2d::Kuzmin,
     ] {
         let pts = points(dist, 200_000, 11);
-        let one = on_threads(1, || build_tree(&pts, SortAlgorithm::default()).unwrap().0);
-        let two = on_threads(2, || build_tree(&pts, SortAlgorithm::default()).unwrap().0);
+        let one = on_threads(1, || build_tree(&pts, &TreeOptions::default()).unwrap().0);
+        let two = on_threads(2, || build_tree(&pts, &TreeOptions::default()).unwrap().0);
         assert_eq!(fingerprint(&one), fingerprint(&two), "{dist:?}");
     }
 }
@@ -143,7 +143,7 @@ fn all_sorts_give_the_same_tree() {
         SortAlgorithm::RayonUnstable,
     ]
     .into_iter()
-    .map(|s| fingerprint(&build_tree(&pts, s).unwrap().0))
+    .map(|s| fingerprint(&build_tree(&pts, &TreeOptions::default().sort(s)).unwrap().0))
     .collect();
     assert_eq!(runs[0], runs[1]);
     assert_eq!(runs[0], runs[2]);
@@ -151,7 +151,7 @@ fn all_sorts_give_the_same_tree() {
 
 #[test]
 fn single_point_is_a_root_leaf() {
-    let (tree, _) = build_tree(&[DVec2::new(3.0, -2.0)], SortAlgorithm::default()).unwrap();
+    let (tree, _) = build_tree(&[DVec2::new(3.0, -2.0)], &TreeOptions::default()).unwrap();
     let Tree::Narrow(b) = tree else {
         panic!("narrow grid expected")
     };
@@ -164,7 +164,7 @@ fn single_point_is_a_root_leaf() {
 #[test]
 fn all_duplicates_collapse_to_one_point() {
     let pts = vec![DVec2::new(1.0, 1.0); 100];
-    let (tree, _) = build_tree(&pts, SortAlgorithm::default()).unwrap();
+    let (tree, _) = build_tree(&pts, &TreeOptions::default()).unwrap();
     assert_eq!(tree.duplicates().count, 99);
     let Tree::Narrow(b) = tree else {
         panic!("narrow grid expected")
@@ -223,8 +223,22 @@ fn the_checkers_catch_corruption() {
     let tree = expand(&fw, keys);
 
     let mut bad = fw.clone();
-    bad.parent[5] = 0;
+    let u = (1..fw.len()).find(|&u| fw.parent[u] != 0).unwrap();
+    bad.parent[u] = 0;
     assert!(framework::check(&bad, keys).is_err(), "wrong parent");
+    let mut bad = fw.clone();
+    let leafy = (1..fw.len())
+        .rev()
+        .find(|&u| !fw.parent.contains(&(u as u32)))
+        .unwrap();
+    bad.nodes.remove(leafy);
+    bad.parent.remove(leafy);
+    for p in bad.parent.iter_mut() {
+        if *p != NONE && *p as usize > leafy {
+            *p -= 1;
+        }
+    }
+    assert!(framework::check(&bad, keys).is_err(), "missing node");
     let mut bad = fw.clone();
     bad.nodes[7].end -= 1;
     assert!(framework::check(&bad, keys).is_err(), "short interval");
@@ -242,4 +256,55 @@ fn the_checkers_catch_corruption() {
     let mut bad = tree.clone();
     bad.internal.pop();
     assert!(bad.check(keys).is_err(), "missing internal square");
+    let mut split_empty = tree.clone();
+    let empty_leaf = split_empty
+        .leaves
+        .iter()
+        .position(|l| l.point == NONE)
+        .unwrap();
+    let cell = split_empty.leaves[empty_leaf].cell;
+    split_empty
+        .internal
+        .push(quadmesh::quadtree::Internal { cell, first: 0 });
+    split_empty
+        .internal
+        .sort_by_key(|s| (s.cell.anchor, s.cell.level));
+    assert!(
+        split_empty.check_unbalanced(keys).is_err(),
+        "needless split"
+    );
+}
+
+#[test]
+fn extreme_keys_match_the_reference() {
+    let narrow: Vec<Vec<u64>> = vec![
+        vec![0, u64::MAX],
+        vec![u64::MAX - 1, u64::MAX],
+        vec![0, 1],
+        vec![0, 1, 2, 3],
+        vec![u64::MAX - 3, u64::MAX - 2, u64::MAX - 1, u64::MAX],
+        std::iter::once(0)
+            .chain((0..32).map(|k| 1u64 << (2 * k)))
+            .collect(),
+        (0..65_536u64).collect(),
+    ];
+    for keys in &narrow {
+        assert_matches_reference(keys);
+    }
+    let wide: Vec<Vec<u128>> = vec![
+        vec![0, u128::MAX],
+        vec![u128::MAX - 1, u128::MAX],
+        std::iter::once(0)
+            .chain((0..64).map(|k| 1u128 << (2 * k)))
+            .collect(),
+        (0..64)
+            .map(|k| u128::MAX - (1u128 << (2 * k)))
+            .rev()
+            .chain([u128::MAX])
+            .collect(),
+        (0..4096u128).map(|i| u128::MAX - 4095 + i).collect(),
+    ];
+    for keys in &wide {
+        assert_matches_reference(keys);
+    }
 }

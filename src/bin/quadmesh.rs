@@ -18,9 +18,9 @@ use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{read_points, write_leaves_csv, write_points};
-use quadmesh::morton::{MortonKey, SortAlgorithm};
+use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::StageTimes;
-use quadmesh::{Tree, TreeBuild, build_tree};
+use quadmesh::{Refinement, Tree, TreeBuild, TreeOptions, build_tree};
 
 /// Parallel quadtrees of point sets.
 #[derive(Parser)]
@@ -43,6 +43,9 @@ enum Command {
         /// Worker threads [default: all cores].
         #[arg(long, value_name = "N")]
         threads: Option<NonZeroUsize>,
+        /// Write the leaves of the 2:1 balanced tree (leaves sharing a side differ at most 2× in size).
+        #[arg(long)]
+        balanced: bool,
     },
     /// Write seeded random points as `x y` lines that read back exactly.
     Generate {
@@ -68,7 +71,20 @@ fn main() -> ExitCode {
             input,
             output,
             threads,
-        } => tree(&input, &output, threads),
+            balanced,
+        } => {
+            let refinement = if balanced {
+                Refinement::Balanced
+            } else {
+                Refinement::Unbalanced
+            };
+            tree(
+                &input,
+                &output,
+                threads,
+                TreeOptions::default().refinement(refinement),
+            )
+        }
         Command::Generate {
             points,
             dist,
@@ -90,7 +106,12 @@ fn main() -> ExitCode {
 }
 
 /// `quadmesh tree`: read, build and write on a pool of the requested size, then report.
-fn tree(input: &Path, output: &Path, threads: Option<NonZeroUsize>) -> Result<()> {
+fn tree(
+    input: &Path,
+    output: &Path,
+    threads: Option<NonZeroUsize>,
+    options: TreeOptions,
+) -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads.map_or(0, NonZeroUsize::get))
         .build()
@@ -98,7 +119,7 @@ fn tree(input: &Path, output: &Path, threads: Option<NonZeroUsize>) -> Result<()
     pool.install(|| {
         let (points, read_time) = timed(|| read_points(input));
         let points = points?;
-        let (built, _) = timed(|| build_tree(&points, SortAlgorithm::default()));
+        let (built, _) = timed(|| build_tree(&points, &options));
         let (tree, times) = built.with_context(|| format!("{}", input.display()))?;
         let (written, write_time) = timed(|| write_to(output, |w| write_leaves_csv(w, &tree)));
         written?;
@@ -179,8 +200,8 @@ impl Counts {
         Counts {
             distinct: b.morton.order.len(),
             framework: b.framework.len(),
-            internal: b.quadtree.internal.len(),
-            leaves: b.quadtree.leaves.len(),
+            internal: b.final_tree().internal.len(),
+            leaves: b.final_tree().leaves.len(),
         }
     }
 }

@@ -23,12 +23,24 @@ const BLOCK: usize = 1 << 13;
 /// # Panics
 /// If a value is `VALUE_LIMIT` or more (callers pass levels, which never are).
 pub fn nearest_smaller_left(values: &[u8]) -> Vec<u32> {
-    nearest_smaller(values, Side::Left)
+    nearest_smaller(values, Side::Left, Bound::Strict)
 }
 
 /// For each `i`, the smallest `j > i` with `values[j] < values[i]`, or [`NONE`].
 pub fn nearest_smaller_right(values: &[u8]) -> Vec<u32> {
-    nearest_smaller(values, Side::Right)
+    nearest_smaller(values, Side::Right, Bound::Strict)
+}
+
+/// For each `i`, the smallest `j > i` with `values[j] <= values[i]`, or [`NONE`].
+pub fn nearest_at_most_right(values: &[u8]) -> Vec<u32> {
+    nearest_smaller(values, Side::Right, Bound::Inclusive)
+}
+
+/// Whether equal values count as smaller.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Bound {
+    Strict,
+    Inclusive,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -37,12 +49,12 @@ enum Side {
     Right,
 }
 
-fn nearest_smaller(values: &[u8], side: Side) -> Vec<u32> {
+fn nearest_smaller(values: &[u8], side: Side, bound: Bound) -> Vec<u32> {
     let tables = outside_tables(values, side);
     let offsets = chunk_offsets(values.len(), BLOCK);
     let block = |b: usize| {
         let range = offsets[b]..offsets[b + 1];
-        scan_block(range.start, &values[range], &tables[b], side)
+        scan_block(range.start, &values[range], &tables[b], side, bound)
     };
     match side {
         Side::Left => collect_segments(&offsets, block),
@@ -105,6 +117,7 @@ fn scan_block<'a>(
     vals: &'a [u8],
     outside: &'a [u32; VALUE_LIMIT],
     side: Side,
+    bound: Bound,
 ) -> impl Iterator<Item = u32> + 'a {
     let order: Box<dyn Iterator<Item = usize>> = match side {
         Side::Left => Box::new(0..vals.len()),
@@ -113,13 +126,18 @@ fn scan_block<'a>(
     let mut stack: Vec<u32> = Vec::with_capacity(VALUE_LIMIT);
     order.map(move |i| {
         let v = vals[i];
-        while stack.last().is_some_and(|&top| vals[top as usize] >= v) {
+        let blocks = |top: u8| match bound {
+            Bound::Strict => top < v,
+            Bound::Inclusive => top <= v,
+        };
+        while stack.last().is_some_and(|&top| !blocks(vals[top as usize])) {
             stack.pop();
         }
-        let answer = match stack.last() {
-            Some(&top) => (start + top as usize) as u32,
-            None if v == 0 => NONE,
-            None => outside[v as usize - 1].wrapping_sub(1),
+        let answer = match (stack.last(), bound) {
+            (Some(&top), _) => (start + top as usize) as u32,
+            (None, Bound::Inclusive) => outside[v as usize].wrapping_sub(1),
+            (None, Bound::Strict) if v == 0 => NONE,
+            (None, Bound::Strict) => outside[v as usize - 1].wrapping_sub(1),
         };
         stack.push(i as u32);
         answer
@@ -205,6 +223,22 @@ pub(crate) mod tests {
                         .collect();
                     assert_eq!(nearest_smaller_right(&values), expect);
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn inclusive_right_matches_brute_force() {
+        for n in [0, 1, 7, BLOCK + 3, 3 * BLOCK + 1] {
+            for values in families(n) {
+                let expect: Vec<u32> = (0..n)
+                    .map(|i| {
+                        (i + 1..n)
+                            .find(|&j| values[j] <= values[i])
+                            .map_or(NONE, |j| j as u32)
+                    })
+                    .collect();
+                assert_eq!(nearest_at_most_right(&values), expect, "n={n}");
             }
         }
     }

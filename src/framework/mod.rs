@@ -15,7 +15,9 @@ mod ansv;
 
 use std::ops::Range;
 
-pub use ansv::{NONE, VALUE_LIMIT, nearest_smaller_left, nearest_smaller_right};
+pub use ansv::{
+    NONE, VALUE_LIMIT, nearest_at_most_right, nearest_smaller_left, nearest_smaller_right,
+};
 
 use crate::morton::Cell;
 use crate::morton::MortonKey;
@@ -79,6 +81,14 @@ pub fn derived_levels<K: MortonKey>(keys: &[K]) -> Vec<u8> {
 /// O(n) work: the nearest-smaller-values passes, one chain walk per node, one prefix sum; depth
 /// O(n / P + P) for P blocks.
 pub fn build_framework<K: MortonKey>(keys: &[K]) -> Framework<K> {
+    assert!(
+        keys.len() < u32::MAX as usize,
+        "point positions must fit in u32"
+    );
+    debug_assert!(
+        keys.windows(2).all(|w| w[0] < w[1]),
+        "keys must be strictly increasing"
+    );
     let d = derived_levels(keys);
     let right = nearest_smaller_right(&d);
     let chains = &Chains {
@@ -174,11 +184,33 @@ pub fn check<K: MortonKey>(fw: &Framework<K>, keys: &[K]) -> Result<(), String> 
             return Err(format!("nodes {} and {u} out of preorder", u - 1));
         }
     }
+    check_every_derived_square_is_a_node(fw, keys)?;
     let tops = fw.parent.iter().filter(|&&p| p == NONE).count();
     if tops != 1 || fw.parent[0] != NONE || fw.points(0) != (0..keys.len()) {
         return Err(format!(
             "expected one top node holding every point, found {tops}"
         ));
+    }
+    Ok(())
+}
+
+/// Nodes are in preorder, that is sorted by (corner, level), so each derived square is found by
+/// binary search.
+fn check_every_derived_square_is_a_node<K: MortonKey>(
+    fw: &Framework<K>,
+    keys: &[K],
+) -> Result<(), String> {
+    for (e, pair) in keys.windows(2).enumerate() {
+        let square = Cell::containing(pair[0], pair[0].common_level(pair[1]));
+        let at = fw
+            .nodes
+            .partition_point(|n| (n.cell.anchor, n.cell.level) < (square.anchor, square.level));
+        if fw.nodes.get(at).is_none_or(|n| n.cell != square) {
+            return Err(format!(
+                "the derived square {square:?} of points {e} and {} is no node",
+                e + 1
+            ));
+        }
     }
     Ok(())
 }

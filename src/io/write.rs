@@ -40,7 +40,7 @@ pub fn write_leaves_csv<W: Write>(mut w: W, tree: &Tree) -> io::Result<()> {
 fn write_leaves<K: MortonKey, W: Write>(w: W, build: &TreeBuild<K>) -> io::Result<()> {
     let grid = &build.morton.grid;
     let order = &build.morton.order;
-    write_lines(w, &build.quadtree.leaves, |buf, leaf: &Leaf<K>| {
+    write_lines(w, &build.final_tree().leaves, |buf, leaf: &Leaf<K>| {
         let (gx, gy) = leaf.cell.anchor.decode();
         let (corner, size) = grid.cell_rect(gx, gy, leaf.cell.level);
         let point = match leaf.point {
@@ -91,10 +91,9 @@ where
 mod tests {
     use super::*;
     use crate::build_tree;
-    use crate::morton::SortAlgorithm;
 
     fn csv_of(points: &[DVec2]) -> String {
-        let (tree, _) = build_tree(points, SortAlgorithm::default()).unwrap();
+        let (tree, _) = build_tree(points, &crate::TreeOptions::default()).unwrap();
         let mut out = Vec::new();
         write_leaves_csv(&mut out, &tree).unwrap();
         String::from_utf8(out).unwrap()

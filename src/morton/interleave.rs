@@ -1,7 +1,7 @@
 //! Bit interleaving: BMI2 `pdep` where the CPU has it (checked at run time), magic bits elsewhere.
 //!
-//! This is the one module of the crate with `unsafe`: calling a `#[target_feature]` function is
-//! only sound once the feature has been detected.
+//! `unsafe` here: calling a `#[target_feature]` function is only sound once the feature has been
+//! detected, and the freshly encoded pairs get their length once every slot is written.
 #![allow(unsafe_code)]
 
 use std::mem::MaybeUninit;
@@ -93,12 +93,19 @@ pub(crate) fn encode_narrow(
         unsafe { encode_narrow_bmi2(points, first, grid, out) };
         return;
     }
+    encode_portable(points, first, grid, out);
+}
+
+/// The portable encoder of either key width (magic bits).
+fn encode_portable<K: MortonKey>(
+    points: &[DVec2],
+    first: u32,
+    grid: &Grid,
+    out: &mut [MaybeUninit<Pair<K>>],
+) {
     for (i, (p, k)) in points.iter().zip(out.iter_mut()).enumerate() {
         let (x, y) = grid.quantize(*p);
-        k.write(Pair::new(
-            interleave32(x as u32, y as u32),
-            first + i as u32,
-        ));
+        k.write(Pair::new(K::encode(x, y), first + i as u32));
     }
 }
 
@@ -116,12 +123,7 @@ pub(crate) fn encode_wide(
         unsafe { encode_wide_bmi2(points, first, grid, out) };
         return;
     }
-    for (i, (p, k)) in points.iter().zip(out.iter_mut()).enumerate() {
-        let (x, y) = grid.quantize(*p);
-        let low = interleave32(x as u32, y as u32) as u128;
-        let high = interleave32((x >> 32) as u32, (y >> 32) as u32) as u128;
-        k.write(Pair::new((high << 64) | low, first + i as u32));
-    }
+    encode_portable(points, first, grid, out);
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -171,6 +173,35 @@ mod tests {
         for v in [0u32, 1, 2, 0xFFFF_FFFF, 0xDEAD_BEEF, 0x8000_0001] {
             assert_eq!(compact_even(spread_even(v)), v);
         }
+    }
+
+    fn portable<K: MortonKey>(pts: &[DVec2], grid: &Grid) -> Vec<Pair<K>> {
+        let mut out = vec![MaybeUninit::uninit(); pts.len()];
+        encode_portable(pts, 0, grid, &mut out);
+        out.into_iter().map(|p| read_written(&p)).collect()
+    }
+
+    /// Reads back a slot the encoder wrote (Pair is Copy and every slot was written).
+    fn read_written<K: Copy>(slot: &MaybeUninit<Pair<K>>) -> Pair<K> {
+        #[allow(unsafe_code)]
+        // SAFETY: `encode_portable` wrote every slot of `out`.
+        unsafe {
+            slot.assume_init()
+        }
+    }
+
+    #[test]
+    fn the_fast_and_portable_encoders_agree() {
+        let pts: Vec<DVec2> = (0..5000)
+            .map(|i| DVec2::new((i as f64 * 0.618).fract(), (i as f64 * 0.377).fract()))
+            .collect();
+        let grid = Grid::for_test(32);
+        assert_eq!(encode_all::<u64>(&pts, &grid), portable::<u64>(&pts, &grid));
+        let grid = Grid::for_test(64);
+        assert_eq!(
+            encode_all::<u128>(&pts, &grid),
+            portable::<u128>(&pts, &grid)
+        );
     }
 
     #[test]

@@ -28,6 +28,7 @@ pub trait MortonKey:
     + 'static
     + std::ops::BitXor<Output = Self>
     + SortPairs
+    + sealed::Sealed
 {
     /// Quantizes `points` on `grid`; `out[i]` gets the key of `points[i]` and index `first + i`.
     fn encode_points(
@@ -77,6 +78,14 @@ pub trait MortonKey:
         let x_ones = (top.to_u128() & x_mask.to_u128()).count_ones();
         2 * x_ones + (top.count_ones() - x_ones)
     }
+}
+
+mod sealed {
+    /// Only the crate's key types implement [`super::MortonKey`]: unsafe code relies on their
+    /// `encode_points` writing every slot.
+    pub trait Sealed {}
+    impl Sealed for u64 {}
+    impl Sealed for u128 {}
 }
 
 /// Every x bit of a 128-bit key (the upper bit of each pair).

@@ -16,7 +16,7 @@ use std::ops::Range;
 use glam::DVec2;
 use rayon::prelude::*;
 
-pub use cell::Cell;
+pub use cell::{Cell, Side};
 pub use interleave::has_pdep;
 pub use key::MortonKey;
 pub use quantize::{GUARD_LEVELS, Grid};
@@ -119,20 +119,18 @@ fn validate(points: &[DVec2]) -> Result<(DVec2, DVec2), Error> {
 
 /// The bounding box of non-empty points (non-finite if any coordinate is NaN or infinite).
 pub fn bounding_box(points: &[DVec2]) -> (DVec2, DVec2) {
-    let empty = (DVec2::INFINITY, DVec2::NEG_INFINITY);
-    points
+    // NaN vanishes in min/max, so a zero-times-coordinate sum (0 for finite values, NaN
+    // otherwise) is carried along and added at the end.
+    let empty = (DVec2::INFINITY, DVec2::NEG_INFINITY, DVec2::ZERO);
+    let (lo, hi, poison) = points
         .par_chunks(crate::par::GRAIN)
         .map(|chunk| {
-            // NaN would vanish in min/max: a sum of coordinates keeps it (and infinities).
-            let (mut lo, mut hi, mut sum) = (empty.0, empty.1, DVec2::ZERO);
-            for p in chunk {
-                lo = lo.min(*p);
-                hi = hi.max(*p);
-                sum += *p * 0.0;
-            }
-            (lo + sum, hi + sum)
+            chunk.iter().fold(empty, |(lo, hi, poison), p| {
+                (lo.min(*p), hi.max(*p), poison + *p * 0.0)
+            })
         })
-        .reduce(|| empty, |(a, b), (c, d)| (a.min(c), b.max(d)))
+        .reduce(|| empty, |(a, b, c), (d, e, f)| (a.min(d), b.max(e), c + f));
+    (lo + poison, hi + poison)
 }
 
 /// The distinct points of sorted pairs that have no collision.
@@ -156,7 +154,7 @@ fn first_collision<K>(
 ) -> Option<(usize, usize)> {
     runs.iter().find_map(|run| {
         let kept = pairs[run.start].idx as usize;
-        pairs[run.clone()]
+        pairs[run.start + 1..run.end]
             .iter()
             .map(|p| p.idx as usize)
             .find(|&i| points[i] != points[kept])
@@ -221,6 +219,22 @@ mod tests {
             SortAlgorithm::default(),
         );
         assert!(matches!(e, Err(Error::NonFinite { index: 1, .. })));
+    }
+
+    #[test]
+    fn non_finite_points_are_found_in_any_chunk() {
+        let n = 3 * crate::par::GRAIN + 5;
+        for bad in [0, 100, crate::par::GRAIN, 2 * crate::par::GRAIN + 1, n - 1] {
+            for value in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+                let mut p: Vec<DVec2> = (0..n).map(|i| DVec2::new(i as f64, 1.0)).collect();
+                p[bad] = DVec2::new(value, 1.0);
+                let e = morton_order(&p, SortAlgorithm::default());
+                assert!(
+                    matches!(e, Err(Error::NonFinite { index, .. }) if index == bad),
+                    "{bad} {value}"
+                );
+            }
+        }
     }
 
     #[test]

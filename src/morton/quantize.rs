@@ -33,13 +33,15 @@ impl Grid {
         let half = if extent > 0.0 {
             extent
         } else {
-            centre.abs().max_element().max(1.0)
+            centre.abs().max_element().clamp(1.0, f64::MAX / 4.0)
         };
         let side = 2.0 * half;
         let origin = centre - DVec2::splat(half);
         let precision = axis_bits - GUARD_LEVELS;
-        let scale = (2.0f64).powi(precision as i32) / side;
-        if !(side.is_finite() && origin.is_finite() && scale.is_finite() && scale > 0.0) {
+        // Dividing by the side first, then scaling by a power of two (exact), works for sides
+        // down to the smallest subnormal.
+        let scale = (2.0f64).powi(precision as i32);
+        if !(side.is_finite() && origin.is_finite()) {
             return Err(Error::CoordinateRange {
                 lo: lo.into(),
                 hi: hi.into(),
@@ -79,7 +81,7 @@ impl Grid {
     /// Grid coordinates of a point: monotone in each axis, clamped into the root.
     #[inline(always)]
     pub fn quantize(&self, p: DVec2) -> (u64, u64) {
-        let q = (p - self.origin) * self.scale;
+        let q = (p - self.origin) / self.side * self.scale;
         // `as` saturates: negatives go to 0, and the clamp catches rounding past the top.
         let x = (q.x as u64).min(self.max_cell);
         let y = (q.y as u64).min(self.max_cell);
@@ -129,6 +131,14 @@ mod tests {
     fn overflowing_range_is_an_error() {
         let r = Grid::around(DVec2::new(-1e308, 0.0), DVec2::new(1e308, 0.0), 32);
         assert!(matches!(r, Err(Error::CoordinateRange { .. })));
+    }
+
+    #[test]
+    fn tiny_and_huge_extents_work() {
+        let g = Grid::around(DVec2::ZERO, DVec2::new(5e-324, 0.0), 32).unwrap();
+        assert_ne!(g.quantize(DVec2::ZERO), g.quantize(DVec2::new(5e-324, 0.0)));
+        let g = Grid::around(DVec2::splat(1e308), DVec2::splat(1e308), 64).unwrap();
+        assert!(g.side().is_finite());
     }
 
     #[test]

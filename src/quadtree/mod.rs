@@ -6,13 +6,14 @@
 //! the squares holding two or more points (plus the root); they are the framework nodes and the
 //! squares on the paths between them.
 
+pub mod index;
 pub mod reference;
 
 pub use crate::morton::Cell;
 
 use crate::framework::{Framework, NONE};
 use crate::morton::MortonKey;
-use crate::par::{collect_indexed, collect_segments, exclusive_scan};
+use crate::par::{GRAIN, chunk_offsets, collect_indexed, collect_segments, exclusive_scan};
 
 /// A leaf and the point in it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -23,12 +24,12 @@ pub struct Leaf<K> {
     pub point: u32,
 }
 
-/// An internal square and the first point inside it.
+/// An internal square and where its points start.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 pub struct Internal<K> {
     /// The square.
     pub cell: Cell<K>,
-    /// Morton position of the first point inside it.
+    /// Morton position of the first point at or after its corner (inside it, unless it is empty).
     pub first: u32,
 }
 
@@ -47,19 +48,44 @@ pub struct Quadtree<K> {
 /// O(n + k) work for k squares: one prefix sum over framework nodes, then each internal square
 /// and each leaf is written once, in parallel.
 pub fn expand<K: MortonKey>(fw: &Framework<K>, keys: &[K]) -> Quadtree<K> {
-    if fw.is_empty() {
+    from_internal(internal_squares(fw), keys)
+}
+
+/// The quadtree whose internal squares are `internal` (in preorder, closed under parents, each
+/// with the first point at or after its corner), with its leaves and their points.
+pub fn from_internal<K: MortonKey>(internal: Vec<Internal<K>>, keys: &[K]) -> Quadtree<K> {
+    if internal.is_empty() {
         let point = if keys.is_empty() { NONE } else { 0 };
-        return Quadtree {
-            internal: Vec::new(),
-            leaves: vec![Leaf {
-                cell: Cell::root(),
-                point,
-            }],
-        };
+        let leaves = vec![Leaf {
+            cell: Cell::root(),
+            point,
+        }];
+        return Quadtree { internal, leaves };
     }
-    let internal = internal_squares(fw);
     let leaves = leaves_of(&internal, keys);
     Quadtree { internal, leaves }
+}
+
+/// Squares in preorder with the first point at or after each one's corner: one binary search
+/// per chunk, then a merge (preorder corners never decrease).
+pub fn with_first_points<K: MortonKey>(cells: &[Cell<K>], keys: &[K]) -> Vec<Internal<K>> {
+    let offsets = chunk_offsets(cells.len(), GRAIN);
+    collect_segments(&offsets, |c| {
+        let chunk = &cells[offsets[c]..offsets[c + 1]];
+        let mut cursor = chunk
+            .first()
+            .map_or(0, |s| keys.partition_point(|k| *k < s.anchor));
+        chunk.iter().map(move |&cell| {
+            cursor += keys[cursor..]
+                .iter()
+                .take_while(|k| **k < cell.anchor)
+                .count();
+            Internal {
+                cell,
+                first: cursor as u32,
+            }
+        })
+    })
 }
 
 /// The squares on every framework edge: node `u` owns the levels below its parent's down to its
@@ -85,16 +111,27 @@ fn internal_squares<K: MortonKey>(fw: &Framework<K>) -> Vec<Internal<K>> {
 /// from the root to `i` passes `digit_sum_i` earlier sibling subtrees. The leaves between two
 /// consecutive internal squares tile the key interval between their corners.
 fn leaves_of<K: MortonKey>(internal: &[Internal<K>], keys: &[K]) -> Vec<Leaf<K>> {
-    let n = internal.len();
-    let offsets = collect_indexed(n + 1, |i| match internal.get(i) {
-        Some(s) => 3 * (i - s.cell.level as usize) + s.cell.anchor.digit_sum(s.cell.level) as usize,
-        None => 3 * n + 1,
-    });
+    let offsets = gap_offsets(internal);
     collect_segments(&offsets, |i| {
         let end = internal.get(i + 1).map(|s| s.cell.anchor);
         let count = offsets[i + 1] - offsets[i];
         GapTiles::new(&internal[i], end, keys).take(count)
     })
+}
+
+/// Where the leaves after each internal square start, plus the leaf count (see [`leaves_of`]).
+pub fn gap_offsets<K: MortonKey>(internal: &[Internal<K>]) -> Vec<usize> {
+    let n = internal.len();
+    collect_indexed(n + 1, |i| match internal.get(i) {
+        Some(s) => leaves_before(i, s.cell),
+        None => 3 * n + 1,
+    })
+}
+
+/// The number of leaves before a square of a full quadtree in Morton order, given the number of
+/// internal squares before it in preorder.
+pub fn leaves_before<K: MortonKey>(internal_before: usize, cell: Cell<K>) -> usize {
+    3 * (internal_before - cell.level as usize) + cell.anchor.digit_sum(cell.level) as usize
 }
 
 /// The leaves covering keys from an internal square's corner up to `end` (the next internal
@@ -156,11 +193,27 @@ impl<K: MortonKey> Iterator for GapTiles<'_, K> {
 }
 
 impl<K: MortonKey> Quadtree<K> {
+    /// Checks that this is the unbalanced quadtree of the keys: [`Quadtree::check`], and every
+    /// internal square holds two or more points (none is split without need).
+    pub fn check_unbalanced(&self, keys: &[K]) -> Result<(), String> {
+        self.check(keys)?;
+        for (i, s) in self.internal.iter().enumerate() {
+            let held = points_in(s.cell, keys).len();
+            if held < 2 {
+                return Err(format!(
+                    "internal square {i} {:?} holds {held} points",
+                    s.cell
+                ));
+            }
+        }
+        Ok(())
+    }
+
     /// Checks the tree against the keys it was built from; returns what is wrong.
     ///
-    /// Internal squares are in strict preorder, have internal parents and hold two or more
-    /// points (the root excepted); leaves tile the root in Morton order, have internal parents,
-    /// and hold exactly the point recorded for them (at most one).
+    /// Internal squares are in strict preorder and have internal parents; leaves tile the root
+    /// in Morton order, have internal parents, and hold exactly the point recorded for them (at
+    /// most one).
     pub fn check(&self, keys: &[K]) -> Result<(), String> {
         let internal: std::collections::HashSet<Cell<K>> =
             self.internal.iter().map(|s| s.cell).collect();
@@ -179,12 +232,6 @@ impl<K: MortonKey> Quadtree<K> {
         for (i, s) in self.internal.iter().enumerate() {
             let cell = s.cell;
             let held = points_in(cell, keys);
-            if (cell.level > 0 && held.len() < 2) || (cell.level == 0 && keys.len() < 2) {
-                return Err(format!(
-                    "internal square {i} {cell:?} holds {} points",
-                    held.len()
-                ));
-            }
             if held.start != s.first as usize {
                 return Err(format!("internal square {i} has a wrong first point"));
             }

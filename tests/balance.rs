@@ -1,0 +1,179 @@
+//! The parallel balanced tree against the sequential ripple, with its links and point location.
+
+use quadmesh::DVec2;
+use quadmesh::balance::reference::ripple_closure;
+use quadmesh::balance::{balance, balance_closure, check_balance, forced_by};
+use quadmesh::framework::build_framework;
+use quadmesh::generate::{Distribution2d, points};
+use quadmesh::morton::{Cell, Morton, MortonKey, SortAlgorithm, morton_order};
+use quadmesh::quadtree::{Quadtree, expand, from_internal, with_first_points};
+
+/// Runs `f` on the keys of `pts`, on whichever grid they need.
+macro_rules! with_keys {
+    ($pts:expr, $f:ident) => {
+        match morton_order(&$pts, SortAlgorithm::default()).unwrap() {
+            Morton::Narrow(m) => $f(&m.keys),
+            Morton::Wide(m) => $f(&m.keys),
+        }
+    };
+}
+
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+fn unbalanced<K: MortonKey>(keys: &[K]) -> Quadtree<K> {
+    expand(&build_framework(keys), keys)
+}
+
+fn cells<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Cell<K>> {
+    tree.internal.iter().map(|s| s.cell).collect()
+}
+
+fn assert_balanced_like_the_ripple<K: MortonKey>(keys: &[K]) {
+    let tree = unbalanced(keys);
+    let balanced = balance(&tree, keys);
+    balanced.check(keys).unwrap();
+    assert_eq!(
+        cells(&balanced.tree),
+        ripple_closure(&cells(&tree)),
+        "differs from the ripple"
+    );
+}
+
+fn check_points(pts: &[DVec2]) {
+    match morton_order(pts, SortAlgorithm::default()).unwrap() {
+        Morton::Narrow(m) => assert_balanced_like_the_ripple(&m.keys),
+        Morton::Wide(m) => assert_balanced_like_the_ripple(&m.keys),
+    }
+}
+
+#[test]
+fn every_family_balances_like_the_ripple() {
+    for dist in [
+        Distribution2d::Uniform,
+        Distribution2d::Cluster,
+        Distribution2d::Kuzmin,
+        Distribution2d::Grid,
+    ] {
+        for n in [1, 2, 3, 50, 2000, 30_000] {
+            check_points(&points(dist, n, n as u64 + 7));
+        }
+    }
+}
+
+#[test]
+fn dyadic_boundaries_and_a_lone_deep_pair() {
+    let dyadic: Vec<DVec2> = (0..=8)
+        .flat_map(|i| (0..=8).map(move |j| DVec2::new(i as f64 / 8.0, j as f64 / 8.0)))
+        .collect();
+    check_points(&dyadic);
+    let pair = [
+        DVec2::new(0.0, 0.0),
+        DVec2::new(1.0, 1.0),
+        DVec2::new(0.5, 0.5),
+        DVec2::new(0.5 + 1e-9, 0.5),
+    ];
+    check_points(&pair);
+}
+
+#[test]
+fn kuzmin_million_balances() {
+    let pts = points(Distribution2d::Kuzmin, 1_000_000, 5);
+    let Morton::Wide(m) = morton_order(&pts, SortAlgorithm::default()).unwrap() else {
+        panic!("wide grid expected")
+    };
+    let tree = unbalanced(&m.keys);
+    let balanced = balance(&tree, &m.keys);
+    check_balance(&balanced.tree).unwrap();
+    assert_eq!(balanced.point_leaf.len(), m.keys.len());
+    assert_eq!(cells(&balanced.tree), ripple_closure(&cells(&tree)));
+}
+
+fn same_on_one_and_two_threads<K: MortonKey>(keys: &[K]) {
+    let tree = unbalanced(keys);
+    assert_eq!(
+        on_threads(1, || balance(&tree, keys)),
+        on_threads(2, || balance(&tree, keys))
+    );
+}
+
+#[test]
+fn one_and_two_threads_balance_identically() {
+    for dist in [
+        Distribution2d::Uniform,
+        Distribution2d::Cluster,
+        Distribution2d::Kuzmin,
+    ] {
+        with_keys!(points(dist, 100_000, 3), same_on_one_and_two_threads);
+    }
+}
+
+fn every_added_split_is_needed<K: MortonKey>(keys: &[K]) {
+    let original = cells(&unbalanced(keys));
+    let closed = balance_closure(&original);
+    assert!(
+        closed.len() > original.len(),
+        "the input should need balancing"
+    );
+    for (i, cell) in closed.iter().enumerate() {
+        if original.contains(cell) {
+            continue;
+        }
+        // Every added split square is forced by a finer split square of the closure.
+        let forced = closed
+            .iter()
+            .any(|finer| finer.level == cell.level + 1 && forced_by(*finer).contains(&Some(*cell)));
+        assert!(forced, "split square {i} {cell:?} is not forced");
+        // Removing an added square with no split children leaves an unbalanced tree.
+        if !closed
+            .iter()
+            .any(|c| c.level == cell.level + 1 && c.parent() == *cell)
+        {
+            let fewer: Vec<Cell<K>> = closed.iter().copied().filter(|c| c != cell).collect();
+            let tree = from_internal(with_first_points(&fewer, keys), keys);
+            assert!(
+                check_balance(&tree).is_err(),
+                "removing {cell:?} keeps balance"
+            );
+        }
+    }
+}
+
+#[test]
+fn no_split_of_the_balanced_tree_can_be_undone() {
+    with_keys!(
+        points(Distribution2d::Cluster, 3000, 2),
+        every_added_split_is_needed
+    );
+    with_keys!(
+        points(Distribution2d::Kuzmin, 2000, 2),
+        every_added_split_is_needed
+    );
+}
+
+fn checkers_catch_corruption<K: MortonKey>(keys: &[K]) {
+    let tree = unbalanced(keys);
+    assert!(
+        check_balance(&tree).is_err(),
+        "Kuzmin's unbalanced tree is not balanced"
+    );
+    let mut balanced = balance(&tree, keys);
+    balanced.links[3][0] = balanced.links[3][1];
+    assert!(balanced.check(keys).is_err(), "corrupted link");
+    let mut balanced = balance(&tree, keys);
+    balanced.point_leaf.swap(0, 1);
+    assert!(balanced.check(keys).is_err(), "swapped point location");
+}
+
+#[test]
+fn the_checkers_catch_corruption() {
+    with_keys!(
+        points(Distribution2d::Kuzmin, 2000, 1),
+        checkers_catch_corruption
+    );
+}
