@@ -11,10 +11,19 @@ pub const GRAIN: usize = 1 << 13;
 /// # Complexity
 /// O(n) work in two parallel passes over chunks and one sequential pass over chunk sums.
 pub fn exclusive_scan(counts: &[u32]) -> Vec<usize> {
-    let sums: Vec<usize> = counts
-        .par_chunks(GRAIN)
-        .map(|c| c.iter().map(|&x| x as usize).sum())
-        .collect();
+    exclusive_scan_by(counts.len(), |i| counts[i] as usize)
+}
+
+/// Exclusive prefix sum of `count(0), ..., count(n - 1)`, with the total appended; `count` is
+/// called twice per item instead of storing the counts.
+pub fn exclusive_scan_by<F>(n: usize, count: F) -> Vec<usize>
+where
+    F: Fn(usize) -> usize + Sync,
+{
+    let chunks = chunk_offsets(n, GRAIN);
+    let sums: Vec<usize> = collect_indexed(chunks.len() - 1, |c| {
+        (chunks[c]..chunks[c + 1]).map(&count).sum()
+    });
     let mut starts = Vec::with_capacity(sums.len());
     let mut total = 0usize;
     for s in &sums {
@@ -23,13 +32,15 @@ pub fn exclusive_scan(counts: &[u32]) -> Vec<usize> {
     }
     // Output position `i` of chunk `c` is `starts[c]` plus the counts before `i` in the chunk;
     // the extra last position holds the total.
-    let n = counts.len();
     let chunks = chunk_offsets(n + 1, GRAIN);
     collect_segments(&chunks, |c| {
         let mut acc = starts.get(c).copied().unwrap_or(total);
+        let count = &count;
         (chunks[c]..chunks[c + 1]).map(move |i| {
             let here = acc;
-            acc += counts.get(i).map_or(0, |&k| k as usize);
+            if i < n {
+                acc += count(i);
+            }
             here
         })
     })

@@ -21,7 +21,7 @@ pub use ansv::{
 
 use crate::morton::Cell;
 use crate::morton::MortonKey;
-use crate::par::{collect_indexed, collect_segments_reversed, exclusive_scan};
+use crate::par::{collect_indexed, collect_segments_reversed, exclusive_scan_by};
 
 /// A framework node: a derived square and the points inside it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -96,9 +96,7 @@ pub fn build_framework<K: MortonKey>(keys: &[K]) -> Framework<K> {
         d: &d,
         right: &right,
     };
-    let counts = collect_indexed(d.len(), |s| chains.walk(s).count() as u32);
-    let offsets = exclusive_scan(&counts);
-    drop(counts);
+    let offsets = exclusive_scan_by(d.len(), |s| chains.walk(s).count());
     // Walks find a chain deepest first; preorder wants it shallowest first.
     let nodes =
         collect_segments_reversed(&offsets, |s| chains.walk(s).map(move |e| chains.node(s, e)));

@@ -13,7 +13,7 @@ pub use crate::morton::Cell;
 
 use crate::framework::{Framework, NONE};
 use crate::morton::MortonKey;
-use crate::par::{GRAIN, chunk_offsets, collect_indexed, collect_segments, exclusive_scan};
+use crate::par::{GRAIN, chunk_offsets, collect_indexed, collect_segments, exclusive_scan_by};
 
 /// A leaf and the point in it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -91,10 +91,9 @@ pub fn with_first_points<K: MortonKey>(cells: &[Cell<K>], keys: &[K]) -> Vec<Int
 /// The squares on every framework edge: node `u` owns the levels below its parent's down to its
 /// own. In framework preorder, these paths concatenate to the preorder of internal squares.
 fn internal_squares<K: MortonKey>(fw: &Framework<K>) -> Vec<Internal<K>> {
-    let counts = collect_indexed(fw.len(), |u| {
-        (fw.nodes[u].cell.level as i32 - fw.parent_level(u)) as u32
+    let offsets = exclusive_scan_by(fw.len(), |u| {
+        (fw.nodes[u].cell.level as i32 - fw.parent_level(u)) as usize
     });
-    let offsets = exclusive_scan(&counts);
     collect_segments(&offsets, |u| {
         let node = fw.nodes[u];
         let top = (fw.parent_level(u) + 1) as u8;
