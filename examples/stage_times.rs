@@ -1,5 +1,5 @@
 //! Prints the time of each tree stage for generated points, in ns per input point:
-//! `cargo run --release --example stage_times -- DIST N THREADS [REPEATS] [unbalanced|balanced]
+//! `cargo run --release --example stage_times -- DIST N THREADS [REPEATS] [unbalanced|balanced|separated]
 //! [voracious|radsort|rayon]`.
 
 /// As in the CLI: an allocator that reuses freed memory.
@@ -20,6 +20,7 @@ fn main() {
     let repeats: usize = arg(4, "5").parse().expect("repeat count");
     let refinement = match arg(5, "unbalanced").as_str() {
         "balanced" => Refinement::Balanced,
+        "separated" => Refinement::Separated,
         _ => Refinement::Unbalanced,
     };
     let sort = match arg(6, "voracious").as_str() {

@@ -29,7 +29,7 @@ if [[ "${1:-}" == "--table-only" ]]; then
 else
     echo "sizes: ${QUADMESH_BENCH_SIZES:-100000,1000000 (default)}  threads: ${QUADMESH_BENCH_THREADS:-1,2 (default)}" >&2
     since="$(python3 -c 'import time; print(time.time())')"
-    cargo bench --bench morton --bench framework -- "$@"
+    cargo bench --bench morton --bench framework --bench balance -- "$@"
 fi
 
 python3 - "$criterion_dir" "$since" <<'PY'

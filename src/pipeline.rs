@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 
 use glam::DVec2;
 
-use crate::balance::{BalancedTree, balance};
+use crate::balance::{BalancedTree, balance, separate};
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
 use crate::morton::{
@@ -59,6 +59,8 @@ pub enum Refinement {
     Unbalanced,
     /// Also 2:1 balanced, with cross links and point location.
     Balanced,
+    /// Balanced, and every point's leaf centred in a 5×5 block of same-size empty leaves.
+    Separated,
 }
 
 /// What [`build_tree`] builds and how.
@@ -135,6 +137,7 @@ fn trees_of<K: MortonKey>(
     let balanced = match options.refinement {
         Refinement::Unbalanced => None,
         Refinement::Balanced => Some(times.time("balance", || balance(&quadtree, keys))),
+        Refinement::Separated => Some(times.time("separate", || separate(&quadtree, keys))),
     };
     TreeBuild {
         morton,

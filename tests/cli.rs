@@ -326,3 +326,47 @@ fn inseparable_points_are_named() {
     let err = tree_error(&input.0);
     assert!(err.contains("points 2") && err.contains("and 3"), "{err}");
 }
+
+#[test]
+fn balanced_and_separated_leaves_are_valid_and_thread_independent() {
+    let input = TempPath::new("kuzmin.txt");
+    let args = [
+        "generate",
+        "--points",
+        "3000",
+        "--dist",
+        "kuzmin",
+        "--seed",
+        "5",
+        "-o",
+        path_str(&input.0),
+    ];
+    assert!(quadmesh(&args).status.success());
+    let points = points_of_text(&std::fs::read_to_string(&input.0).unwrap());
+    let (plain, _) = tree(&input.0, &[]);
+    let mut previous = rows(&plain).len();
+    for flag in ["--balanced", "--separated"] {
+        let (one, report) = tree(&input.0, &[flag, "--threads", "1"]);
+        let (two, _) = tree(&input.0, &[flag, "--threads", "2"]);
+        assert!(one == two, "{flag}: --threads 1 and --threads 2 differ");
+        check_leaves(&one, &report, &points);
+        let leaves = rows(&one).len();
+        assert!(
+            leaves > previous,
+            "{flag} should refine further ({leaves} leaves, {previous} before)"
+        );
+        previous = leaves;
+    }
+    let both = quadmesh(&[
+        "tree",
+        path_str(&input.0),
+        "-o",
+        "-",
+        "--balanced",
+        "--separated",
+    ]);
+    assert!(
+        !both.status.success(),
+        "--balanced and --separated together are refused"
+    );
+}

@@ -36,15 +36,16 @@ pub fn balance_closure<K: MortonKey>(split: &[Cell<K>]) -> Vec<Cell<K>> {
     cells
 }
 
-/// Sorted, distinct anchors of the squares at each level `0..=AXIS_BITS`, from squares in
-/// preorder (or any order sorted by anchor).
-fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
+/// Sorted, distinct anchors of the squares at each level `0..=AXIS_BITS`.
+pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
     let mut sorted = split.to_vec();
-    // One stable counting pass by level keeps each level's anchors in order.
+    // One stable counting pass by level; each level is then sorted (a single run when the input
+    // was in preorder, which the sort detects in linear time).
     radsort::sort_by_key(&mut sorted, |c| c.level);
     let mut levels = vec![Vec::new(); K::AXIS_BITS as usize + 1];
     for chunk in sorted.chunk_by(|a, b| a.level == b.level) {
         let mut anchors: Vec<K> = chunk.iter().map(|c| c.anchor).collect();
+        anchors.par_sort_unstable();
         anchors.dedup();
         levels[chunk[0].level as usize] = anchors;
     }
@@ -53,7 +54,7 @@ fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
 
 /// The squares at `level - 1` that the split squares at `level` (sorted anchors) force, sorted
 /// and distinct. Siblings are adjacent in the sorted list, so each family is handled once.
-fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
+pub(crate) fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
     let starts: Vec<usize> = (0..anchors.len())
         .into_par_iter()
         .filter(|&i| {
@@ -122,7 +123,7 @@ pub fn forced_by<K: MortonKey>(cell: Cell<K>) -> [Option<Cell<K>>; 3] {
 }
 
 /// The sorted union of two sorted, distinct lists.
-fn merge_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
+pub(crate) fn merge_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
     let mut out = Vec::with_capacity(a.len() + b.len());
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
@@ -136,9 +137,30 @@ fn merge_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
     out
 }
 
+/// The elements of sorted `a` that are not in sorted `b`.
+pub(crate) fn difference_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
+    let mut j = 0;
+    a.iter()
+        .copied()
+        .filter(|x| {
+            j += b[j..].partition_point(|y| y < x);
+            b.get(j) != Some(x)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn difference_removes_the_common_ones() {
+        assert_eq!(
+            difference_sorted::<u64>(&[1, 2, 3, 7], &[2, 7, 9]),
+            vec![1, 3]
+        );
+        assert_eq!(difference_sorted::<u64>(&[1], &[]), vec![1]);
+    }
 
     #[test]
     fn merge_keeps_one_of_each() {
@@ -147,6 +169,21 @@ mod tests {
             vec![1, 2, 3, 5, 6]
         );
         assert_eq!(merge_sorted::<u64>(&[], &[2]), vec![2]);
+    }
+
+    #[test]
+    fn input_order_does_not_matter() {
+        let cells: Vec<Cell<u64>> = (0..500u64)
+            .map(|i| Cell::containing(i.wrapping_mul(0x9E37_79B9_7F4A_7C15), (i % 9 + 3) as u8))
+            .collect();
+        let mut reversed = cells.clone();
+        reversed.reverse();
+        reversed.extend_from_slice(&cells[..50]);
+        assert_eq!(balance_closure(&cells), balance_closure(&reversed));
+        assert_eq!(
+            balance_closure(&cells),
+            crate::balance::reference::ripple_closure(&cells)
+        );
     }
 
     #[test]

@@ -101,3 +101,44 @@ pub fn point_leaves<K: MortonKey>(tree: &Quadtree<K>) -> Vec<u32> {
         .filter(|&j| leaves[j as usize].point != NONE)
         .collect()
 }
+
+/// The index of the leaf holding `key`: the last leaf whose anchor is at most `key`, galloping
+/// from `hint` (leaves tile the root from anchor 0, so there is one).
+pub fn locate_leaf<K: MortonKey>(anchors: &[K], hint: usize, key: K) -> usize {
+    let n = anchors.len();
+    if anchors[hint] <= key {
+        let mut step = 1;
+        while hint + step < n && anchors[hint + step] <= key {
+            step *= 2;
+        }
+        let lo = hint + step / 2;
+        lo + anchors[lo..(hint + step).min(n)].partition_point(|a| *a <= key) - 1
+    } else {
+        let mut step = 1;
+        while step <= hint && anchors[hint - step] > key {
+            step *= 2;
+        }
+        let lo = hint.saturating_sub(step);
+        lo + anchors[lo..hint - step / 2].partition_point(|a| *a <= key) - 1
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn locate_finds_the_holder_from_any_hint() {
+        let anchors: Vec<u64> = (0..1000).map(|i| i * 10).collect();
+        for hint in [0, 1, 500, 999] {
+            for key in [0u64, 5, 10, 4999, 5000, 9990, 100_000] {
+                let expect = anchors.partition_point(|a| *a <= key) - 1;
+                assert_eq!(
+                    locate_leaf(&anchors, hint, key),
+                    expect,
+                    "hint {hint} key {key}"
+                );
+            }
+        }
+    }
+}

@@ -40,3 +40,67 @@ fn forced<K: MortonKey>(cell: Cell<K>) -> Vec<Cell<K>> {
     }
     out
 }
+
+/// The well-separated tree's split squares by brute force (rules R1–R3, see
+/// [`crate::balance::separate`]), in preorder: quadratic in the points, for tests on small inputs.
+pub fn separated_closure<K: MortonKey>(keys: &[K]) -> Vec<Cell<K>> {
+    let unbalanced = crate::quadtree::reference::build_reference(keys);
+    let mut split: Vec<Cell<K>> = unbalanced.internal.iter().map(|s| s.cell).collect();
+    loop {
+        split = ripple_closure(&split);
+        let set: HashSet<Cell<K>> = split.iter().copied().collect();
+        let mut demanded: Vec<Cell<K>> = Vec::new();
+        for (i, &key) in keys.iter().enumerate() {
+            let leaf = leaf_of(&set, key);
+            if crowded(&set, keys, i, leaf) {
+                demanded.push(leaf);
+            }
+        }
+        for &p in &split {
+            if keys.iter().any(|&k| p.contains(k)) {
+                let ring = (-1..=1).flat_map(|dx| (-1..=1).map(move |dy| (dx, dy)));
+                demanded.extend(
+                    ring.filter_map(|(dx, dy)| p.offset(dx, dy))
+                        .filter(|c| !set.contains(c)),
+                );
+            }
+        }
+        demanded.retain(|c| !set.contains(c));
+        if demanded.is_empty() {
+            return split;
+        }
+        split.extend(demanded);
+    }
+}
+
+/// The leaf holding `key`: walk down while the square is split.
+fn leaf_of<K: MortonKey>(split: &HashSet<Cell<K>>, key: K) -> Cell<K> {
+    let mut level = 0;
+    while split.contains(&Cell::containing(key, level)) {
+        level += 1;
+    }
+    Cell::containing(key, level)
+}
+
+/// Whether point `i`'s 5×5 block around its leaf sticks out of the root, holds a split square,
+/// or holds another point.
+fn crowded<K: MortonKey>(split: &HashSet<Cell<K>>, keys: &[K], i: usize, leaf: Cell<K>) -> bool {
+    for dx in -2..=2 {
+        for dy in -2..=2 {
+            let Some(square) = leaf.offset(dx, dy) else {
+                return true;
+            };
+            if split.contains(&square) {
+                return true;
+            }
+            let other = keys
+                .iter()
+                .enumerate()
+                .any(|(j, &k)| j != i && square.contains(k));
+            if other {
+                return true;
+            }
+        }
+    }
+    false
+}

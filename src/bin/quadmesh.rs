@@ -44,8 +44,12 @@ enum Command {
         #[arg(long, value_name = "N")]
         threads: Option<NonZeroUsize>,
         /// Write the leaves of the 2:1 balanced tree (leaves sharing a side differ at most 2× in size).
-        #[arg(long)]
+        #[arg(long, conflicts_with = "separated")]
         balanced: bool,
+        /// Write the leaves of the well-separated tree: balanced, and every point's leaf centred in
+        /// a 5×5 block of same-size leaves holding no other point.
+        #[arg(long)]
+        separated: bool,
     },
     /// Write seeded random points as `x y` lines that read back exactly.
     Generate {
@@ -72,11 +76,12 @@ fn main() -> ExitCode {
             output,
             threads,
             balanced,
+            separated,
         } => {
-            let refinement = if balanced {
-                Refinement::Balanced
-            } else {
-                Refinement::Unbalanced
+            let refinement = match (balanced, separated) {
+                (_, true) => Refinement::Separated,
+                (true, _) => Refinement::Balanced,
+                _ => Refinement::Unbalanced,
             };
             tree(
                 &input,

@@ -1,0 +1,101 @@
+//! Well-separated point cells: the parallel rounds against the brute-force fixed point.
+
+use quadmesh::DVec2;
+use quadmesh::balance::reference::separated_closure;
+use quadmesh::balance::{check_separated, separate};
+use quadmesh::framework::build_framework;
+use quadmesh::generate::{Distribution2d, points};
+use quadmesh::morton::{Morton, MortonKey, SortAlgorithm, morton_order};
+use quadmesh::quadtree::{Cell, expand};
+
+macro_rules! with_keys {
+    ($pts:expr, $f:ident) => {
+        match morton_order(&$pts, SortAlgorithm::default()).unwrap() {
+            Morton::Narrow(m) => $f(&m.keys),
+            Morton::Wide(m) => $f(&m.keys),
+        }
+    };
+}
+
+fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap()
+        .install(f)
+}
+
+fn separated_like_brute_force<K: MortonKey>(keys: &[K]) {
+    let tree = expand(&build_framework(keys), keys);
+    let separated = separate(&tree, keys);
+    separated.check(keys).unwrap();
+    check_separated(&separated.tree, keys).unwrap();
+    let cells: Vec<Cell<K>> = separated.tree.internal.iter().map(|s| s.cell).collect();
+    assert_eq!(
+        cells,
+        separated_closure(keys),
+        "differs from the brute-force fixed point"
+    );
+}
+
+#[test]
+fn small_inputs_match_the_brute_force_fixed_point() {
+    for dist in [
+        Distribution2d::Uniform,
+        Distribution2d::Cluster,
+        Distribution2d::Kuzmin,
+        Distribution2d::Grid,
+    ] {
+        for n in [1, 2, 3, 10, 120] {
+            with_keys!(points(dist, n, n as u64 + 1), separated_like_brute_force);
+        }
+    }
+    let dyadic: Vec<DVec2> = (0..=6)
+        .flat_map(|i| (0..=6).map(move |j| DVec2::new(i as f64 / 6.0, j as f64 / 8.0)))
+        .collect();
+    with_keys!(dyadic, separated_like_brute_force);
+    let close = [
+        DVec2::ZERO,
+        DVec2::ONE,
+        DVec2::new(0.5, 0.5),
+        DVec2::new(0.5 + 1e-7, 0.5),
+    ];
+    with_keys!(close, separated_like_brute_force);
+}
+
+fn large_and_thread_independent<K: MortonKey>(keys: &[K]) {
+    let tree = expand(&build_framework(keys), keys);
+    let one = on_threads(1, || separate(&tree, keys));
+    let two = on_threads(2, || separate(&tree, keys));
+    assert_eq!(one, two, "1 and 2 threads differ");
+    one.check(keys).unwrap();
+    check_separated(&one.tree, keys).unwrap();
+}
+
+#[test]
+fn larger_inputs_are_separated_identically_on_one_and_two_threads() {
+    for dist in [
+        Distribution2d::Uniform,
+        Distribution2d::Cluster,
+        Distribution2d::Kuzmin,
+    ] {
+        with_keys!(points(dist, 20_000, 9), large_and_thread_independent);
+    }
+}
+
+fn balanced_is_not_separated<K: MortonKey>(keys: &[K]) {
+    let tree = expand(&build_framework(keys), keys);
+    let balanced = quadmesh::balance::balance(&tree, keys);
+    assert!(
+        check_separated(&balanced.tree, keys).is_err(),
+        "a merely balanced tree passed"
+    );
+}
+
+#[test]
+fn the_separation_checker_refuses_a_merely_balanced_tree() {
+    with_keys!(
+        points(Distribution2d::Uniform, 500, 3),
+        balanced_is_not_separated
+    );
+}
