@@ -8,7 +8,10 @@ use voracious_radix_sort::{RadixSort, Radixable};
 /// A Morton key with the input index of its point.
 ///
 /// Ordered by key, then index, so the sorted order of distinct pairs is unique whatever sort made it.
+/// Packed to 8-byte alignment: a wide pair takes 24 bytes instead of 32, and the sorts move a
+/// quarter less memory.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord)]
+#[repr(C, packed(8))]
 pub struct Pair<K> {
     /// The point's Morton key.
     pub key: K,
@@ -104,7 +107,8 @@ pub fn equal_key_runs<K: Copy + Eq + Send + Sync>(pairs: &[Pair<K>]) -> Vec<Rang
     let starts: Vec<usize> = (1..pairs.len())
         .into_par_iter()
         .filter(|&i| {
-            pairs[i].key == pairs[i - 1].key && (i == 1 || pairs[i - 2].key != pairs[i].key)
+            let key = |j: usize| pairs[j].key;
+            key(i) == key(i - 1) && (i == 1 || key(i - 2) != key(i))
         })
         .map(|i| i - 1)
         .collect();
@@ -112,7 +116,10 @@ pub fn equal_key_runs<K: Copy + Eq + Send + Sync>(pairs: &[Pair<K>]) -> Vec<Rang
         .into_iter()
         .map(|start| {
             let key = pairs[start].key;
-            let len = pairs[start..].iter().take_while(|p| p.key == key).count();
+            let len = pairs[start..]
+                .iter()
+                .take_while(|p| { p.key } == key)
+                .count();
             start..start + len
         })
         .collect()
