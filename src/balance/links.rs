@@ -8,7 +8,7 @@ use rayon::prelude::*;
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
-use crate::par::collect_segments;
+use crate::par::{collect_indexed, collect_segments};
 use crate::quadtree::index::{LEAF, TreeIndex, quadrant_at};
 use crate::quadtree::{Quadtree, gap_offsets};
 
@@ -26,6 +26,14 @@ pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
         return vec![[NONE; 8]; tree.leaves.len()];
     }
     let index = &TreeIndex::new(tree);
+    // The same-size neighbours of internal squares, by climbing; a leaf's then take O(1).
+    let beside = &collect_indexed(tree.internal.len(), |i| {
+        let cell = tree.internal[i].cell;
+        Side::ALL.map(|side| match index.parent[i] {
+            NONE => NONE,
+            parent => same_size(index, cell, parent, side),
+        })
+    });
     let offsets = gap_offsets(&tree.internal);
     collect_segments(&offsets, |i| {
         // Leaves after internal square `i` are children of `i` or of its ancestors, in turn.
@@ -36,9 +44,18 @@ pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
                 while tree.internal[parent as usize].cell.level + 1 > leaf.cell.level {
                     parent = index.parent[parent as usize];
                 }
+                let q = leaf.cell.quadrant();
                 let mut links = [NONE; 8];
                 for side in Side::ALL {
-                    let pair = across(index, leaf.cell, parent, side);
+                    let entry = if on_side(q, side) {
+                        match beside[parent as usize][side as usize] {
+                            e if e == NONE || e & LEAF != 0 => e,
+                            e => index.children[e as usize][mirror(q, side) as usize],
+                        }
+                    } else {
+                        index.children[parent as usize][mirror(q, side) as usize]
+                    };
+                    let pair = leaves_facing(index, entry, side);
                     links[2 * side as usize..2 * side as usize + 2].copy_from_slice(&pair);
                 }
                 links
@@ -46,13 +63,16 @@ pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
     })
 }
 
-/// The leaves across one side of the leaf `cell`, whose parent is internal square `parent`.
-fn across<K: MortonKey>(index: &TreeIndex, cell: Cell<K>, parent: u32, side: Side) -> [u32; 2] {
+/// The entry of the same-size square across `side` of `cell` (whose parent is internal square
+/// `parent`): an internal index, a leaf index tagged [`LEAF`] for a leaf that covers it (of the
+/// same or a larger size), or [`NONE`] outside the root. Climb while the path runs along the
+/// side, step across, descend mirrored.
+fn same_size<K: MortonKey>(index: &TreeIndex, cell: Cell<K>, parent: u32, side: Side) -> u32 {
     let mut level = cell.level;
     let mut node = parent as usize;
     while on_side(quadrant_at(cell, level), side) {
         if level == 1 {
-            return [NONE; 2];
+            return NONE;
         }
         node = index.parent[node] as usize;
         level -= 1;
@@ -60,14 +80,22 @@ fn across<K: MortonKey>(index: &TreeIndex, cell: Cell<K>, parent: u32, side: Sid
     let mut entry = index.children[node][mirror(quadrant_at(cell, level), side) as usize];
     for deeper in level + 1..=cell.level {
         if entry & LEAF != 0 {
-            return [entry & !LEAF, NONE];
+            return entry;
         }
         entry = index.children[entry as usize][mirror(quadrant_at(cell, deeper), side) as usize];
+    }
+    entry
+}
+
+/// The leaves across `side` given the entry of the same-size square there: that leaf, or, if
+/// the square is split, its two children facing us (leaves, by balance).
+fn leaves_facing(index: &TreeIndex, entry: u32, side: Side) -> [u32; 2] {
+    if entry == NONE {
+        return [NONE; 2];
     }
     if entry & LEAF != 0 {
         return [entry & !LEAF, NONE];
     }
-    // The same-size square across is split; balance makes its two children facing us leaves.
     let facing = side.opposite().children_touching();
     facing.map(|q| match index.children[entry as usize][q as usize] {
         e if e & LEAF != 0 => e & !LEAF,
