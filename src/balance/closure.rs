@@ -18,21 +18,57 @@ use crate::morton::{Cell, MortonKey, Side};
 /// O(k log k) work for k squares (a parallel sort per level), depth O(L log k) for L levels.
 pub fn balance_closure<K: MortonKey>(split: &[Cell<K>]) -> Vec<Cell<K>> {
     let mut levels = by_level(split);
+    let mut added = vec![Vec::new(); levels.len()];
     for level in (1..levels.len()).rev() {
         let forced = forced_above(&levels[level], level as u8);
-        levels[level - 1] = merge_sorted(&levels[level - 1], &forced);
+        let fresh = difference_sorted(&forced, &levels[level - 1]);
+        levels[level - 1] = merge_sorted(&levels[level - 1], &fresh);
+        added[level - 1] = fresh;
     }
-    let mut cells: Vec<Cell<K>> = levels
-        .into_iter()
-        .enumerate()
-        .flat_map(|(level, anchors)| {
-            anchors.into_iter().map(move |anchor| Cell {
-                anchor,
-                level: level as u8,
-            })
-        })
-        .collect();
-    cells.par_sort_unstable_by_key(|c| (c.anchor, c.level));
+    // Only the added squares need sorting into preorder; the input usually is in preorder.
+    let mut input = split.to_vec();
+    if !input
+        .windows(2)
+        .all(|w| preorder_key(w[0]) < preorder_key(w[1]))
+    {
+        input.par_sort_unstable_by_key(|c| preorder_key(*c));
+        input.dedup();
+    }
+    merge_preorder(&input, &preorder_of_levels(&added))
+}
+
+fn preorder_key<K: MortonKey>(c: Cell<K>) -> (K, u8) {
+    (c.anchor, c.level)
+}
+
+/// The preorder union of two disjoint lists of squares in preorder.
+fn merge_preorder<K: MortonKey>(a: &[Cell<K>], b: &[Cell<K>]) -> Vec<Cell<K>> {
+    let mut out = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if preorder_key(a[i]) < preorder_key(b[j]) {
+            out.push(a[i]);
+            i += 1;
+        } else {
+            out.push(b[j]);
+            j += 1;
+        }
+    }
+    out.extend_from_slice(&a[i..]);
+    out.extend_from_slice(&b[j..]);
+    out
+}
+
+/// The squares of sorted per-level anchor lists, in preorder.
+pub(crate) fn preorder_of_levels<K: MortonKey>(levels: &[Vec<K>]) -> Vec<Cell<K>> {
+    let mut cells = Vec::with_capacity(levels.iter().map(Vec::len).sum());
+    for (level, anchors) in levels.iter().enumerate() {
+        cells.extend(anchors.iter().map(|&anchor| Cell {
+            anchor,
+            level: level as u8,
+        }));
+    }
+    cells.par_sort_unstable_by_key(|c| preorder_key(*c));
     cells
 }
 

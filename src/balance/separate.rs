@@ -17,7 +17,7 @@
 
 use rayon::prelude::*;
 
-use super::closure::{by_level, difference_sorted, forced_above, merge_sorted};
+use super::closure::{by_level, difference_sorted, forced_above, merge_sorted, preorder_of_levels};
 use super::{BalancedTree, linked_tree};
 use crate::morton::{Cell, MortonKey};
 use crate::quadtree::{Quadtree, points_in};
@@ -81,19 +81,7 @@ impl<K: MortonKey> SplitSet<K> {
     }
 
     fn preorder(&self) -> Vec<Cell<K>> {
-        let mut cells: Vec<Cell<K>> = self
-            .levels
-            .iter()
-            .enumerate()
-            .flat_map(|(level, anchors)| {
-                anchors.iter().map(move |&anchor| Cell {
-                    anchor,
-                    level: level as u8,
-                })
-            })
-            .collect();
-        cells.par_sort_unstable_by_key(|c| (c.anchor, c.level));
-        cells
+        preorder_of_levels(&self.levels)
     }
 
     /// Whether `cell` is a leaf of the current tree: not split, and its parent is.
