@@ -1,5 +1,9 @@
 //! The parallel balanced tree against the sequential ripple, with its links and point location.
 
+mod common;
+
+use common::{FAMILIES, on_threads, with_keys};
+
 use quadmesh::DVec2;
 use quadmesh::balance::reference::ripple_closure;
 use quadmesh::balance::{balance, balance_closure, check_balance, forced_by};
@@ -7,24 +11,6 @@ use quadmesh::framework::build_framework;
 use quadmesh::generate::{Distribution2d, points};
 use quadmesh::morton::{Cell, Morton, MortonKey, SortAlgorithm, morton_order};
 use quadmesh::quadtree::{Quadtree, expand, from_internal, with_first_points};
-
-/// Runs `f` on the keys of `pts`, on whichever grid they need.
-macro_rules! with_keys {
-    ($pts:expr, $f:ident) => {
-        match morton_order(&$pts, SortAlgorithm::default()).unwrap() {
-            Morton::Narrow(m) => $f(&m.keys),
-            Morton::Wide(m) => $f(&m.keys),
-        }
-    };
-}
-
-fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap()
-        .install(f)
-}
 
 fn unbalanced<K: MortonKey>(keys: &[K]) -> Quadtree<K> {
     expand(&build_framework(keys), keys)
@@ -54,12 +40,7 @@ fn check_points(pts: &[DVec2]) {
 
 #[test]
 fn every_family_balances_like_the_ripple() {
-    for dist in [
-        Distribution2d::Uniform,
-        Distribution2d::Cluster,
-        Distribution2d::Kuzmin,
-        Distribution2d::Grid,
-    ] {
+    for dist in FAMILIES {
         for n in [1, 2, 3, 50, 2000, 30_000] {
             check_points(&points(dist, n, n as u64 + 7));
         }

@@ -1,29 +1,16 @@
 //! Well-separated point cells: the parallel rounds against the brute-force fixed point.
 
+mod common;
+
+use common::{FAMILIES, on_threads, with_keys};
+
 use quadmesh::DVec2;
 use quadmesh::balance::reference::separated_closure;
 use quadmesh::balance::{check_separated, separate};
 use quadmesh::framework::build_framework;
 use quadmesh::generate::{Distribution2d, points};
-use quadmesh::morton::{Morton, MortonKey, SortAlgorithm, morton_order};
+use quadmesh::morton::MortonKey;
 use quadmesh::quadtree::{Cell, expand};
-
-macro_rules! with_keys {
-    ($pts:expr, $f:ident) => {
-        match morton_order(&$pts, SortAlgorithm::default()).unwrap() {
-            Morton::Narrow(m) => $f(&m.keys),
-            Morton::Wide(m) => $f(&m.keys),
-        }
-    };
-}
-
-fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap()
-        .install(f)
-}
 
 fn separated_like_brute_force<K: MortonKey>(keys: &[K]) {
     let tree = expand(&build_framework(keys), keys);
@@ -40,12 +27,7 @@ fn separated_like_brute_force<K: MortonKey>(keys: &[K]) {
 
 #[test]
 fn small_inputs_match_the_brute_force_fixed_point() {
-    for dist in [
-        Distribution2d::Uniform,
-        Distribution2d::Cluster,
-        Distribution2d::Kuzmin,
-        Distribution2d::Grid,
-    ] {
+    for dist in FAMILIES {
         for n in [1, 2, 3, 10, 120] {
             with_keys!(points(dist, n, n as u64 + 1), separated_like_brute_force);
         }

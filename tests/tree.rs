@@ -1,6 +1,10 @@
 //! The parallel Morton order, framework and unbalanced quadtree against the sequential
 //! reference, on every input family, on one and two threads.
 
+mod common;
+
+use common::{FAMILIES, on_threads};
+
 use proptest::prelude::*;
 use quadmesh::framework::{self, Framework, NONE};
 use quadmesh::generate::{Distribution2d, points};
@@ -8,14 +12,6 @@ use quadmesh::morton::{Morton, MortonKey, SortAlgorithm, morton_order};
 use quadmesh::quadtree::reference::build_reference;
 use quadmesh::quadtree::{Cell, Quadtree, expand, points_in};
 use quadmesh::{DVec2, Tree, TreeOptions, build_tree};
-
-fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap()
-        .install(f)
-}
 
 /// The framework read off the reference tree: internal squares with two or more non-empty
 /// children, each linked to its deepest such ancestor.
@@ -95,12 +91,7 @@ fn fingerprint(tree: &Tree) -> String {
 
 #[test]
 fn every_family_matches_the_reference() {
-    for dist in [
-        Distribution2d::Uniform,
-        Distribution2d::Cluster,
-        Distribution2d::Kuzmin,
-        Distribution2d::Grid,
-    ] {
+    for dist in FAMILIES {
         for n in [2, 3, 10, 1000, 20_000] {
             check_points(&points(dist, n, n as u64));
         }
