@@ -4,6 +4,19 @@
 //! The stages are functions from flat, Morton-sorted arrays to flat arrays:
 //! [`morton`] → [`framework`] → [`quadtree`] → `balance` → `warp` / `pslg` → mesh.
 //! See `ARCHITECTURE.md` for the module graph.
+//!
+//! ```
+//! use quadmesh::{DVec2, Refinement, Tree, TreeOptions, build_tree};
+//!
+//! let points = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.5), DVec2::new(0.25, 0.75)];
+//! let options = TreeOptions::default().refinement(Refinement::Balanced);
+//! let (tree, _times) = build_tree(&points, &options)?;
+//! let Tree::Narrow(build) = &tree else { unreachable!("three points fit the narrow grid") };
+//! let balanced = build.balanced.as_ref().expect("asked for");
+//! balanced.check(&build.morton.keys).expect("a valid balanced tree");
+//! assert_eq!(balanced.point_leaf.len(), 3);
+//! # Ok::<(), quadmesh::Error>(())
+//! ```
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
