@@ -81,3 +81,34 @@ fn the_separation_checker_refuses_a_merely_balanced_tree() {
         balanced_is_not_separated
     );
 }
+
+/// Keys from grid coordinates, sorted and distinct.
+fn keys_of(coords: impl Iterator<Item = (u64, u64)>) -> Vec<u64> {
+    let mut keys: Vec<u64> = coords.map(|(x, y)| u64::encode(x, y)).collect();
+    keys.sort_unstable();
+    keys.dedup();
+    keys
+}
+
+#[test]
+fn a_chain_of_forced_splits_needs_a_round_per_point_and_still_matches() {
+    // Each point's split forces its ring, whose splits crowd the next point's block.
+    let row = (0..120u64).map(|i| ((1 << 30) + 3 * i * 4096 + 2048, (1 << 31) + 2048));
+    let partner = std::iter::once(((1 << 30) + 2048 + 64, (1 << 31) + 2048));
+    separated_like_brute_force(&keys_of(row.chain(partner)));
+}
+
+#[test]
+fn keys_closer_than_the_guard_levels_do_not_panic() {
+    let keys = keys_of([(1 << 31, 1 << 31), ((1 << 31) + 1, 1 << 31)].into_iter());
+    let tree = expand(&build_framework(&keys), &keys);
+    let separated = separate(&tree, &keys);
+    separated.check(&keys).unwrap();
+    assert!(
+        separated
+            .tree
+            .leaves
+            .iter()
+            .all(|l| (l.cell.level as u32) <= u64::AXIS_BITS)
+    );
+}

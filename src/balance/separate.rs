@@ -24,8 +24,13 @@ use crate::quadtree::{Quadtree, points_in};
 
 /// The well-separated refinement of `tree`, with links and point location.
 ///
+/// Points must be at least a few finest-grid cells apart for their blocks to be separable; the
+/// guard levels of [`crate::morton`] give 16. Squares at the finest level are never split.
+///
 /// # Complexity
-/// O(k log k) work for k squares in all rounds together; each round is parallel.
+/// Each round costs O(a log k) for a squares added plus a merge of the levels it touches, in
+/// parallel. Typical inputs need 5–20 rounds; a chain of points placed so that each split forces
+/// the next one takes a round per point, which makes such inputs quadratic.
 pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K> {
     let mut set = SplitSet::new();
     let mut demanded: Vec<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
@@ -134,7 +139,11 @@ fn crowded_leaf<K: MortonKey>(set: &SplitSet<K>, keys: &[K], leaf: Cell<K>) -> V
     let deeper = (leaf.level + 1..K::AXIS_BITS as u8)
         .map(|level| Cell::containing(key, level))
         .take_while(|&c| crowded_by_points(c, keys));
-    std::iter::once(leaf).chain(deeper).collect()
+    // A finest-level square has no children to split into.
+    std::iter::once(leaf)
+        .chain(deeper)
+        .filter(|c| (c.level as u32) < K::AXIS_BITS)
+        .collect()
 }
 
 fn holds_point<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> bool {
