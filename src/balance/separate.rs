@@ -100,32 +100,45 @@ impl<K: MortonKey> SplitSet<K> {
 /// the new point leaves below the new squares (R3a, c, d), with every deeper level R3c and R3d
 /// force on them.
 fn demands_near<K: MortonKey>(set: &SplitSet<K>, keys: &[K], added: &[Cell<K>]) -> Vec<Cell<K>> {
-    let mut demanded: Vec<Cell<K>> = added
+    let rings = added
         .par_iter()
-        .flat_map_iter(|&square| {
-            let mut out = Vec::new();
-            if holds_point(square, keys) {
-                out.extend(ring(square).flatten().filter(|&c| !set.contains(c)));
-                let new_leaves = (0..4)
-                    .map(|q| square.child(q))
-                    .filter(|&c| !set.contains(c));
-                for leaf in new_leaves.filter(|&c| holds_point(c, keys)) {
-                    out.extend(crowded_leaf(set, keys, leaf));
-                }
-            }
-            if block_may_hold_point(square, keys) {
-                for neighbour in block(square).flatten() {
-                    if set.is_leaf(neighbour) && holds_point(neighbour, keys) {
-                        out.extend(crowded_leaf(set, keys, neighbour));
-                    }
-                }
-            }
-            out
-        })
+        .filter(|&&square| holds_point(square, keys))
+        .flat_map_iter(|&square| ring(square).flatten().filter(|&c| !set.contains(c)));
+    // A point leaf can be near many new squares: collect each once, then check it.
+    let mut leaves: Vec<Cell<K>> = added
+        .par_iter()
+        .flat_map_iter(|&square| point_leaves_near(set, keys, square))
         .collect();
-    demanded.par_sort_unstable_by_key(|c| (c.anchor, c.level));
-    demanded.dedup();
+    sorted_distinct(&mut leaves);
+    let crowded = leaves
+        .par_iter()
+        .flat_map_iter(|&leaf| crowded_leaf(set, keys, leaf));
+    let mut demanded: Vec<Cell<K>> = rings.chain(crowded).collect();
+    sorted_distinct(&mut demanded);
     demanded
+}
+
+/// The point leaves whose rules a new split `square` may have made fire: its new children
+/// holding points, and the point leaves of its size in its 5×5 block.
+fn point_leaves_near<K: MortonKey>(set: &SplitSet<K>, keys: &[K], square: Cell<K>) -> Vec<Cell<K>> {
+    let mut out = Vec::new();
+    if holds_point(square, keys) {
+        let children = (0..4).map(|q| square.child(q));
+        out.extend(children.filter(|&c| !set.contains(c) && holds_point(c, keys)));
+    }
+    if block_may_hold_point(square, keys) {
+        out.extend(
+            block(square)
+                .flatten()
+                .filter(|&c| set.is_leaf(c) && holds_point(c, keys)),
+        );
+    }
+    out
+}
+
+fn sorted_distinct<K: MortonKey>(cells: &mut Vec<Cell<K>>) {
+    cells.par_sort_unstable_by_key(|c| (c.anchor, c.level));
+    cells.dedup();
 }
 
 /// The point leaf `leaf` and the squares below it on its point's path, as far as the rules
