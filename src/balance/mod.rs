@@ -11,7 +11,7 @@ mod separate;
 use std::collections::HashSet;
 
 pub use closure::{balance_closure, forced_by};
-pub use links::{Links, cross_links, locate_leaf, point_leaves};
+pub use links::{Links, cross_links, point_leaves};
 pub use separate::{block, check_separated, separate};
 
 use crate::framework::NONE;
