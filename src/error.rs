@@ -48,6 +48,28 @@ pub enum Error {
         /// Its coordinates.
         pb: [f64; 2],
     },
+    /// Points so close, relative to the input's extent, that the mesh between them needs
+    /// vertices f64 cannot place apart.
+    #[error(
+        "the mesh around point {index} ({x}, {y}) needs vertices closer together than f64 \
+         resolves at that position; the points span too many orders of magnitude"
+    )]
+    Unresolvable {
+        /// Input index of the point.
+        index: usize,
+        /// Its x coordinate.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+    },
+    /// The output would need more elements than 32-bit indices can number.
+    #[error("the mesh would have {count} {what}; at most 4294967294 are supported")]
+    TooLarge {
+        /// What overflowed (vertices, triangles).
+        what: &'static str,
+        /// How many there would be.
+        count: usize,
+    },
     /// A line of an input file could not be read.
     #[error("{source_name}:{line}: {message}")]
     Parse {

@@ -26,6 +26,7 @@ mod error;
 pub mod framework;
 pub mod generate;
 pub mod io;
+pub mod mesh;
 pub mod morton;
 pub mod par;
 pub mod pipeline;
@@ -35,4 +36,5 @@ pub mod warp;
 
 pub use error::Error;
 pub use glam::DVec2;
-pub use pipeline::{Refinement, Tree, TreeBuild, TreeOptions, build_tree};
+pub use mesh::{Mesh, MeshReport};
+pub use pipeline::{MeshOptions, Refinement, Tree, TreeBuild, TreeOptions, build_tree, mesh_points};

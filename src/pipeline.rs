@@ -8,10 +8,13 @@ use glam::DVec2;
 use crate::balance::{BalancedTree, balance, separate};
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
+use crate::mesh::{Mesh, MeshReport};
 use crate::morton::{
     Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order,
+    morton_order_wide,
 };
 use crate::quadtree::{Quadtree, expand};
+use crate::warp::{AngleQuality, point_finer_than_grid, warp};
 
 /// Wall-clock time of each stage, in the order they ran.
 #[derive(Clone, Debug, Default)]
@@ -145,4 +148,93 @@ fn trees_of<K: MortonKey>(
         quadtree,
         balanced,
     }
+}
+
+/// What [`mesh_points`] builds and how.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct MeshOptions {
+    /// The sort used for Morton order.
+    pub sort: SortAlgorithm,
+}
+
+/// The well-separated tree the warp needs, on the narrow grid if it resolves the points finely
+/// enough for their leaves, on the wide grid otherwise.
+///
+/// # Errors
+/// Whatever [`morton_order`] refuses, and [`Error::Unresolvable`] for points too close together
+/// relative to the extent for even the wide grid.
+pub fn separated_tree(
+    points: &[DVec2],
+    options: &MeshOptions,
+) -> Result<(Tree, StageTimes), Error> {
+    let mut times = StageTimes::default();
+    let separated = TreeOptions::default()
+        .sort(options.sort)
+        .refinement(Refinement::Separated);
+    let morton = times.time("morton", || morton_order(points, options.sort))?;
+    let m = match morton {
+        Morton::Narrow(m) => {
+            let build = trees_of(m, &separated, &mut times);
+            if deepest_point_leaf(&build).is_none() {
+                return Ok((Tree::Narrow(build), times));
+            }
+            // Points so close that their leaves are finer than the narrow grid resolves the
+            // points: the wide grid places them exactly enough.
+            times.time("morton wide", || morton_order_wide(points, options.sort))?
+        }
+        Morton::Wide(m) => m,
+    };
+    let build = trees_of(m, &separated, &mut times);
+    if let Some(p) = deepest_point_leaf(&build) {
+        let index = build.morton.order[p] as usize;
+        return Err(Error::Unresolvable {
+            index,
+            x: points[index].x,
+            y: points[index].y,
+        });
+    }
+    Ok((Tree::Wide(build), times))
+}
+
+/// The quality mesh of `points` by warping (angles in [22.5°, 112.5°]) on the current rayon
+/// pool, with its report. The domain is the quadtree's root square: the points' bounding box
+/// centred in a square of twice its larger side.
+///
+/// # Errors
+/// Whatever [`morton_order`] refuses, [`Error::Unresolvable`] for points too close together
+/// relative to the extent for either grid or for f64, [`Error::TooLarge`] past 32-bit indices.
+pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport), Error> {
+    let (tree, mut times) = separated_tree(points, options)?;
+    let (mesh, quality, duplicates) = match &tree {
+        Tree::Narrow(build) => warp_build(build, points, &mut times)?,
+        Tree::Wide(build) => warp_build(build, points, &mut times)?,
+    };
+    let report = MeshReport {
+        points: points.len() - duplicates,
+        duplicates,
+        vertices: mesh.vertices.len(),
+        triangles: mesh.triangles.len(),
+        min_angle: quality.min,
+        max_angle: quality.max,
+        histogram: quality.histogram,
+        stages: times.0,
+    };
+    Ok((mesh, report))
+}
+
+type Warped = (Mesh, AngleQuality, usize);
+
+fn warp_build<K: MortonKey>(
+    build: &TreeBuild<K>,
+    points: &[DVec2],
+    times: &mut StageTimes,
+) -> Result<Warped, Error> {
+    let tree = build.balanced.as_ref().expect("a separated tree");
+    let morton = &build.morton;
+    let (mesh, quality) = times.time("warp", || warp(tree, &morton.order, &morton.grid, points))?;
+    Ok((mesh, quality, morton.duplicates.count))
+}
+
+fn deepest_point_leaf<K: MortonKey>(build: &TreeBuild<K>) -> Option<usize> {
+    build.balanced.as_ref().and_then(point_finer_than_grid)
 }

@@ -7,6 +7,7 @@ mod closure;
 mod links;
 pub mod reference;
 mod separate;
+mod split_set;
 
 use std::collections::HashSet;
 

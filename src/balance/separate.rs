@@ -17,10 +17,11 @@
 
 use rayon::prelude::*;
 
-use super::closure::{by_level, difference_sorted, forced_above, merge_sorted, preorder_of_levels};
+use super::split_set::{KeyMap, SplitSet, Squares, at_position, grid_position, last_position};
 use super::{BalancedTree, linked_tree};
+use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey};
-use crate::quadtree::{Quadtree, points_in};
+use crate::quadtree::Quadtree;
 
 /// The well-separated refinement of `tree`, with links and point location.
 ///
@@ -28,135 +29,286 @@ use crate::quadtree::{Quadtree, points_in};
 /// guard levels of [`crate::morton`] give 16. Squares at the finest level are never split.
 ///
 /// # Complexity
-/// Each round costs O(a log k) for a squares added plus a merge of the levels it touches, in
-/// parallel. Typical inputs need 5–20 rounds; a chain of points placed so that each split forces
-/// the next one takes a round per point, which makes such inputs quadratic.
+/// Expected O(k) work for k output squares plus a final O(k log k) sort: membership is hashed,
+/// and a round costs O(a + m log n) for a squares added and m points moved. Typical inputs need
+/// 5–20 rounds; a chain of points placed so that each split forces the next one takes a round
+/// per point, each as cheap as the splits it adds.
 pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K> {
+    let mut tm = [0f64; 8];
+    let mut clock = std::time::Instant::now();
+    let lap = |i: usize, tm: &mut [f64; 8], clock: &mut std::time::Instant| {
+        tm[i] += clock.elapsed().as_secs_f64();
+        *clock = std::time::Instant::now();
+    };
     let mut set = SplitSet::new();
-    let mut demanded: Vec<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
-    if !keys.is_empty() {
-        // R3d: the root's block always sticks out of the root.
-        demanded.push(Cell::root());
+    let internal: Vec<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
+    set.insert_closed(internal.iter().map(|&c| Squares::one(c)));
+    let mut leaves = PointLeaves::new(keys.len());
+    let mut moves = first_moves(&set, tree, keys);
+    let mut rounds = 0;
+    let (mut nd, mut na, mut nc) = (0, 0, 0);
+    lap(1, &mut tm, &mut clock);
+    while !moves.is_empty() {
+        rounds += 1;
+        let demanded: Vec<Vec<Squares<K>>> = moves
+            .par_chunks(MOVES_PER_TASK)
+            .map(|chunk| {
+                let mut out = Vec::new();
+                for &m in chunk {
+                    demands_of(&set, keys, m, &mut out);
+                }
+                out
+            })
+            .collect();
+        nd += demanded.iter().map(Vec::len).sum::<usize>();
+        lap(2, &mut tm, &mut clock);
+        // The two updates touch different structures.
+        let ((added, ti), tr) = rayon::join(
+            || {
+                let c = std::time::Instant::now();
+                let a = set.insert_closed(demanded.iter().flatten().copied());
+                (a, c.elapsed().as_secs_f64())
+            },
+            || {
+                let c = std::time::Instant::now();
+                leaves.record(keys, &moves);
+                c.elapsed().as_secs_f64()
+            },
+        );
+        tm[0] += ti;
+        tm[3] += tr;
+        na += added.len();
+        lap(4, &mut tm, &mut clock);
+        let candidates = leaves.near(keys, &added);
+        nc += candidates.len();
+        lap(5, &mut tm, &mut clock);
+        moves = settle_all(&set, keys, &leaves.level, &candidates);
+        lap(1, &mut tm, &mut clock);
     }
-    while !demanded.is_empty() {
-        let added = set.add_closed(&demanded);
-        demanded = demands_near(&set, keys, &added);
-    }
-    linked_tree(&set.preorder(), keys)
-}
-
-/// Split squares closed under balance, as sorted anchors per level.
-struct SplitSet<K> {
-    levels: Vec<Vec<K>>,
-}
-
-impl<K: MortonKey> SplitSet<K> {
-    fn new() -> Self {
-        SplitSet {
-            levels: vec![Vec::new(); K::AXIS_BITS as usize + 1],
-        }
-    }
-
-    fn contains(&self, cell: Cell<K>) -> bool {
-        self.levels[cell.level as usize]
-            .binary_search(&cell.anchor)
-            .is_ok()
-    }
-
-    /// Adds `cells` and whatever balance then forces; returns the squares that were new.
-    fn add_closed(&mut self, cells: &[Cell<K>]) -> Vec<Cell<K>> {
-        let mut pending = by_level(cells);
-        let mut added = Vec::new();
-        for level in (0..pending.len()).rev() {
-            let fresh = difference_sorted(&pending[level], &self.levels[level]);
-            if fresh.is_empty() {
-                continue;
-            }
-            self.levels[level] = merge_sorted(&self.levels[level], &fresh);
-            if level > 0 {
-                let forced = forced_above(&fresh, level as u8);
-                pending[level - 1] = merge_sorted(&pending[level - 1], &forced);
-            }
-            added.extend(fresh.into_iter().map(|anchor| Cell {
-                anchor,
-                level: level as u8,
-            }));
-        }
-        added
-    }
-
-    fn preorder(&self) -> Vec<Cell<K>> {
-        preorder_of_levels(&self.levels)
-    }
-
-    /// Whether `cell` is a leaf of the current tree: not split, and its parent is.
-    fn is_leaf(&self, cell: Cell<K>) -> bool {
-        !self.contains(cell) && (cell.level == 0 || self.contains(cell.parent()))
-    }
-}
-
-/// What the rules demand near the squares `added` in the last round: rings around the new split
-/// squares holding points (R3b), point leaves whose block now holds a split square (R3a), and
-/// the new point leaves below the new squares (R3a, c, d), with every deeper level R3c and R3d
-/// force on them.
-fn demands_near<K: MortonKey>(set: &SplitSet<K>, keys: &[K], added: &[Cell<K>]) -> Vec<Cell<K>> {
-    let rings = added
-        .par_iter()
-        .filter(|&&square| holds_point(square, keys))
-        .flat_map_iter(|&square| ring(square).flatten().filter(|&c| !set.contains(c)));
-    // A point leaf can be near many new squares: collect each once, then check it.
-    let mut leaves: Vec<Cell<K>> = added
-        .par_iter()
-        .flat_map_iter(|&square| point_leaves_near(set, keys, square))
-        .collect();
-    sorted_distinct(&mut leaves);
-    let crowded = leaves
-        .par_iter()
-        .flat_map_iter(|&leaf| crowded_leaf(set, keys, leaf));
-    let mut demanded: Vec<Cell<K>> = rings.chain(crowded).collect();
-    sorted_distinct(&mut demanded);
-    demanded
-}
-
-/// The point leaves whose rules a new split `square` may have made fire: its new children
-/// holding points, and the point leaves of its size in its 5×5 block.
-fn point_leaves_near<K: MortonKey>(set: &SplitSet<K>, keys: &[K], square: Cell<K>) -> Vec<Cell<K>> {
-    let mut out = Vec::new();
-    if holds_point(square, keys) {
-        let children = (0..4).map(|q| square.child(q));
-        out.extend(children.filter(|&c| !set.contains(c) && holds_point(c, keys)));
-    }
-    if block_may_hold_point(square, keys) {
-        out.extend(
-            block(square)
-                .flatten()
-                .filter(|&c| set.is_leaf(c) && holds_point(c, keys)),
+    let pre = set.preorder();
+    lap(6, &mut tm, &mut clock);
+    let out = linked_tree(&pre, keys);
+    lap(7, &mut tm, &mut clock);
+    if std::env::var("SEP_TIMES").is_ok() {
+        eprintln!(
+            "rounds {rounds} cand {nc} demanded {nd} added {na} | insert_only {:.3} settle {:.3} demands {:.3} record {:.3} insert {:.3} near {:.3} preorder {:.3} linked {:.3}",
+            tm[0], tm[1], tm[2], tm[3], tm[4], tm[5], tm[6], tm[7]
         );
     }
     out
 }
 
-fn sorted_distinct<K: MortonKey>(cells: &mut Vec<Cell<K>>) {
-    cells.par_sort_unstable_by_key(|c| (c.anchor, c.level));
-    cells.dedup();
+/// Moves whose demands one task gathers.
+const MOVES_PER_TASK: usize = 256;
+
+/// A point whose leaf went down from level `from` to level `to`.
+#[derive(Clone, Copy)]
+struct Move {
+    point: u32,
+    from: u8,
+    to: u8,
 }
 
-/// The point leaf `leaf` and the squares below it on its point's path, as far as the rules
-/// force them; nothing if its block is clear.
-fn crowded_leaf<K: MortonKey>(set: &SplitSet<K>, keys: &[K], leaf: Cell<K>) -> Vec<Cell<K>> {
-    let touches_split = block(leaf).flatten().any(|c| set.contains(c));
-    if !touches_split && !crowded_by_points(leaf, keys) {
-        return Vec::new();
-    }
-    let key = keys[points_in(leaf, keys).start];
-    let deeper = (leaf.level + 1..K::AXIS_BITS as u8)
-        .map(|level| Cell::containing(key, level))
-        .take_while(|&c| crowded_by_points(c, keys));
-    // A finest-level square has no children to split into.
-    std::iter::once(leaf)
-        .chain(deeper)
-        .filter(|c| (c.level as u32) < K::AXIS_BITS)
+/// The first moves: each point from the root down past its leaf in the unbalanced tree (split
+/// already) and every level whose block is crowded by points or the root (R3c, d), then as
+/// [`settle`] goes. Crowding by points only lessens going down, so later rounds skip it.
+fn first_moves<K: MortonKey>(set: &SplitSet<K>, tree: &Quadtree<K>, keys: &[K]) -> Vec<Move> {
+    let finest = K::AXIS_BITS as u8;
+    tree.leaves
+        .par_iter()
+        .filter(|leaf| leaf.point != NONE)
+        .map(|leaf| {
+            let i = leaf.point as usize;
+            let mut level = walk(set, keys[i], leaf.cell.level);
+            while level < finest && crowded_by_points(keys, i, level) {
+                level += 1;
+            }
+            let to = settle(set, keys, i, level);
+            Move {
+                point: leaf.point,
+                from: 0,
+                to,
+            }
+        })
         .collect()
+}
+
+/// Settles each candidate point against the current split squares; returns those that moved.
+fn settle_all<K: MortonKey>(
+    set: &SplitSet<K>,
+    keys: &[K],
+    level: &[u8],
+    candidates: &[u32],
+) -> Vec<Move> {
+    candidates
+        .par_iter()
+        .filter_map(|&point| {
+            let from = level[point as usize];
+            let to = settle(set, keys, point as usize, from);
+            (to != from).then_some(Move { point, from, to })
+        })
+        .collect()
+}
+
+/// The level of point `i`'s leaf, from level `from` on, once the rules are applied to it
+/// alone: below the split squares on its path, and below every square whose block holds a
+/// split square (R3a).
+fn settle<K: MortonKey>(set: &SplitSet<K>, keys: &[K], i: usize, from: u8) -> u8 {
+    let finest = K::AXIS_BITS as u8;
+    let mut level = walk(set, keys[i], from);
+    // Squares below an unsplit one are unsplit, so the path need not be walked again.
+    while level < finest && crowded_by_splits(set, Cell::containing(keys[i], level)) {
+        level += 1;
+    }
+    level
+}
+
+/// The first level from `from` on where the square holding `key` is not split.
+fn walk<K: MortonKey>(set: &SplitSet<K>, key: K, from: u8) -> u8 {
+    let mut level = from;
+    while (level as u32) < K::AXIS_BITS && set.contains(Cell::containing(key, level)) {
+        level += 1;
+    }
+    level
+}
+
+/// Whether the 5×5 block around `cell` sticks out of the root or holds a split square.
+fn crowded_by_splits<K: MortonKey>(set: &SplitSet<K>, cell: Cell<K>) -> bool {
+    !window_inside(grid_position(cell), cell.level, 2) || set.any_near(cell, 2)
+}
+
+/// Appends the squares a move demands that are not split yet: the path it passed (R3a, c, d),
+/// and the rings of the path's squares (R3b). Each ring is demanded by the first point of its
+/// square only, as every point of a split square passes it.
+fn demands_of<K: MortonKey>(set: &SplitSet<K>, keys: &[K], m: Move, out: &mut Vec<Squares<K>>) {
+    let i = m.point as usize;
+    for level in m.from..m.to {
+        let square = Cell::containing(keys[i], level);
+        let first = i == 0 || !square.contains(keys[i - 1]);
+        set.missing_near(square, u64::from(first), out);
+    }
+}
+
+/// Each point's leaf level, and an index from squares to the point leaves near them.
+struct PointLeaves<K> {
+    level: Vec<u8>,
+    /// Heads of lists in `entries`, by square: each point leaf is listed under the squares
+    /// four times as large that its block meets (at most 2×2), so a square finds the leaves
+    /// whose block holds it under the one square that holds it.
+    by_coarse: KeyMap<Cell<K>, u32>,
+    /// (point, next entry or `NONE`). Entries of points that moved on are stale and skipped.
+    entries: Vec<(u32, u32)>,
+}
+
+impl<K: MortonKey> PointLeaves<K> {
+    fn new(points: usize) -> Self {
+        PointLeaves {
+            level: vec![0; points],
+            by_coarse: KeyMap::default(),
+            entries: Vec::new(),
+        }
+    }
+
+    fn record(&mut self, keys: &[K], moves: &[Move]) {
+        for m in moves {
+            self.level[m.point as usize] = m.to;
+            // A finest-level leaf is never split, so nothing can crowd it any more.
+            if m.to >= 2 && (m.to as u32) < K::AXIS_BITS {
+                let leaf = Cell::containing(keys[m.point as usize], m.to);
+                for coarse in window_cover(leaf, 2) {
+                    let head = self.by_coarse.entry(coarse).or_insert(NONE);
+                    self.entries.push((m.point, *head));
+                    *head = (self.entries.len() - 1) as u32;
+                }
+            }
+        }
+    }
+
+    /// The points whose leaf is one of the `added` squares or has one in its block, sorted.
+    fn near(&self, keys: &[K], added: &[Cell<K>]) -> Vec<u32> {
+        let mut points: Vec<u32> = added
+            .par_iter()
+            .filter(|square| square.level >= 2)
+            .flat_map_iter(|&square| self.near_square(keys, square))
+            .collect();
+        points.par_sort_unstable();
+        points.dedup();
+        points
+    }
+
+    fn near_square(&self, keys: &[K], square: Cell<K>) -> Vec<u32> {
+        let mut out = Vec::new();
+        let coarse = Cell::containing(square.anchor, square.level - 2);
+        let Some(&head) = self.by_coarse.get(&coarse) else {
+            return out;
+        };
+        let centre = grid_position(square);
+        let mut entry = head;
+        while entry != NONE {
+            let (point, next) = self.entries[entry as usize];
+            let leaf = Cell::containing(keys[point as usize], square.level);
+            if self.level[point as usize] == square.level
+                && chebyshev(grid_position(leaf), centre) <= 2
+            {
+                out.push(point);
+            }
+            entry = next;
+        }
+        out
+    }
+}
+
+/// Whether the 5×5 block around point `i`'s square at `level` sticks out of the root or holds
+/// another point. Only the points in the (at most 2×2) squares four times as large that cover
+/// the block are looked at, found by galloping from `i`: they are mostly close in Morton order.
+fn crowded_by_points<K: MortonKey>(keys: &[K], i: usize, level: u8) -> bool {
+    let cell = Cell::containing(keys[i], level);
+    let centre = grid_position(cell);
+    if !window_inside(centre, level, 2) {
+        return true;
+    }
+    for coarse in window_cover(cell, 2) {
+        let start = partition_from(keys, i, |k| *k < coarse.anchor);
+        let end = partition_from(keys, start, |k| {
+            k.cell_anchor(coarse.level) <= coarse.anchor
+        });
+        // Many points close by: ask the 24 squares instead of measuring each point.
+        if end - start > 16 {
+            return block(cell).flatten().any(|c| holds_point(c, keys));
+        }
+        let crowding = |k: &K| {
+            let other = Cell::containing(*k, level);
+            other != cell && chebyshev(grid_position(other), centre) <= 2
+        };
+        if keys[start..end].iter().any(crowding) {
+            return true;
+        }
+    }
+    false
+}
+
+/// `v.partition_point(pred)` by galloping from index `i`: O(log d) for an answer d away.
+fn partition_from<T>(v: &[T], i: usize, pred: impl Fn(&T) -> bool) -> usize {
+    let mut step = 1;
+    if v.get(i).is_some_and(&pred) {
+        // The answer lies right of `i`; `pred` holds below `lo`.
+        let mut lo = i + 1;
+        while lo + step <= v.len() && pred(&v[lo + step - 1]) {
+            lo += step;
+            step *= 2;
+        }
+        let hi = (lo + step).min(v.len());
+        lo + v[lo..hi].partition_point(pred)
+    } else {
+        // The answer is `i` or left of it; `pred` fails from `hi` on.
+        let mut hi = i.min(v.len());
+        while hi >= step && !pred(&v[hi - step]) {
+            hi -= step;
+            step *= 2;
+        }
+        let lo = hi.saturating_sub(step);
+        lo + v[lo..hi].partition_point(pred)
+    }
 }
 
 fn holds_point<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> bool {
@@ -164,38 +316,49 @@ fn holds_point<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> bool {
     keys.get(first).is_some_and(|k| cell.contains(*k))
 }
 
-/// A cheap filter: whether any point lies in the (at most 2×2) squares four times as large that
-/// cover the 5×5 block around `cell`.
-fn block_may_hold_point<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> bool {
-    if cell.level < 2 {
-        return true;
-    }
-    let coarse = |c: Option<Cell<K>>| c.map(|c| Cell::containing(c.anchor, cell.level - 2));
-    let corners = [
-        coarse(cell.offset(-2, -2)),
-        coarse(cell.offset(2, -2)),
-        coarse(cell.offset(-2, 2)),
-        coarse(cell.offset(2, 2)),
-    ];
-    // A corner outside the root: fall back to the full check.
-    corners
-        .iter()
-        .any(|c| c.is_none_or(|c| holds_point(c, keys)))
+fn chebyshev((ax, ay): (u64, u64), (bx, by): (u64, u64)) -> u64 {
+    ax.abs_diff(bx).max(ay.abs_diff(by))
 }
 
-/// Whether the 5×5 block around `cell` sticks out of the root or holds a point outside `cell`.
-fn crowded_by_points<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> bool {
-    block(cell).any(|square| square.is_none_or(|square| holds_point(square, keys)))
+/// Whether the squares within `radius` of the square at `(x, y)` of `level` all lie in the root.
+fn window_inside((x, y): (u64, u64), level: u8, radius: u64) -> bool {
+    let side = 1u128 << level;
+    let fits = |c: u64| c >= radius && u128::from(c) + u128::from(radius) < side;
+    fits(x) && fits(y)
+}
+
+/// The squares two levels up (at most 2×2 for a radius up to 2) that cover the squares within
+/// `radius` of `cell` inside the root; `cell` must be at level 2 or deeper.
+fn window_cover<K: MortonKey>(cell: Cell<K>, radius: u64) -> impl Iterator<Item = Cell<K>> {
+    let (x, y) = grid_position(cell);
+    let last = last_position(cell.level);
+    let span =
+        move |c: u64| (c.saturating_sub(radius) >> 2)..=(c.saturating_add(radius).min(last) >> 2);
+    let level = cell.level - 2;
+    span(x).flat_map(move |cx| span(y).map(move |cy| at_position(cx, cy, level)))
 }
 
 /// The 8 same-size squares around `cell` (`None` outside the root).
 fn ring<K: MortonKey>(cell: Cell<K>) -> impl Iterator<Item = Option<Cell<K>>> {
-    square_offsets(1).map(move |(dx, dy)| cell.offset(dx, dy))
+    around(cell, 1)
 }
 
 /// The 24 same-size squares of the 5×5 block around `cell` (`None` outside the root).
 pub fn block<K: MortonKey>(cell: Cell<K>) -> impl Iterator<Item = Option<Cell<K>>> {
-    square_offsets(2).map(move |(dx, dy)| cell.offset(dx, dy))
+    around(cell, 2)
+}
+
+/// The same-size squares within `radius` of `cell`, column by column (`None` outside the root);
+/// as [`Cell::offset`] but decoding the anchor once.
+fn around<K: MortonKey>(cell: Cell<K>, radius: i64) -> impl Iterator<Item = Option<Cell<K>>> {
+    let (x, y) = grid_position(cell);
+    let side = 1i128 << cell.level;
+    square_offsets(radius).map(move |(dx, dy)| {
+        let nx = x as i128 + dx as i128;
+        let ny = y as i128 + dy as i128;
+        let inside = (0..side).contains(&nx) && (0..side).contains(&ny);
+        inside.then(|| at_position(nx as u64, ny as u64, cell.level))
+    })
 }
 
 /// Offsets `(dx, dy)` with `max(|dx|, |dy|)` from 1 to `radius`.
@@ -209,7 +372,6 @@ fn square_offsets(radius: i64) -> impl Iterator<Item = (i64, i64)> {
 /// lies in the root and consists of leaves of its size holding no other point, and every split
 /// square holding a point has its 8 neighbours split.
 pub fn check_separated<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> Result<(), String> {
-    use crate::framework::NONE;
     use std::collections::{HashMap, HashSet};
     let split: HashSet<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
     let leaf_point: HashMap<Cell<K>, u32> = tree.leaves.iter().map(|l| (l.cell, l.point)).collect();

@@ -1,5 +1,5 @@
-//! The `quadmesh` command line: build the quadtree of a point file and write its leaves, or
-//! generate point files to try it on.
+//! The `quadmesh` command line: mesh a point file, build its quadtree and write the leaves,
+//! time meshing on generated points, or generate point files to try it on.
 
 /// The stages allocate large arrays one after another; mimalloc reuses freed ones instead of
 /// returning them to the system and faulting in fresh pages.
@@ -8,7 +8,7 @@
 static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use std::fs::File;
-use std::io::{self, BufWriter, Write};
+use std::io::{self, BufWriter, IsTerminal, Write};
 use std::num::NonZeroUsize;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -16,11 +16,20 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
 use quadmesh::generate::{self, Distribution2d};
-use quadmesh::io::{read_points, write_leaves_csv, write_points};
+use quadmesh::io::{
+    read_points, write_leaves_csv, write_msh, write_points, write_svg, write_triangle_files,
+    write_vtu,
+};
+use quadmesh::mesh::AngleBounds;
 use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::StageTimes;
-use quadmesh::{Refinement, Tree, TreeBuild, TreeOptions, build_tree};
+use quadmesh::warp::ANGLE_BOUNDS;
+use quadmesh::{
+    Mesh, MeshOptions, MeshReport, Refinement, Tree, TreeBuild, TreeOptions, build_tree,
+    mesh_points,
+};
 
 /// Parallel quadtrees of point sets.
 #[derive(Parser)]
@@ -50,6 +59,49 @@ enum Command {
         /// a 5×5 block of same-size leaves holding no other point.
         #[arg(long)]
         separated: bool,
+    },
+    /// Mesh a point file: every angle in [22.5°, 112.5°], every input point a vertex with its
+    /// exact coordinates, the domain the square around the points with room to spare (the
+    /// points' bounding box centred in a square twice its larger side).
+    Mesh {
+        /// Points: Triangle `.node` / `.poly` (its vertices), or text with one `x y` or `x,y`
+        /// per line.
+        input: PathBuf,
+        /// Output prefix: writes PREFIX.node/.ele/.neigh/.edge, PREFIX.vtu, PREFIX.msh or
+        /// PREFIX.svg as `--format` asks.
+        #[arg(short, long, value_name = "PREFIX")]
+        output: PathBuf,
+        /// Output formats, comma-separated: node (Triangle's files), vtu (ParaView), msh
+        /// (Gmsh 4.1), svg (a picture).
+        #[arg(long, value_delimiter = ',', default_value = "node")]
+        format: Vec<Format>,
+        /// Worker threads [default: all cores].
+        #[arg(long, value_name = "N")]
+        threads: Option<NonZeroUsize>,
+        /// Run the full validity check on the mesh before writing it.
+        #[arg(long)]
+        check: bool,
+        /// The most triangles an SVG shows (a window around the centre beyond that).
+        #[arg(long, default_value_t = 200_000, value_name = "N")]
+        svg_max_triangles: usize,
+    },
+    /// Generate points in memory and mesh them, for timing and scaling studies.
+    Bench {
+        /// How many points.
+        #[arg(long, value_name = "N")]
+        points: usize,
+        /// Distribution: uniform, cluster, kuzmin or grid.
+        #[arg(long, default_value = "uniform")]
+        dist: Distribution2d,
+        /// Seed (the same points as `quadmesh generate` with this seed).
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Worker threads [default: all cores].
+        #[arg(long, value_name = "N")]
+        threads: Option<NonZeroUsize>,
+        /// Print one JSON object as the last line.
+        #[arg(long)]
+        json: bool,
     },
     /// Write seeded random points as `x y` lines that read back exactly.
     Generate {
@@ -90,6 +142,21 @@ fn main() -> ExitCode {
                 TreeOptions::default().refinement(refinement),
             )
         }
+        Command::Mesh {
+            input,
+            output,
+            format,
+            threads,
+            check,
+            svg_max_triangles,
+        } => mesh(&input, &output, &format, threads, check, svg_max_triangles),
+        Command::Bench {
+            points,
+            dist,
+            seed,
+            threads,
+            json,
+        } => bench(points, dist, seed, threads, json),
         Command::Generate {
             points,
             dist,
@@ -108,6 +175,219 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A mesh output format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum Format {
+    /// Triangle's .node, .ele, .neigh and .edge files.
+    Node,
+    /// VTK unstructured grid for ParaView.
+    Vtu,
+    /// Gmsh MSH 4.1.
+    Msh,
+    /// An SVG picture.
+    Svg,
+}
+
+fn pool(threads: Option<NonZeroUsize>) -> Result<rayon::ThreadPool> {
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.map_or(0, NonZeroUsize::get))
+        .build()
+        .context("cannot start the worker threads")
+}
+
+/// A spinner on standard error while `f` runs, when standard error is a terminal.
+fn with_spinner<T>(message: &'static str, f: impl FnOnce() -> T) -> T {
+    let spinner = if io::stderr().is_terminal() {
+        ProgressBar::new_spinner()
+    } else {
+        ProgressBar::hidden()
+    };
+    spinner.set_style(
+        ProgressStyle::with_template("{spinner} {msg} {elapsed}").expect("a valid template"),
+    );
+    spinner.set_message(message);
+    spinner.enable_steady_tick(Duration::from_millis(100));
+    let out = f();
+    spinner.finish_and_clear();
+    out
+}
+
+/// `quadmesh mesh`: read, mesh, optionally check, write each format, report.
+fn mesh(
+    input: &Path,
+    prefix: &Path,
+    formats: &[Format],
+    threads: Option<NonZeroUsize>,
+    check: bool,
+    svg_max_triangles: usize,
+) -> Result<()> {
+    pool(threads)?.install(|| {
+        let (points, read_time) = timed(|| with_spinner("reading", || read_points(input)));
+        let points = points?;
+        let (meshed, _) =
+            timed(|| with_spinner("meshing", || mesh_points(&points, &MeshOptions::default())));
+        let (mesh, report) = meshed.with_context(|| format!("{}", input.display()))?;
+        if check {
+            let bounds = AngleBounds {
+                min_deg: ANGLE_BOUNDS.0,
+                max_deg: ANGLE_BOUNDS.1,
+            };
+            with_spinner("checking", || mesh.validate(&points, bounds))
+                .map_err(|fault| anyhow::anyhow!("the mesh failed its check: {fault}"))?;
+        }
+        let (written, write_time) = timed(|| {
+            with_spinner("writing", || {
+                write_formats(&mesh, prefix, formats, svg_max_triangles)
+            })
+        });
+        let files = written?;
+        let mut err = io::stderr().lock();
+        let _ = writeln!(err, "{:<20}{}", "input points", points.len());
+        let _ = writeln!(err, "{:<20}{}", "time read", millis(read_time));
+        print_report(&mut err, &report, &mesh);
+        if check {
+            let _ = writeln!(err, "{:<20}passed", "check");
+        }
+        let _ = writeln!(err, "{:<20}{}", "time write", millis(write_time));
+        for file in files {
+            let _ = writeln!(err, "{:<20}{}", "wrote", file.display());
+        }
+        Ok(())
+    })
+}
+
+fn with_extension(prefix: &Path, extension: &str) -> PathBuf {
+    let mut name = prefix.as_os_str().to_owned();
+    name.push(".");
+    name.push(extension);
+    PathBuf::from(name)
+}
+
+fn write_formats(
+    mesh: &Mesh,
+    prefix: &Path,
+    formats: &[Format],
+    svg_max_triangles: usize,
+) -> Result<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for &format in formats {
+        match format {
+            Format::Node => files.extend(
+                write_triangle_files(mesh, prefix)
+                    .with_context(|| format!("cannot write {}.*", prefix.display()))?,
+            ),
+            Format::Vtu => files.push(write_file(prefix, "vtu", |w| write_vtu(mesh, w))?),
+            Format::Msh => files.push(write_file(prefix, "msh", |w| write_msh(mesh, w))?),
+            Format::Svg => files.push(write_file(prefix, "svg", |w| {
+                write_svg(mesh, w, svg_max_triangles)
+            })?),
+        }
+    }
+    Ok(files)
+}
+
+fn write_file(
+    prefix: &Path,
+    extension: &str,
+    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<PathBuf> {
+    let path = with_extension(prefix, extension);
+    write_to(&path, write)?;
+    Ok(path)
+}
+
+/// Counts, angles and stage times, one per line.
+fn print_report(err: &mut dyn Write, report: &MeshReport, mesh: &Mesh) {
+    let domain = mesh.domain;
+    let lines = [
+        ("distinct points", report.points.to_string()),
+        ("duplicates merged", report.duplicates.to_string()),
+        (
+            "domain",
+            format!(
+                "[{}, {}] x [{}, {}]",
+                domain.lo.x, domain.hi.x, domain.lo.y, domain.hi.y
+            ),
+        ),
+        ("vertices", report.vertices.to_string()),
+        (
+            "triangles",
+            format!(
+                "{} ({:.1} per point)",
+                report.triangles,
+                report.triangles as f64 / report.points.max(1) as f64
+            ),
+        ),
+        (
+            "angles",
+            format!("{:.2}° .. {:.2}°", report.min_angle, report.max_angle),
+        ),
+        ("angle histogram", histogram_line(&report.histogram)),
+    ];
+    for (label, value) in lines {
+        let _ = writeln!(err, "{label:<20}{value}");
+    }
+    for (stage, d) in &report.stages {
+        let _ = writeln!(err, "{:<20}{}", format!("time {stage}"), millis(*d));
+    }
+}
+
+/// The nonzero 10° bins: `20-30°: 1234, ...`.
+fn histogram_line(histogram: &[u64; 18]) -> String {
+    let bins: Vec<String> = histogram
+        .iter()
+        .enumerate()
+        .filter(|(_, c)| **c > 0)
+        .map(|(i, c)| format!("{}-{}°: {c}", 10 * i, 10 * (i + 1)))
+        .collect();
+    bins.join(", ")
+}
+
+/// `quadmesh bench`: generate, mesh, report; with `json`, one JSON object as the last line.
+fn bench(
+    n: usize,
+    dist: Distribution2d,
+    seed: u64,
+    threads: Option<NonZeroUsize>,
+    json: bool,
+) -> Result<()> {
+    let pool = pool(threads)?;
+    let points = pool.install(|| generate::points(dist, n, seed));
+    let (meshed, wall) = timed(|| pool.install(|| mesh_points(&points, &MeshOptions::default())));
+    let (mesh, report) = meshed?;
+    let mut out = io::stdout().lock();
+    print_report(&mut out, &report, &mesh);
+    let _ = writeln!(out, "{:<20}{}", "time total", millis(wall));
+    if json {
+        let stages: Vec<String> = report
+            .stages
+            .iter()
+            .map(|(stage, d)| format!("\"{stage}_s\":{}", d.as_secs_f64()))
+            .collect();
+        writeln!(
+            out,
+            "{{\"points\":{n},\"dist\":\"{dist:?}\",\"seed\":{seed},\"threads\":{},{},\"total_s\":{},\"vertices\":{},\"triangles\":{},\"min_angle\":{},\"max_angle\":{},\"peak_rss_bytes\":{}}}",
+            pool.current_num_threads(),
+            stages.join(","),
+            wall.as_secs_f64(),
+            report.vertices,
+            report.triangles,
+            report.min_angle,
+            report.max_angle,
+            peak_rss_bytes().unwrap_or(0),
+        )?;
+    }
+    Ok(())
+}
+
+/// The process's peak resident memory (Linux `VmHWM`), if the system reports it.
+fn peak_rss_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 /// `quadmesh tree`: read, build and write on a pool of the requested size, then report.

@@ -7,6 +7,7 @@
 //! rayon pool; errors name the earliest bad line whatever the thread count.
 
 mod lines;
+mod mesh_write;
 mod node;
 mod text;
 mod write;
@@ -15,6 +16,10 @@ use std::path::Path;
 
 use glam::DVec2;
 
+pub use mesh_write::{
+    write_edge, write_ele, write_msh, write_neigh, write_node, write_svg, write_triangle_files,
+    write_vtu,
+};
 pub use node::{parse_node, parse_poly};
 pub use text::parse_text;
 pub use write::{LEAVES_CSV_HEADER, write_leaves_csv, write_points};

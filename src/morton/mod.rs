@@ -80,12 +80,30 @@ pub fn morton_order(points: &[DVec2], sort: SortAlgorithm) -> Result<Morton, Err
     }
     // A fresh radix sort of wide keys, encoded in input order, is faster than refining the
     // narrow order: that needs a random gather of the points, which measured slower here.
+    wide_order(points, lo, hi, sort).map(Morton::Wide)
+}
+
+/// Puts `points` into Morton order on the 64-bit-per-axis grid, whatever they need.
+///
+/// # Errors
+/// As [`morton_order`].
+pub fn morton_order_wide(points: &[DVec2], sort: SortAlgorithm) -> Result<MortonOrder<u128>, Error> {
+    let (lo, hi) = validate(points)?;
+    wide_order(points, lo, hi, sort)
+}
+
+fn wide_order(
+    points: &[DVec2],
+    lo: DVec2,
+    hi: DVec2,
+    sort: SortAlgorithm,
+) -> Result<MortonOrder<u128>, Error> {
     let grid = Grid::around(lo, hi, u128::AXIS_BITS)?;
     let mut wide: Vec<Pair<u128>> = interleave::encode_all(points, &grid);
     u128::sort_pairs(&mut wide, sort);
     let runs = equal_key_runs(&wide);
     match first_collision(points, &wide, &runs) {
-        None => Ok(Morton::Wide(separated(&wide, &runs, grid))),
+        None => Ok(separated(&wide, &runs, grid)),
         Some((a, b)) => Err(Error::Inseparable {
             a,
             pa: points[a].into(),

@@ -88,6 +88,14 @@ impl Grid {
         (x << GUARD_LEVELS, y << GUARD_LEVELS)
     }
 
+    /// The input coordinates of grid vertex `(gx, gy)` (up to `2^axis_bits` on the root's top and
+    /// right sides). Monotone in each coordinate, so vertices on one grid line share their
+    /// coordinate bit for bit, and the root's sides are exactly `origin` and `origin + side`.
+    pub fn vertex(&self, gx: u128, gy: u128) -> DVec2 {
+        let unit = self.side / (2.0f64).powi(self.axis_bits as i32);
+        self.origin + DVec2::new(gx as f64 * unit, gy as f64 * unit)
+    }
+
     /// Lower-left corner and side, in input coordinates, of the cell at grid corner `(gx, gy)`
     /// and `level`.
     pub fn cell_rect(&self, gx: u64, gy: u64, level: u8) -> (DVec2, f64) {

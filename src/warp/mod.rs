@@ -1,3 +1,542 @@
-//! Warping the balanced quadtree onto the points and triangulating its leaves by templates.
+//! Warping the well-separated quadtree onto the points and triangulating its leaves by templates
+//! (`beg-quadtree-meshing.md` §2.3–2.5): every angle in [22.5°, 112.5°].
 //!
-//! Planned: BEG's warp with max-min templates (angles in [22.5°, 112.5°]).
+//! Each point moves the corner of its leaf nearest to it; the four leaves around that corner are
+//! split by the max-min diagonal, every other leaf by the template of its side midpoints. All of
+//! it runs per leaf in parallel, reading the leaf's cross links only, and numbers vertices and
+//! triangles by prefix sums over the leaves in Morton order, so the mesh does not depend on the
+//! thread count.
+
+mod templates;
+mod vertices;
+
+use glam::DVec2;
+use rayon::prelude::*;
+use robust::{Coord, orient2d};
+
+use crate::balance::BalancedTree;
+use crate::error::Error;
+use crate::mesh::{BoundaryEdge, BoundarySide, Domain, Mesh, NONE, angles_deg};
+use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
+use crate::par::{collect_segments, exclusive_scan};
+use templates::{Across, Kind, Part, RingSide, template};
+use vertices::{LeafGeometry, Numbering};
+
+pub use templates::KINDS as TEMPLATE_KINDS;
+
+/// The angles every warped mesh keeps, in degrees: the max-min rule's proven range.
+pub const ANGLE_BOUNDS: (f64, f64) = (22.5, 112.5);
+
+/// The mesh of a well-separated tree (see [`crate::balance::separate`]) of the points `points`
+/// (input order), with `order[i]` the input index of the `i`-th point in Morton order.
+///
+/// # Errors
+/// [`Error::TooLarge`] past 32-bit indices; [`Error::Unresolvable`] when a point's leaf is finer
+/// than the grid resolves the points (see [`point_finer_than_grid`]) or f64 cannot place the
+/// vertices near a point apart.
+pub fn warp<K: MortonKey>(
+    tree: &BalancedTree<K>,
+    order: &[u32],
+    grid: &Grid,
+    points: &[DVec2],
+) -> Result<(Mesh, AngleQuality), Error> {
+    if let Some(p) = point_finer_than_grid(tree) {
+        let index = order[p] as usize;
+        return Err(unresolvable(points[index], Some(index as u32)));
+    }
+    let geometry = LeafGeometry::new(tree, grid);
+    let numbering = Numbering::new(&geometry)?;
+    let (mut vertices, mut vertex_input) = numbering.vertices(&geometry);
+    let moves = move_corners(
+        &geometry,
+        &numbering,
+        order,
+        points,
+        &mut vertices,
+        &mut vertex_input,
+    );
+    let labels = |leaf: usize| numbering.labels(&geometry, leaf);
+    let mut kinds = unmoved_templates(&geometry)?;
+    let moved_leaves = warped_templates(
+        &geometry,
+        &labels,
+        &moves,
+        (&vertices, &vertex_input),
+        &mut kinds,
+    )?;
+    let counts: Vec<u32> = kinds
+        .par_iter()
+        .map(|&k| template(k & !MOVED).triangles.len() as u32)
+        .collect();
+    let offsets = exclusive_scan(&counts);
+    let total = offsets[offsets.len() - 1];
+    if total >= NONE as usize {
+        return Err(Error::TooLarge {
+            what: "triangles",
+            count: total,
+        });
+    }
+    let triangles = collect_segments(&offsets, |leaf| {
+        let labels = labels(leaf);
+        template(kinds[leaf] & !MOVED)
+            .triangles
+            .iter()
+            .map(move |t| t.map(|label| labels[label as usize]))
+    });
+    let neighbours = collect_segments(&offsets, |leaf| {
+        let across = &template(kinds[leaf] & !MOVED).across;
+        let geometry = &geometry;
+        let (kinds, offsets) = (&kinds, &offsets);
+        across.iter().map(move |row| {
+            row.map(|a| match a {
+                Across::Inside { triangle, .. } => (offsets[leaf] + triangle as usize) as u32,
+                Across::Boundary { side, part } => {
+                    facing_triangle(geometry, kinds, offsets, leaf, side, part)
+                }
+            })
+        })
+    });
+    let boundary = boundary_edges(&geometry, &kinds, &triangles, &offsets);
+    let quality = angle_quality(&kinds, &moved_leaves, &offsets, &triangles, &vertices);
+    let mesh = Mesh {
+        vertices,
+        vertex_input,
+        triangles,
+        neighbours,
+        boundary,
+        domain: Domain {
+            lo: grid.vertex(0, 0),
+            hi: grid.vertex(1 << K::AXIS_BITS, 1 << K::AXIS_BITS),
+        },
+    };
+    Ok((mesh, quality))
+}
+
+/// The Morton position of a point whose leaf is finer than the grid resolves the points, if
+/// any: the point then need not lie in its leaf, and the tree must be built on the wide grid.
+pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>) -> Option<usize> {
+    let finest = (K::AXIS_BITS - GUARD_LEVELS) as u8;
+    tree.point_leaf
+        .par_iter()
+        .position_first(|&leaf| tree.tree.leaves[leaf as usize].cell.level > finest)
+}
+
+/// Smallest and largest angle (degrees) and the count of angles per 10° bin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AngleQuality {
+    /// Smallest angle.
+    pub min: f64,
+    /// Largest angle.
+    pub max: f64,
+    /// `histogram[i]` counts angles in `[10 i, 10 (i + 1))` degrees.
+    pub histogram: [u64; 18],
+}
+
+impl AngleQuality {
+    fn empty() -> Self {
+        AngleQuality {
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            histogram: [0; 18],
+        }
+    }
+
+    fn add(&mut self, angle: f64, count: u64) {
+        self.min = self.min.min(angle);
+        self.max = self.max.max(angle);
+        self.histogram[((angle / 10.0) as usize).min(17)] += count;
+    }
+
+    fn merge(mut self, other: Self) -> Self {
+        self.min = self.min.min(other.min);
+        self.max = self.max.max(other.max);
+        for (h, o) in self.histogram.iter_mut().zip(other.histogram) {
+            *h += o;
+        }
+        self
+    }
+}
+
+/// The angles of the mesh: measured on the triangles of leaves with a moved corner, taken from
+/// the template for all others (an unmoved leaf is a square, so its angles are the template's).
+fn angle_quality(
+    kinds: &[u8],
+    moved_leaves: &[u32],
+    offsets: &[usize],
+    triangles: &[[u32; 3]],
+    vertices: &[DVec2],
+) -> AngleQuality {
+    let per_kind = kinds
+        .par_chunks(crate::par::GRAIN)
+        .fold(
+            || [0u64; 2 * templates::KINDS],
+            |mut counts, chunk| {
+                for &k in chunk {
+                    counts
+                        [((k & MOVED != 0) as usize) * templates::KINDS + (k & !MOVED) as usize] +=
+                        1;
+                }
+                counts
+            },
+        )
+        .reduce(
+            || [0u64; 2 * templates::KINDS],
+            |mut a, b| {
+                a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
+                a
+            },
+        );
+    let mut quality = AngleQuality::empty();
+    for (code, &count) in per_kind[..templates::KINDS].iter().enumerate() {
+        if count > 0 {
+            let unit = templates::unit_angles(code as u8);
+            quality.min = quality.min.min(unit.min);
+            quality.max = quality.max.max(unit.max);
+            for (h, u) in quality.histogram.iter_mut().zip(unit.histogram) {
+                *h += u * count;
+            }
+        }
+    }
+    moved_leaves
+        .par_iter()
+        .fold(AngleQuality::empty, |mut q, &leaf| {
+            for t in &triangles[offsets[leaf as usize]..offsets[leaf as usize + 1]] {
+                let [a, b, c] = t.map(|v| vertices[v as usize]);
+                for angle in angles_deg(a, b, c) {
+                    q.add(angle, 1);
+                }
+            }
+            q
+        })
+        .reduce(AngleQuality::empty, AngleQuality::merge)
+        .merge(quality)
+}
+
+/// A point's moved corner: its leaf and the corner's ring label there.
+#[derive(Clone, Copy)]
+struct Move {
+    leaf: u32,
+    corner: u8,
+}
+
+/// Moves, for every point, the corner of its leaf nearest to it onto it (ties to the smallest
+/// `(y, x)`), keeping its exact coordinates. No corner is claimed twice in a separated tree.
+fn move_corners<K: MortonKey>(
+    geometry: &LeafGeometry<K>,
+    numbering: &Numbering,
+    order: &[u32],
+    points: &[DVec2],
+    vertices: &mut [DVec2],
+    vertex_input: &mut [u32],
+) -> Vec<Move> {
+    let moves: Vec<(Move, u32, u32)> = (0..order.len())
+        .into_par_iter()
+        .map(|p| {
+            let leaf = geometry.point_leaf[p];
+            let input = order[p];
+            let x = points[input as usize];
+            let (lo, hi) = geometry.rect(leaf as usize);
+            let right = x.x - lo.x > hi.x - x.x;
+            let top = x.y - lo.y > hi.y - x.y;
+            let corner = match (right, top) {
+                (false, false) => 0,
+                (true, false) => 2,
+                (true, true) => 4,
+                (false, true) => 6,
+            };
+            let vertex = numbering.labels(geometry, leaf as usize)[corner as usize];
+            (Move { leaf, corner }, vertex, input)
+        })
+        .collect();
+    for &(_, vertex, input) in &moves {
+        vertices[vertex as usize] = points[input as usize];
+        vertex_input[vertex as usize] = input;
+    }
+    moves.into_iter().map(|(m, _, _)| m).collect()
+}
+
+/// Marks, in a leaf's template code, that one of its corners moved onto a point.
+const MOVED: u8 = 0x80;
+/// Marks a leaf f64 cannot triangulate.
+const UNRESOLVED: u8 = 0xFF;
+
+/// The template code of every leaf by its midpoints alone, or [`UNRESOLVED`].
+fn unmoved_templates<K: MortonKey>(geometry: &LeafGeometry<K>) -> Result<Vec<u8>, Error> {
+    let kinds: Vec<u8> = (0..geometry.leaves())
+        .into_par_iter()
+        .map(|leaf| {
+            if geometry.resolvable(leaf) {
+                Kind::for_midpoints(geometry.midpoint_mask(leaf)).code()
+            } else {
+                UNRESOLVED
+            }
+        })
+        .collect();
+    match kinds.par_iter().position_first(|&k| k == UNRESOLVED) {
+        None => Ok(kinds),
+        Some(leaf) => Err(unresolvable(geometry.rect(leaf).0, None)),
+    }
+}
+
+fn unresolvable(near: DVec2, input: Option<u32>) -> Error {
+    Error::Unresolvable {
+        index: input.map_or(usize::MAX, |i| i as usize),
+        x: near.x,
+        y: near.y,
+    }
+}
+
+/// The max-min diagonals of the four leaves around every moved corner, written into `kinds`
+/// with [`MOVED`] set; returns those leaves.
+fn warped_templates<K: MortonKey>(
+    geometry: &LeafGeometry<K>,
+    labels: &(impl Fn(usize) -> [u32; 9] + Sync),
+    moves: &[Move],
+    (vertices, vertex_input): (&[DVec2], &[u32]),
+    kinds: &mut [u8],
+) -> Result<Vec<u32>, Error> {
+    let blocks: Vec<Option<[(u32, u8); 4]>> = moves
+        .par_iter()
+        .map(|&m| {
+            let block = block_around(geometry, m)?;
+            let mut out = [(0, 0); 4];
+            for (slot, (leaf, corner)) in out.iter_mut().zip(block) {
+                let labels = labels(leaf as usize);
+                if geometry.midpoint_mask(leaf as usize) != 0 {
+                    return None;
+                }
+                let kind = max_min_diagonal(&labels, corner as usize, vertices)?;
+                *slot = (leaf, kind.code() | MOVED);
+            }
+            Some(out)
+        })
+        .collect();
+    if let Some(bad) = blocks.iter().position(Option::is_none) {
+        let leaf = moves[bad].leaf as usize;
+        let vertex = labels(leaf)[moves[bad].corner as usize] as usize;
+        return Err(unresolvable(vertices[vertex], Some(vertex_input[vertex])));
+    }
+    let mut moved_leaves = Vec::with_capacity(4 * moves.len());
+    for &(leaf, kind) in blocks.iter().flatten().flatten() {
+        kinds[leaf as usize] = kind;
+        moved_leaves.push(leaf);
+    }
+    Ok(moved_leaves)
+}
+
+/// The four leaves around a moved corner, each with the corner's ring label in it: the point's
+/// leaf, its neighbours across the two sides at the corner, and the leaf diagonally across.
+/// `None` unless all are single leaves of the same size (as separation guarantees).
+fn block_around<K: MortonKey>(geometry: &LeafGeometry<K>, m: Move) -> Option<[(u32, u8); 4]> {
+    let (horizontal, vertical) = match m.corner {
+        0 => (Side::West, Side::South),
+        2 => (Side::East, Side::South),
+        4 => (Side::East, Side::North),
+        _ => (Side::West, Side::North),
+    };
+    let same_size = |leaf: u32, side: Side| {
+        let [next, second] = geometry.across(leaf as usize, side);
+        (next != NONE
+            && second == NONE
+            && geometry.level(next as usize) == geometry.level(leaf as usize))
+        .then_some(next)
+    };
+    let beside = same_size(m.leaf, horizontal)?;
+    let below = same_size(m.leaf, vertical)?;
+    let diagonal = same_size(beside, vertical)?;
+    // Mirroring across a vertical side swaps LL↔LR and UL↔UR; across a horizontal side LL↔UL
+    // and LR↔UR.
+    let mirror_x = |c: u8| [2, 0, 0, 0, 6, 0, 4][c as usize];
+    let mirror_y = |c: u8| [6, 0, 4, 0, 2, 0, 0][c as usize];
+    Some([
+        (m.leaf, m.corner),
+        (beside, mirror_x(m.corner)),
+        (below, mirror_y(m.corner)),
+        (diagonal, mirror_y(mirror_x(m.corner))),
+    ])
+}
+
+/// The diagonal of a quadrilateral with one moved corner whose two triangles have the larger
+/// smallest angle; on a tie the one through the moved corner; never one that makes a triangle
+/// of area ≤ 0. `None` if neither works (f64 cannot resolve the leaf).
+fn max_min_diagonal(labels: &[u32; 9], moved: usize, vertices: &[DVec2]) -> Option<Kind> {
+    let at = |label: u8| vertices[labels[label as usize] as usize];
+    let score = |kind: Kind| {
+        let t = template(kind.code());
+        let mut smallest = f64::INFINITY;
+        for tri in &t.triangles {
+            let [a, b, c] = tri.map(at);
+            if orient2d(coord(a), coord(b), coord(c)) <= 0.0 {
+                return None;
+            }
+            smallest = smallest.min(
+                angles_deg(a, b, c)
+                    .into_iter()
+                    .fold(f64::INFINITY, f64::min),
+            );
+        }
+        Some(smallest)
+    };
+    let through = if moved.is_multiple_of(4) {
+        Kind::DiagonalUp
+    } else {
+        Kind::DiagonalDown
+    };
+    let other = if through == Kind::DiagonalUp {
+        Kind::DiagonalDown
+    } else {
+        Kind::DiagonalUp
+    };
+    match (score(through), score(other)) {
+        (Some(a), Some(b)) => Some(if b > a { other } else { through }),
+        (Some(_), None) => Some(through),
+        (None, Some(_)) => Some(other),
+        (None, None) => None,
+    }
+}
+
+fn coord(p: DVec2) -> Coord<f64> {
+    Coord { x: p.x, y: p.y }
+}
+
+/// The link side of a ring side.
+fn link_side(side: RingSide) -> Side {
+    match side {
+        RingSide::South => Side::South,
+        RingSide::East => Side::East,
+        RingSide::North => Side::North,
+        RingSide::West => Side::West,
+    }
+}
+
+/// The triangle across boundary segment `(side, part)` of `leaf`, or [`NONE`] on the domain's
+/// boundary.
+fn facing_triangle<K: MortonKey>(
+    geometry: &LeafGeometry<K>,
+    kinds: &[u8],
+    offsets: &[usize],
+    leaf: usize,
+    side: RingSide,
+    part: Part,
+) -> u32 {
+    let [first, second] = geometry.across(leaf, link_side(side));
+    if first == NONE {
+        return NONE;
+    }
+    let (other, other_part) = if second != NONE {
+        // Two smaller leaves: each faces us with its whole side.
+        let other = if part == Part::Low { first } else { second };
+        (other as usize, Part::Full)
+    } else if geometry.level(first as usize) >= geometry.level(leaf) {
+        (first as usize, Part::Full)
+    } else {
+        // A larger leaf: we face the half of its side we lie along.
+        let low = geometry.starts_together(leaf, first as usize, link_side(side));
+        (first as usize, if low { Part::Low } else { Part::High })
+    };
+    let (triangle, _) =
+        template(kinds[other] & !MOVED).facing[side.opposite() as usize][other_part as usize];
+    (offsets[other] + triangle as usize) as u32
+}
+
+/// The triangle edges on the root's sides, counter-clockwise, leaf by leaf in Morton order.
+fn boundary_edges<K: MortonKey>(
+    geometry: &LeafGeometry<K>,
+    kinds: &[u8],
+    triangles: &[[u32; 3]],
+    offsets: &[usize],
+) -> Vec<BoundaryEdge> {
+    (0..geometry.leaves())
+        .into_par_iter()
+        .flat_map_iter(|leaf| {
+            RingSide::ALL
+                .into_iter()
+                .filter(move |&side| geometry.across(leaf, link_side(side))[0] == NONE)
+                .map(move |side| {
+                    let (t, corner) =
+                        template(kinds[leaf] & !MOVED).facing[side as usize][Part::Full as usize];
+                    let tri = triangles[offsets[leaf] + t as usize];
+                    let c = corner as usize;
+                    BoundaryEdge {
+                        vertices: [tri[(c + 1) % 3], tri[(c + 2) % 3]],
+                        side: match side {
+                            RingSide::South => BoundarySide::Bottom,
+                            RingSide::East => BoundarySide::Right,
+                            RingSide::North => BoundarySide::Top,
+                            RingSide::West => BoundarySide::Left,
+                        },
+                    }
+                })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The smallest and largest angle of the 2×2 block around a corner at the origin moved to
+    /// `x`, each of the four unit leaves split by the max-min rule.
+    fn block_angles(x: DVec2) -> (f64, f64) {
+        // Vertices: 0 = the moved corner, then the block's boundary grid points.
+        let grid = |i: i32, j: i32| DVec2::new(i as f64, j as f64);
+        let mut vertices = vec![x];
+        let mut index = |p: DVec2| {
+            vertices.iter().position(|&v| v == p).unwrap_or_else(|| {
+                vertices.push(p);
+                vertices.len() - 1
+            }) as u32
+        };
+        // Each leaf by its lower-left grid corner, and which of its corners is the moved one.
+        let leaves = [((0, 0), 0), ((-1, 0), 2), ((-1, -1), 4), ((0, -1), 6)];
+        let mut quads = Vec::new();
+        for ((i, j), moved) in leaves {
+            let corners = [
+                grid(i, j),
+                grid(i + 1, j),
+                grid(i + 1, j + 1),
+                grid(i, j + 1),
+            ];
+            let mut labels = [NONE; 9];
+            for (k, c) in corners.into_iter().enumerate() {
+                labels[2 * k] = if 2 * k == moved { 0 } else { index(c) };
+            }
+            quads.push((labels, moved));
+        }
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for (labels, moved) in quads {
+            let kind = max_min_diagonal(&labels, moved, &vertices).expect("a valid diagonal");
+            for t in &template(kind.code()).triangles {
+                let [a, b, c] = t.map(|l| vertices[labels[l as usize] as usize]);
+                for angle in angles_deg(a, b, c) {
+                    lo = lo.min(angle);
+                    hi = hi.max(angle);
+                }
+            }
+        }
+        (lo, hi)
+    }
+
+    #[test]
+    fn max_min_rule_keeps_angles_in_range_for_every_offset() {
+        let steps = 200;
+        for i in 0..=steps {
+            for j in 0..=steps {
+                let x = DVec2::new(i as f64, j as f64) * (0.5 / steps as f64);
+                let (lo, hi) = block_angles(x);
+                assert!(lo >= ANGLE_BOUNDS.0 - 1e-9, "offset {x}: min {lo}");
+                assert!(hi <= ANGLE_BOUNDS.1 + 1e-9, "offset {x}: max {hi}");
+            }
+        }
+    }
+
+    #[test]
+    fn worst_offset_reaches_the_bounds_exactly() {
+        // The worst case of the max-min rule, found by hand: ((√2 − 1)/2, 1/2).
+        let (lo, hi) = block_angles(DVec2::new((2f64.sqrt() - 1.0) / 2.0, 0.5));
+        assert!((lo - 22.5).abs() < 1e-9, "{lo}");
+        assert!((hi - 112.5).abs() < 1e-9, "{hi}");
+        // An unmoved corner gives the plain squares' right triangles.
+        assert_eq!(block_angles(DVec2::ZERO), (45.0, 90.0));
+    }
+}

@@ -1,0 +1,72 @@
+//! End-to-end warped meshing (`mesh_points`: Morton order, framework, quadtree, separation,
+//! warp) and the warp stage alone, on generated points.
+//!
+//! Group `mesh/<dist>/t<threads>`, ids `mesh/<n>` (throughput: input points) and `warp/<n>`
+//! (throughput: output triangles). Sizes default to 1e4 and 1e5 (`QUADMESH_BENCH_MESH_SIZES`);
+//! threads come from `QUADMESH_BENCH_THREADS` like the other benches. Triangle counts are printed
+//! to stderr.
+
+mod common;
+
+use common::{DISTRIBUTIONS, SEED, configure, env_counts, pools};
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use quadmesh::generate::points;
+use quadmesh::morton::MortonKey;
+use quadmesh::pipeline::separated_tree;
+use quadmesh::warp::warp;
+use quadmesh::{DVec2, MeshOptions, Tree, TreeBuild, mesh_points};
+use rayon::ThreadPool;
+
+fn bench_warp<K: MortonKey>(
+    c: &mut Criterion,
+    group_name: &str,
+    build: &TreeBuild<K>,
+    pts: &[DVec2],
+    pool: &ThreadPool,
+) {
+    let tree = build.balanced.as_ref().expect("a separated tree");
+    let m = &build.morton;
+    let run = || pool.install(|| warp(tree, &m.order, &m.grid, pts).expect("a mesh"));
+    let triangles = run().0.triangles.len();
+    let mut group = c.benchmark_group(group_name);
+    configure(&mut group, pts.len());
+    group.throughput(Throughput::Elements(triangles as u64));
+    group.bench_function(BenchmarkId::new("warp", pts.len()), |b| {
+        b.iter_with_large_drop(run)
+    });
+    group.finish();
+}
+
+fn mesh_benches(c: &mut Criterion) {
+    for n in env_counts("QUADMESH_BENCH_MESH_SIZES", "10000,100000") {
+        for (dist_name, dist) in DISTRIBUTIONS {
+            let pts = points(dist, n, SEED);
+            for (threads, pool) in pools() {
+                let group_name = format!("mesh/{dist_name}/t{threads}");
+                let mesh =
+                    || pool.install(|| mesh_points(&pts, &MeshOptions::default()).expect("a mesh"));
+                let (_, report) = mesh();
+                eprintln!(
+                    "{group_name}: {n} points, {} triangles ({:.1} per point)",
+                    report.triangles,
+                    report.triangles as f64 / n as f64
+                );
+                let mut group = c.benchmark_group(&group_name);
+                configure(&mut group, n);
+                group.bench_function(BenchmarkId::new("mesh", n), |b| {
+                    b.iter_with_large_drop(mesh)
+                });
+                group.finish();
+                let options = MeshOptions::default();
+                let (tree, _) = pool.install(|| separated_tree(&pts, &options).expect("a tree"));
+                match &tree {
+                    Tree::Narrow(build) => bench_warp(c, &group_name, build, &pts, &pool),
+                    Tree::Wide(build) => bench_warp(c, &group_name, build, &pts, &pool),
+                }
+            }
+        }
+    }
+}
+
+criterion_group!(benches, mesh_benches);
+criterion_main!(benches);

@@ -1,0 +1,473 @@
+#!/usr/bin/env python3
+"""Compare quadmesh with two peer meshers, Triangle and spade, on the same generated points.
+
+Usage (from the repository root):
+
+    pip install triangle numpy          # once; the script installs nothing itself
+    python3 scripts/compare_peers.py [--sizes 100000,1000000] [--dists uniform,cluster,kuzmin]
+        [--threads 1,2] [--repeats 3] [--angles 20,30] [--tools triangle,spade,quadmesh]
+        [--quadmesh-args='--some-flag value'] [--timeout 600] [--out results.json] [--markdown]
+
+Options that take a value beginning with '-' need the '=' form, as in --quadmesh-args above.
+
+What it does:
+
+* builds the release CLI and the spade example once
+  (``cargo build --release --bin quadmesh --example spade_mesh``; ``--no-build`` skips this);
+* for every distribution and size, writes the points with
+  ``target/release/quadmesh generate --points N --dist D --seed 1`` into a temporary directory;
+* computes the square every tool meshes, the one quadmesh meshes: centred on the centre of the
+  points' bounding box, half-side equal to the box's larger extent (so side twice that extent).
+  Its four corners are added to the points given to Triangle and spade, so that for them too the
+  square is the convex hull and the mesh covers it;
+* Triangle, through the ``triangle`` Python package, in a fresh Python process per run:
+  switches ``Q`` (plain Delaunay triangulation of the points and corners) and ``q<A>Q`` for every
+  angle A of ``--angles`` (quality refinement, no angle below A degrees). Only the
+  ``triangle.triangulate`` call is timed; it includes the package's copying of the input and output
+  arrays. Its peak memory is the child's ``ru_maxrss`` taken right after that call, so it includes
+  the Python interpreter, numpy and the numpy arrays of the input points (the raw results also
+  give ``peak_rss_before_mesh_bytes``, the child's high-water mark just before the call);
+* spade, through ``target/release/examples/spade_mesh`` (one process per run): plain Delaunay
+  (bulk load) and ``--min-angle A`` for every angle A. Its time is the bulk load and refinement,
+  not reading the file; its peak memory is the process's high-water mark, which includes the
+  points as read (``peak_rss_before_mesh_bytes`` in the raw results is the mark after reading).
+  The example uses mimalloc, as the quadmesh CLI does;
+* quadmesh, through ``target/release/quadmesh bench --points N --dist D --seed 1 --threads T
+  --json`` plus ``--quadmesh-args``, once per thread count of ``--threads``. It generates the
+  same points in memory and prints one JSON object as its last line of output; its time is that
+  object's ``total_s``. If the subcommand is missing or fails, quadmesh rows say so and the
+  other tools still run. Triangle and spade are sequential and run once per size and
+  distribution, whatever ``--threads`` says.
+
+Each run is repeated ``--repeats`` times; the tables give the median time and the largest peak
+memory. Columns: tool and mode, threads, time (s, median), time relative to Triangle's plain
+Delaunay triangulation, output triangles per input point, smallest and largest angle of the
+output (degrees), peak resident memory (MB, 10^6 bytes) and peak memory per output triangle
+(bytes). Every subprocess has a timeout (``--timeout``, 600 s by default); failures and
+timeouts are shown in the tables and never stop the script. ``--markdown`` prints GitHub
+markdown tables; ``--out FILE`` writes every raw run as JSON, with the machine's description.
+
+Triangle and spade see the points only after they were written as text and read back; the
+``x y`` text that ``quadmesh generate`` writes reads back to the same doubles, so all three
+tools mesh exactly the same points.
+"""
+
+import argparse
+import json
+import os
+import platform
+import shlex
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+QUADMESH = REPO / "target" / "release" / "quadmesh"
+SPADE = REPO / "target" / "release" / "examples" / "spade_mesh"
+
+CHILD_MARK = "__triangle_child__"
+
+
+# --------------------------------------------------------------------------------------------
+# Shared by the parent and the Triangle child.
+
+
+def angle_range(vertices, triangles):
+    """Smallest and largest angle, in degrees, over the given triangles (numpy arrays)."""
+    import numpy as np
+
+    if len(triangles) == 0:
+        return None, None
+    corners = [vertices[triangles[:, k]] for k in range(3)]
+    lo, hi = np.inf, -np.inf
+    for k in range(3):
+        a, b, c = corners[k], corners[(k + 1) % 3], corners[(k + 2) % 3]
+        u = b - a
+        v = c - a
+        cross = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+        dot = u[:, 0] * v[:, 0] + u[:, 1] * v[:, 1]
+        angle = np.degrees(np.arctan2(cross, dot))
+        lo = min(lo, float(angle.min()))
+        hi = max(hi, float(angle.max()))
+    return lo, hi
+
+
+def triangle_child(points_npy, switches):
+    """Runs in a fresh interpreter: mesh with Triangle and print one JSON line."""
+    import resource
+
+    import numpy as np
+    import triangle
+
+    vertices = np.load(points_npy)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    start = time.perf_counter()
+    out = triangle.triangulate({"vertices": vertices}, switches)
+    elapsed = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    tris = out.get("triangles", np.zeros((0, 3), dtype=np.int32))
+    verts = out["vertices"]
+    lo, hi = angle_range(verts, tris)
+    print(
+        json.dumps(
+            {
+                "tool": "triangle",
+                "switches": switches,
+                "points": int(len(vertices)) - 4,
+                "time_s": elapsed,
+                "vertices": int(len(verts)),
+                "triangles": int(len(tris)),
+                "min_angle": lo,
+                "max_angle": hi,
+                "peak_rss_bytes": peak,
+                "peak_rss_before_mesh_bytes": before,
+            }
+        )
+    )
+
+
+# --------------------------------------------------------------------------------------------
+# The parent.
+
+
+def log(message):
+    print(message, file=sys.stderr, flush=True)
+
+
+def int_list(text):
+    try:
+        values = [int(float(v)) for v in text.split(",") if v.strip()]
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers: {text!r}") from e
+    if not values or any(v <= 0 for v in values):
+        raise argparse.ArgumentTypeError(f"expected positive integers: {text!r}")
+    return values
+
+
+def float_list(text):
+    try:
+        return [float(v) for v in text.split(",") if v.strip()]
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(f"expected comma-separated numbers: {text!r}") from e
+
+
+def str_list(text):
+    return [v.strip() for v in text.split(",") if v.strip()]
+
+
+def parse_args():
+    cores = os.cpu_count() or 1
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--sizes", type=int_list, default=[100_000, 1_000_000],
+                        help="point counts, comma-separated (default 100000,1000000)")
+    parser.add_argument("--dists", type=str_list, default=["uniform", "cluster", "kuzmin"],
+                        help="distributions of `quadmesh generate` (default uniform,cluster,kuzmin)")
+    parser.add_argument("--threads", type=int_list, default=sorted({1, cores}),
+                        help=f"quadmesh thread counts (default 1,{cores})")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each configuration")
+    parser.add_argument("--angles", type=float_list, default=[20.0, 30.0],
+                        help="minimum angles for Triangle's and spade's refinement (default 20,30)")
+    parser.add_argument("--tools", type=str_list, default=["triangle", "spade", "quadmesh"],
+                        help="which tools to run (default triangle,spade,quadmesh)")
+    parser.add_argument("--quadmesh-args", default="",
+                        help="extra arguments for `quadmesh bench`, one shell-quoted string; "
+                             "use the --quadmesh-args='...' form")
+    parser.add_argument("--timeout", type=float, default=600.0,
+                        help="seconds allowed to each subprocess (default 600)")
+    parser.add_argument("--out", type=Path, help="write all raw results to this JSON file")
+    parser.add_argument("--markdown", action="store_true", help="print GitHub markdown tables")
+    parser.add_argument("--no-build", action="store_true", help="do not run cargo build")
+    args = parser.parse_args()
+    if args.repeats < 1:
+        parser.error("--repeats must be at least 1")
+    unknown = set(args.tools) - {"triangle", "spade", "quadmesh"}
+    if unknown:
+        parser.error(f"unknown tools: {', '.join(sorted(unknown))}")
+    if any(not 0.0 < a < 60.0 for a in args.angles):
+        parser.error("--angles must lie strictly between 0 and 60 degrees")
+    return args
+
+
+def machine():
+    model = None
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    model = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    return {
+        "cpu": model or platform.processor(),
+        "logical_cpus": os.cpu_count(),
+        "platform": platform.platform(),
+        "python": platform.python_version(),
+    }
+
+
+def tail(text, limit=400):
+    text = (text or "").strip()
+    return text if len(text) <= limit else "..." + text[-limit:]
+
+
+def run_json(command, timeout):
+    """Runs `command`; returns (record, None) from its last stdout line, or (None, error)."""
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return None, f"timeout after {timeout:g} s"
+    except OSError as e:
+        return None, f"could not start: {e}"
+    if done.returncode != 0:
+        return None, f"exit status {done.returncode}: {tail(done.stderr or done.stdout)}"
+    lines = [line for line in done.stdout.splitlines() if line.strip()]
+    if not lines:
+        return None, f"no output; stderr: {tail(done.stderr)}"
+    try:
+        record = json.loads(lines[-1])
+    except json.JSONDecodeError:
+        return None, f"last output line is not JSON: {tail(lines[-1])}"
+    if not isinstance(record, dict):
+        return None, f"last output line is not a JSON object: {tail(lines[-1])}"
+    if done.stderr.strip():
+        record["stderr"] = tail(done.stderr)
+    return record, None
+
+
+def angle_text(angle):
+    return f"{angle:g}"
+
+
+class Config:
+    """One row of a table: a tool, a mode, a thread count and the command that runs it."""
+
+    def __init__(self, tool, mode, threads, command, time_key="time_s"):
+        self.tool = tool
+        self.mode = mode
+        self.threads = threads
+        self.command = command
+        self.time_key = time_key
+
+
+def configs_for(args, dist, size, points_txt, points_npy, corners):
+    configs = []
+    if "triangle" in args.tools:
+        child = [sys.executable, str(Path(__file__).resolve()), CHILD_MARK, str(points_npy)]
+        configs.append(Config("Triangle", "Delaunay", 1, child + ["Q"]))
+        for a in args.angles:
+            configs.append(Config("Triangle", f"q{angle_text(a)}", 1, child + [f"q{a:g}Q"]))
+    if "spade" in args.tools:
+        base = [str(SPADE), str(points_txt), "--corners=" + ",".join(repr(c) for c in corners)]
+        configs.append(Config("spade", "Delaunay", 1, base))
+        for a in args.angles:
+            configs.append(Config("spade", f"refine {angle_text(a)}°", 1,
+                                  base + ["--min-angle", f"{a:g}"]))
+    if "quadmesh" in args.tools:
+        extra = shlex.split(args.quadmesh_args)
+        for t in args.threads:
+            command = [str(QUADMESH), "bench", "--points", str(size), "--dist", dist,
+                       "--seed", "1", "--threads", str(t), "--json"] + extra
+            mode = "mesh" + (f" {args.quadmesh_args}" if extra else "")
+            configs.append(Config("quadmesh", mode, t, command, time_key="total_s"))
+    return configs
+
+
+def summarize(runs, time_key):
+    """Median time, largest peak memory and the output figures of the last run."""
+    times = [r[time_key] for r in runs if isinstance(r.get(time_key), (int, float))]
+    peaks = [r["peak_rss_bytes"] for r in runs if isinstance(r.get("peak_rss_bytes"), int)]
+    last = runs[-1]
+    return {
+        "median_time_s": statistics.median(times) if times else None,
+        "max_peak_rss_bytes": max(peaks) if peaks else None,
+        "vertices": last.get("vertices"),
+        "triangles": last.get("triangles"),
+        "min_angle": last.get("min_angle"),
+        "max_angle": last.get("max_angle"),
+    }
+
+
+def measure(config, repeats, timeout, skip_note):
+    """Runs one configuration `repeats` times; stops at the first failure."""
+    result = {"tool": config.tool, "mode": config.mode, "threads": config.threads,
+              "command": config.command, "runs": [], "error": None}
+    if skip_note:
+        result["error"] = skip_note
+        return result
+    for i in range(repeats):
+        log(f"  {config.tool} {config.mode} threads={config.threads} run {i + 1}/{repeats}")
+        record, error = run_json(config.command, timeout)
+        if error is None and not isinstance(record.get(config.time_key), (int, float)):
+            error = f"output has no numeric {config.time_key!r}: {tail(json.dumps(record))}"
+        if error is not None:
+            log(f"    failed: {error}")
+            result["error"] = error
+            break
+        result["runs"].append(record)
+    if result["runs"]:
+        result.update(summarize(result["runs"], config.time_key))
+    return result
+
+
+def square_of(points):
+    """Corners (x0, y0, x1, y1) of the square quadmesh meshes around `points`."""
+    lo = points.min(axis=0)
+    hi = points.max(axis=0)
+    centre = (lo + hi) / 2.0
+    half = float(max(hi - lo))
+    if half <= 0.0:
+        half = 1.0
+    return (float(centre[0] - half), float(centre[1] - half),
+            float(centre[0] + half), float(centre[1] + half))
+
+
+def format_row(result, size, baseline):
+    name = f"{result['tool']} {result['mode']}"
+    if not result["runs"]:
+        error = " ".join(result["error"].split())
+        status = error if error.startswith("skipped") else "failed: " + error
+        return [name, str(result["threads"]), status, "", "", "", "", "", ""]
+    t = result["median_time_s"]
+    tris = result["triangles"]
+    peak = result["max_peak_rss_bytes"]
+
+    def num(value, fmt):
+        return format(value, fmt) if isinstance(value, (int, float)) else "-"
+
+    ratio = t / baseline if baseline and t is not None else None
+    cells = [
+        name,
+        str(result["threads"]),
+        num(t, ".3f"),
+        num(ratio, ".2f"),
+        num(tris / size if isinstance(tris, int) else None, ".3f"),
+        num(result["min_angle"], ".2f"),
+        num(result["max_angle"], ".2f"),
+        num(peak / 1e6 if peak is not None else None, ".1f"),
+        num(peak / tris if peak is not None and tris else None, ".0f"),
+    ]
+    if result["error"]:
+        cells[0] += f" (then failed: {' '.join(result['error'].split())})"
+    return cells
+
+
+HEADER = ["tool / mode", "threads", "time s (median)", "vs Triangle", "triangles/point",
+          "min angle", "max angle", "peak MB", "bytes/triangle"]
+
+
+def print_table(dist, size, results, markdown):
+    baseline = None
+    for r in results:
+        if r["tool"] == "Triangle" and r["mode"] == "Delaunay" and r["runs"]:
+            baseline = r["median_time_s"]
+    rows = [format_row(r, size, baseline) for r in results]
+    title = f"{dist}, {size:,} points"
+    if markdown:
+        print(f"\n#### {title}\n")
+        print("| " + " | ".join(HEADER) + " |")
+        print("|" + "|".join(["---"] + ["---:"] * (len(HEADER) - 1)) + "|")
+        for row in rows:
+            print("| " + " | ".join(cell.replace("|", "\\|") for cell in row) + " |")
+    else:
+        print(f"\n{title}")
+        widths = [max([len(HEADER[i])] + [len(row[i]) for row in rows if row[i] != ""])
+                  if i != 2 else len(HEADER[i]) for i in range(len(HEADER))]
+        print("  ".join(h.ljust(widths[i]) if i == 0 else h.rjust(widths[i])
+                        for i, h in enumerate(HEADER)))
+        for row in rows:
+            if row[3] == "" and row[2] != "":
+                print("  ".join([row[0].ljust(widths[0]), row[1].rjust(widths[1]), row[2]]))
+            else:
+                print("  ".join(c.ljust(widths[i]) if i == 0 else c.rjust(widths[i])
+                                for i, c in enumerate(row)))
+    sys.stdout.flush()
+
+
+def main():
+    args = parse_args()
+    if "triangle" in args.tools:
+        try:
+            import numpy  # noqa: F401
+            import triangle  # noqa: F401
+        except ImportError as e:
+            sys.exit(f"compare_peers: cannot import {e.name!r}; install it with "
+                     f"`pip install triangle numpy` (or leave Triangle out with --tools)")
+    import numpy as np
+
+    if not args.no_build:
+        log("building: cargo build --release --bin quadmesh --example spade_mesh")
+        build = subprocess.run(["cargo", "build", "--release", "--bin", "quadmesh",
+                                "--example", "spade_mesh"], cwd=REPO)
+        if build.returncode != 0:
+            sys.exit("compare_peers: cargo build failed")
+    for binary in (QUADMESH, SPADE):
+        if not binary.exists():
+            sys.exit(f"compare_peers: {binary} is missing; build it or drop --no-build")
+
+    everything = {"machine": machine(), "arguments": {k: (str(v) if isinstance(v, Path) else v)
+                                                      for k, v in vars(args).items()},
+                  "tables": []}
+    quadmesh_skip = None
+    with tempfile.TemporaryDirectory(prefix="compare-peers-") as tmp:
+        tmp = Path(tmp)
+        for dist in args.dists:
+            for size in args.sizes:
+                log(f"{dist}, {size} points")
+                points_txt = tmp / f"{dist}-{size}.txt"
+                points_npy = tmp / f"{dist}-{size}.npy"
+                generated = None
+                try:
+                    done = subprocess.run(
+                        [str(QUADMESH), "generate", "--points", str(size), "--dist", dist,
+                         "--seed", "1", "-o", str(points_txt)],
+                        capture_output=True, text=True, timeout=args.timeout)
+                    if done.returncode != 0:
+                        generated = f"quadmesh generate failed: {tail(done.stderr)}"
+                except subprocess.TimeoutExpired:
+                    generated = f"quadmesh generate: timeout after {args.timeout:g} s"
+                table = {"dist": dist, "points": size, "results": []}
+                if generated is not None:
+                    log(f"  {generated}")
+                    table["error"] = generated
+                    everything["tables"].append(table)
+                    print(f"\n{dist}, {size:,} points: {generated}")
+                    continue
+                points = np.loadtxt(points_txt, dtype=np.float64, ndmin=2)
+                corners = square_of(points)
+                x0, y0, x1, y1 = corners
+                np.save(points_npy, np.vstack([points, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]]))
+                table["square"] = list(corners)
+                del points
+                for config in configs_for(args, dist, size, points_txt, points_npy, corners):
+                    skip = quadmesh_skip if config.tool == "quadmesh" else None
+                    result = measure(config, args.repeats, args.timeout, skip)
+                    if (config.tool == "quadmesh" and not result["runs"] and result["error"]
+                            and "unrecognized subcommand" in result["error"]):
+                        quadmesh_skip = ("skipped: this quadmesh has no `bench` subcommand yet "
+                                         "(`quadmesh bench ... --json` failed)")
+                        result["error"] = quadmesh_skip
+                    table["results"].append(result)
+                everything["tables"].append(table)
+                print_table(dist, size, table["results"], args.markdown)
+                points_txt.unlink(missing_ok=True)
+                points_npy.unlink(missing_ok=True)
+                if args.out:
+                    args.out.write_text(json.dumps(everything, indent=1) + "\n")
+    if args.out:
+        args.out.write_text(json.dumps(everything, indent=1) + "\n")
+        log(f"raw results written to {args.out}")
+    if quadmesh_skip:
+        print(f"\nnote: quadmesh {quadmesh_skip}")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) == 4 and sys.argv[1] == CHILD_MARK:
+        triangle_child(sys.argv[2], sys.argv[3])
+    else:
+        main()

@@ -1,0 +1,337 @@
+//! A growing set of split squares, closed under balance, with constant-time membership: one
+//! hash set of anchors per level, so a round costs what it adds, not the size of the set.
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+use crate::morton::{Cell, MortonKey, Side};
+
+/// A multiplicative hasher for Morton keys. Anchors of coarse squares end in long runs of zero
+/// bits, so each word is mixed by a folded 64×64→128-bit product, whose high half depends on
+/// every input bit.
+#[derive(Clone, Copy, Default)]
+pub(super) struct KeyHasher(u64);
+
+const MIX: u64 = 0x9E37_79B9_7F4A_7C15;
+
+impl KeyHasher {
+    fn mix(&mut self, word: u64) {
+        let product = u128::from(self.0 ^ word) * u128::from(MIX);
+        self.0 = (product as u64) ^ ((product >> 64) as u64);
+    }
+}
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.mix(u64::from_le_bytes(word));
+        }
+    }
+
+    fn write_u8(&mut self, v: u8) {
+        self.mix(u64::from(v));
+    }
+
+    fn write_u64(&mut self, v: u64) {
+        self.mix(v);
+    }
+
+    fn write_u128(&mut self, v: u128) {
+        self.mix(v as u64);
+        self.mix((v >> 64) as u64);
+    }
+}
+
+pub(super) type KeyHash = BuildHasherDefault<KeyHasher>;
+pub(super) type KeyMap<T, V> = HashMap<T, V, KeyHash>;
+
+/// A square's column and row among the squares of its level.
+pub(super) fn grid_position<K: MortonKey>(cell: Cell<K>) -> (u64, u64) {
+    let shift = K::AXIS_BITS - cell.level as u32;
+    let (x, y) = cell.anchor.decode();
+    (
+        x.checked_shr(shift).unwrap_or(0),
+        y.checked_shr(shift).unwrap_or(0),
+    )
+}
+
+/// The square in column `x` and row `y` of `level`.
+pub(super) fn at_position<K: MortonKey>(x: u64, y: u64, level: u8) -> Cell<K> {
+    let shift = K::AXIS_BITS - level as u32;
+    Cell {
+        anchor: K::encode(
+            x.checked_shl(shift).unwrap_or(0),
+            y.checked_shl(shift).unwrap_or(0),
+        ),
+        level,
+    }
+}
+
+/// The last column (and row) of `level`.
+pub(super) fn last_position(level: u8) -> u64 {
+    u64::try_from((1u128 << level) - 1).unwrap_or(u64::MAX)
+}
+
+/// Spreads the 3 bits of `v` to the even bit positions.
+const fn spread3(v: usize) -> usize {
+    (v & 1) | (v & 2) << 1 | (v & 4) << 2
+}
+
+/// `COLUMNS[x]` (`ROWS[y]`): the bits of a tile's squares in column `x` (row `y`).
+const COLUMNS: [u64; 8] = axis_masks(1);
+const ROWS: [u64; 8] = axis_masks(0);
+
+const fn axis_masks(x_shift: usize) -> [u64; 8] {
+    let mut masks = [0u64; 8];
+    let mut i = 0;
+    while i < 8 {
+        let mut j = 0;
+        while j < 8 {
+            masks[i] |= 1 << (spread3(i) << x_shift | spread3(j) << (1 - x_shift));
+            j += 1;
+        }
+        i += 1;
+    }
+    masks
+}
+
+/// The bits of tile `t`'s squares whose coordinate along one axis lies in `lo..=hi`.
+fn axis_mask(masks: &[u64; 8], lo: u64, hi: u64, t: u64) -> u64 {
+    let origin = t << 3;
+    let (from, to) = (lo.max(origin) - origin, hi.min(origin + 7) - origin);
+    (from..=to).fold(0, |m, i| m | masks[i as usize])
+}
+
+/// The tiles that the squares within `radius` (at most 8) of `cell` inside the root meet, with
+/// the bits of those squares in each.
+fn window_tiles<K: MortonKey>(cell: Cell<K>, radius: u64) -> impl Iterator<Item = (K, u64)> {
+    let (x, y) = grid_position(cell);
+    let last = last_position(cell.level);
+    let span = move |c: u64| (c.saturating_sub(radius), c.saturating_add(radius).min(last));
+    let ((x0, x1), (y0, y1)) = (span(x), span(y));
+    (x0 >> 3..=x1 >> 3).flat_map(move |tx| {
+        let columns = axis_mask(&COLUMNS, x0, x1, tx);
+        (y0 >> 3..=y1 >> 3).map(move |ty| {
+            let tile = at_position::<K>(tx << 3, ty << 3, cell.level).anchor;
+            (tile, columns & axis_mask(&ROWS, y0, y1, ty))
+        })
+    })
+}
+
+/// Squares of one tile: the tile's anchor and level, and a bit per square.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Squares<K> {
+    tile: K,
+    mask: u64,
+    level: u8,
+}
+
+impl<K: MortonKey> Squares<K> {
+    pub(super) fn one(cell: Cell<K>) -> Self {
+        let (tile, bit) = tile_bit(cell);
+        Squares {
+            tile,
+            mask: bit,
+            level: cell.level,
+        }
+    }
+
+    /// The square of bit `index`.
+    fn square(&self, index: u32) -> Cell<K> {
+        let shift = (2 * (K::AXIS_BITS - self.level as u32)).min(127);
+        Cell {
+            anchor: self
+                .tile
+                .wrapping_add(K::from_u128(u128::from(index) << shift)),
+            level: self.level,
+        }
+    }
+}
+
+/// The bits of the four siblings (by quadrant) of the square with bit `index` in tile `mask`.
+fn sibling_bits(mask: u64, index: u32) -> u8 {
+    (mask >> (index & !3)) as u8 & 0xF
+}
+
+/// What balance forces from a newly split `cell` (its parent, and the parent's neighbours
+/// across the two sides of the parent that `cell` touches; see [`super::forced_by`]), less what
+/// its split `siblings` (a bit per quadrant) forced already.
+fn forced_anew<K: MortonKey>(cell: Cell<K>, siblings: u8) -> [Option<Cell<K>>; 3] {
+    if cell.level == 0 {
+        return [None; 3];
+    }
+    let q = cell.quadrant();
+    let parent = cell.parent();
+    // A sibling in the same column touches the same west or east side, one in the same row the
+    // same south or north side.
+    let across_x = if q & 2 == 0 { Side::West } else { Side::East };
+    let across_y = if q & 1 == 0 { Side::South } else { Side::North };
+    let unforced = |sibling: u32| siblings & (1 << sibling) == 0;
+    [
+        (siblings == 0).then_some(parent),
+        parent.neighbour(across_x).filter(|_| unforced(q ^ 1)),
+        parent.neighbour(across_y).filter(|_| unforced(q ^ 2)),
+    ]
+}
+
+/// Split squares closed under parents and balance, as bit masks over tiles: a tile is the 8×8
+/// squares of one level inside a square three levels up, so neighbouring squares mostly share
+/// one hash entry and one cache line.
+pub(super) struct SplitSet<K> {
+    levels: Vec<KeyMap<K, u64>>,
+}
+
+/// The anchor of the tile holding `cell`, and the cell's bit in it (the tile's squares are
+/// numbered in Morton order).
+fn tile_bit<K: MortonKey>(cell: Cell<K>) -> (K, u64) {
+    let tile = cell.anchor.cell_anchor(cell.level.saturating_sub(3));
+    let shift = 2 * (K::AXIS_BITS - cell.level as u32);
+    let index = cell.anchor.to_u128().checked_shr(shift).unwrap_or(0) & 63;
+    (tile, 1 << index)
+}
+
+impl<K: MortonKey> SplitSet<K> {
+    pub(super) fn new() -> Self {
+        SplitSet {
+            levels: (0..=K::AXIS_BITS).map(|_| KeyMap::default()).collect(),
+        }
+    }
+
+    pub(super) fn contains(&self, cell: Cell<K>) -> bool {
+        let (tile, bit) = tile_bit(cell);
+        self.levels[cell.level as usize]
+            .get(&tile)
+            .is_some_and(|mask| mask & bit != 0)
+    }
+
+    /// Whether a split square lies within `radius` of `cell` along both axes (`cell` included).
+    pub(super) fn any_near(&self, cell: Cell<K>, radius: u64) -> bool {
+        let tiles = &self.levels[cell.level as usize];
+        window_tiles(cell, radius)
+            .any(|(tile, window)| tiles.get(&tile).is_some_and(|mask| mask & window != 0))
+    }
+
+    /// Appends to `out` the squares within `radius` of `cell` (`cell` included) that are not
+    /// split, a tile at a time.
+    pub(super) fn missing_near(&self, cell: Cell<K>, radius: u64, out: &mut Vec<Squares<K>>) {
+        let tiles = &self.levels[cell.level as usize];
+        for (tile, window) in window_tiles(cell, radius) {
+            let missing = window & !tiles.get(&tile).copied().unwrap_or(0);
+            if missing != 0 {
+                out.push(Squares {
+                    tile,
+                    mask: missing,
+                    level: cell.level,
+                });
+            }
+        }
+    }
+
+    /// Adds `cell`. If it was new, returns which of its siblings (by quadrant bit) were split
+    /// before it.
+    fn insert(&mut self, cell: Cell<K>) -> Option<u8> {
+        let (tile, bit) = tile_bit(cell);
+        let mask = self.levels[cell.level as usize].entry(tile).or_insert(0);
+        if *mask & bit != 0 {
+            return None;
+        }
+        let siblings = sibling_bits(*mask, bit.trailing_zeros());
+        *mask |= bit;
+        Some(siblings)
+    }
+
+    /// Adds the squares `wanted` and whatever balance then forces; returns the squares that
+    /// were new, in an order fixed by that of `wanted`.
+    ///
+    /// Each new square's forced squares are added at once (depth first), while its tiles are
+    /// still in cache; the closure is the same in any order. When a square comes in, every
+    /// split square of its level has had its own forced squares added already, so what its
+    /// split siblings forced need not be looked up again.
+    pub(super) fn insert_closed(
+        &mut self,
+        wanted: impl IntoIterator<Item = Squares<K>>,
+    ) -> Vec<Cell<K>> {
+        let mut added = Vec::new();
+        let mut stack = Vec::new();
+        for squares in wanted {
+            let mask = self.levels[squares.level as usize]
+                .entry(squares.tile)
+                .or_insert(0);
+            let mut done = *mask;
+            let mut fresh = squares.mask & !done;
+            *mask |= squares.mask;
+            while fresh != 0 {
+                let index = fresh.trailing_zeros();
+                fresh &= fresh - 1;
+                let cell = squares.square(index);
+                added.push(cell);
+                stack.extend(
+                    forced_anew(cell, sibling_bits(done, index))
+                        .into_iter()
+                        .flatten(),
+                );
+                done |= 1 << index;
+                while let Some(cell) = stack.pop() {
+                    if let Some(siblings) = self.insert(cell) {
+                        added.push(cell);
+                        stack.extend(forced_anew(cell, siblings).into_iter().flatten());
+                    }
+                }
+            }
+        }
+        added
+    }
+
+    /// Every square of the set, in preorder, by a depth-first walk.
+    pub(super) fn preorder(&self) -> Vec<Cell<K>> {
+        let mut out = Vec::new();
+        if self.contains(Cell::root()) {
+            let mut walk = Walk {
+                set: self,
+                tiles: vec![None; self.levels.len()],
+                out: &mut out,
+            };
+            walk.visit(Cell::root());
+        }
+        out
+    }
+}
+
+/// A depth-first walk of the split squares. It passes each tile's squares in one stretch, so
+/// it looks each tile up once and keeps the last one of each level.
+struct Walk<'a, K> {
+    set: &'a SplitSet<K>,
+    tiles: Vec<Option<(K, u64)>>,
+    out: &'a mut Vec<Cell<K>>,
+}
+
+impl<K: MortonKey> Walk<'_, K> {
+    fn visit(&mut self, cell: Cell<K>) {
+        self.out.push(cell);
+        if cell.level as u32 >= K::AXIS_BITS {
+            return;
+        }
+        let level = cell.level as usize + 1;
+        // The four children are consecutive bits of one tile.
+        let (tile, first) = tile_bit(cell.child(0));
+        let mask = match self.tiles[level] {
+            Some((cached, mask)) if cached == tile => mask,
+            _ => {
+                let mask = self.set.levels[level].get(&tile).copied().unwrap_or(0);
+                self.tiles[level] = Some((tile, mask));
+                mask
+            }
+        };
+        for quadrant in 0..4 {
+            if mask & first << quadrant != 0 {
+                self.visit(cell.child(quadrant));
+            }
+        }
+    }
+}

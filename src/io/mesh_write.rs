@@ -1,0 +1,1257 @@
+//! Mesh writers: Triangle's `.node`, `.ele`, `.neigh` and `.edge` files, a VTK `.vtu` file for
+//! ParaView, a Gmsh `.msh` 4.1 file and an SVG picture.
+//!
+//! As in the other writers, text and binary data are produced in parallel blocks and written in
+//! order, and floats use Rust's shortest round-trip form, so the bytes do not depend on the
+//! thread count. Every writer flushes `w` at the end; `w` is written in large blocks, but a
+//! `BufWriter` still helps with the many short header lines.
+
+use std::ffi::OsString;
+use std::fs::File;
+use std::io::{self, BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use crate::mesh::{BoundarySide, Mesh, NONE, angles_deg};
+use crate::par::exclusive_scan_by;
+
+/// Items formatted per rayon task.
+const BLOCK: usize = 1 << 13;
+/// Items formatted before their bytes are written, bounding the memory held at once.
+const BATCH: usize = 1 << 20;
+
+/// Writes `item(buf, i)` for every `i` in `0..n`: formatted in parallel blocks, written in order.
+fn write_items<W, F>(w: &mut W, n: usize, item: F) -> io::Result<()>
+where
+    W: Write,
+    F: Fn(&mut Vec<u8>, usize) -> io::Result<()> + Sync,
+{
+    for start in (0..n).step_by(BATCH) {
+        let end = (start + BATCH).min(n);
+        let blocks: Vec<io::Result<Vec<u8>>> = (0..(end - start).div_ceil(BLOCK))
+            .into_par_iter()
+            .map(|b| {
+                let first = start + b * BLOCK;
+                let last = (first + BLOCK).min(end);
+                let mut buf = Vec::with_capacity((last - first) * 48);
+                (first..last).try_for_each(|i| item(&mut buf, i))?;
+                Ok(buf)
+            })
+            .collect();
+        for block in blocks {
+            w.write_all(&block?)?;
+        }
+    }
+    Ok(())
+}
+
+/// Appends `fields` in decimal, separated by spaces, and a newline. Lines of integers are most of
+/// the Triangle and Gmsh output, and this is about twice as fast as `write!`.
+fn push_line(buf: &mut Vec<u8>, fields: &[i64]) {
+    for (k, &field) in fields.iter().enumerate() {
+        if k > 0 {
+            buf.push(b' ');
+        }
+        push_decimal(buf, field);
+    }
+    buf.push(b'\n');
+}
+
+/// Appends `value` in decimal.
+fn push_decimal(buf: &mut Vec<u8>, value: i64) {
+    if value < 0 {
+        buf.push(b'-');
+    }
+    let mut digits = [0u8; 20];
+    let mut rest = value.unsigned_abs();
+    let mut at = digits.len();
+    loop {
+        at -= 1;
+        digits[at] = b'0' + (rest % 10) as u8;
+        rest /= 10;
+        if rest == 0 {
+            break;
+        }
+    }
+    buf.extend_from_slice(&digits[at..]);
+}
+
+/// The 1-based number of a vertex or triangle in Triangle's and Gmsh's files, or -1 for [`NONE`].
+fn number(index: u32) -> i64 {
+    if index == NONE {
+        -1
+    } else {
+        i64::from(index) + 1
+    }
+}
+
+/// The input index of vertex `v`, or -1 for a Steiner vertex.
+fn input_index(mesh: &Mesh, v: usize) -> i64 {
+    match mesh.vertex_input[v] {
+        NONE => -1,
+        i => i64::from(i),
+    }
+}
+
+/// The edge opposite corner `i` of `triangle`, in the triangle's counter-clockwise direction.
+fn opposite_edge(triangle: [u32; 3], i: usize) -> [u32; 2] {
+    [triangle[(i + 1) % 3], triangle[(i + 2) % 3]]
+}
+
+/// Whether triangle `t` writes the edge opposite its corner `i`: a boundary edge always, an
+/// interior edge only from the lower-numbered of its two triangles, so every edge once.
+fn owns_edge(mesh: &Mesh, t: usize, i: usize) -> bool {
+    let across = mesh.neighbours[t][i];
+    across == NONE || t < across as usize
+}
+
+/// Whether each vertex lies on a boundary edge.
+fn boundary_vertices(mesh: &Mesh) -> Vec<bool> {
+    let mut on_boundary = vec![false; mesh.vertices.len()];
+    for edge in &mesh.boundary {
+        for v in edge.vertices {
+            on_boundary[v as usize] = true;
+        }
+    }
+    on_boundary
+}
+
+/// The side markers of the boundary edges, found by their two vertices in either order.
+struct SideMarkers(Vec<([u32; 2], u8)>);
+
+impl SideMarkers {
+    fn new(mesh: &Mesh) -> SideMarkers {
+        let mut markers: Vec<([u32; 2], u8)> = mesh
+            .boundary
+            .par_iter()
+            .map(|e| (Self::key(e.vertices), e.side as u8))
+            .collect();
+        markers.par_sort_unstable();
+        SideMarkers(markers)
+    }
+
+    fn key([a, b]: [u32; 2]) -> [u32; 2] {
+        [a.min(b), a.max(b)]
+    }
+
+    /// The side marker of edge `ab`, or 0 when it is not a boundary edge.
+    fn get(&self, ab: [u32; 2]) -> u8 {
+        let key = Self::key(ab);
+        self.0
+            .binary_search_by(|(k, _)| k.cmp(&key))
+            .map_or(0, |i| self.0[i].1)
+    }
+}
+
+/// Writes the vertices as a Triangle `.node` file: the header `<#vertices> 2 1 1`, then
+/// `<vertex> <x> <y> <input index> <marker>` per vertex, numbered from 1 as in Triangle's own
+/// output. The attribute is the vertex's 0-based input index, or -1 for a Steiner vertex; the
+/// boundary marker is 1 for a vertex on a boundary edge and 0 otherwise. A comment line before
+/// the header says so.
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_node<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
+    let on_boundary = boundary_vertices(mesh);
+    writeln!(
+        w,
+        "# vertex (numbered from 1), x, y, input index (0-based, -1 for none), boundary marker"
+    )?;
+    writeln!(w, "{} 2 1 1", mesh.vertices.len())?;
+    write_items(&mut w, mesh.vertices.len(), |buf, v| {
+        let p = mesh.vertices[v];
+        let marker = u8::from(on_boundary[v]);
+        let input = input_index(mesh, v);
+        writeln!(buf, "{} {} {} {input} {marker}", v + 1, p.x, p.y)
+    })?;
+    w.flush()
+}
+
+/// Writes the triangles as a Triangle `.ele` file: the header `<#triangles> 3 0`, then
+/// `<triangle> <v0> <v1> <v2>` per triangle, counter-clockwise, all numbered from 1 as in
+/// [`write_node`].
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_ele<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
+    writeln!(
+        w,
+        "# triangle, its vertices counter-clockwise (all numbered from 1)"
+    )?;
+    writeln!(w, "{} 3 0", mesh.triangles.len())?;
+    write_items(&mut w, mesh.triangles.len(), |buf, t| {
+        let [a, b, c] = mesh.triangles[t].map(number);
+        push_line(buf, &[t as i64 + 1, a, b, c]);
+        Ok(())
+    })?;
+    w.flush()
+}
+
+/// Writes the neighbours as a Triangle `.neigh` file: the header `<#triangles> 3`, then
+/// `<triangle> <n0> <n1> <n2>` per triangle, where neighbour `i` lies across the edge opposite
+/// corner `i` (Triangle's convention), -1 on the boundary; numbered from 1 as in [`write_ele`].
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_neigh<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
+    writeln!(
+        w,
+        "# triangle, the triangles across from its corners (numbered from 1, -1 for none)"
+    )?;
+    writeln!(w, "{} 3", mesh.triangles.len())?;
+    write_items(&mut w, mesh.triangles.len(), |buf, t| {
+        let [a, b, c] = mesh.neighbours[t].map(number);
+        push_line(buf, &[t as i64 + 1, a, b, c]);
+        Ok(())
+    })?;
+    w.flush()
+}
+
+/// Writes every edge of the mesh once as a Triangle `.edge` file: the header `<#edges> 1`, then
+/// `<edge> <v0> <v1> <marker>` per edge, where the marker is the [`BoundarySide`] value (1 to 4)
+/// of a boundary edge and 0 for an interior edge; numbered from 1 as in [`write_node`].
+///
+/// Edges come by triangle, then by the corner they are opposite; an interior edge is listed with
+/// the lower-numbered of its two triangles, in that triangle's counter-clockwise direction.
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_edge<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
+    let markers = SideMarkers::new(mesh);
+    let triangles = mesh.triangles.len();
+    // The 0-based number of each triangle's first edge, and the edge count after the last.
+    let first_edge = exclusive_scan_by(triangles, |t| {
+        (0..3).filter(|&i| owns_edge(mesh, t, i)).count()
+    });
+    writeln!(
+        w,
+        "# edge (numbered from 1), its vertices, side marker (1 bottom, 2 right, 3 top, 4 left, \
+         0 interior)"
+    )?;
+    writeln!(w, "{} 1", first_edge[triangles])?;
+    write_items(&mut w, triangles, |buf, t| {
+        let mut edge = first_edge[t];
+        for i in (0..3).filter(|&i| owns_edge(mesh, t, i)) {
+            edge += 1;
+            let ab = opposite_edge(mesh.triangles[t], i);
+            let marker = match mesh.neighbours[t][i] {
+                NONE => markers.get(ab),
+                _ => 0,
+            };
+            let [a, b] = ab.map(number);
+            push_line(buf, &[edge as i64, a, b, i64::from(marker)]);
+        }
+        Ok(())
+    })?;
+    w.flush()
+}
+
+/// A writer of one of Triangle's files.
+type TriangleFileWriter = fn(&Mesh, BufWriter<File>) -> io::Result<()>;
+
+/// Writes `PREFIX.node`, `PREFIX.ele`, `PREFIX.neigh` and `PREFIX.edge` (see [`write_node`],
+/// [`write_ele`], [`write_neigh`] and [`write_edge`]) and returns their paths in that order. The
+/// extensions are appended to `prefix`, never substituted for one it has.
+///
+/// # Errors
+/// The first failure to create or write a file, naming the file.
+pub fn write_triangle_files(mesh: &Mesh, prefix: &Path) -> io::Result<Vec<PathBuf>> {
+    let files: [(&str, TriangleFileWriter); 4] = [
+        ("node", write_node),
+        ("ele", write_ele),
+        ("neigh", write_neigh),
+        ("edge", write_edge),
+    ];
+    files
+        .into_iter()
+        .map(|(extension, write)| {
+            let path = with_extension_appended(prefix, extension);
+            let named = |e: io::Error| io::Error::new(e.kind(), format!("{}: {e}", path.display()));
+            let file = File::create(&path).map_err(named)?;
+            write(mesh, BufWriter::with_capacity(1 << 20, file)).map_err(named)?;
+            Ok(path)
+        })
+        .collect()
+}
+
+/// `prefix` with `.extension` appended.
+fn with_extension_appended(prefix: &Path, extension: &str) -> PathBuf {
+    let mut name = OsString::from(prefix.as_os_str());
+    name.push(".");
+    name.push(extension);
+    PathBuf::from(name)
+}
+
+/// The VTK cell type of a linear triangle.
+const VTK_TRIANGLE: u8 = 5;
+
+/// Writes the mesh as a VTK XML UnstructuredGrid (`.vtu`) file for ParaView and other VTK
+/// readers. The arrays follow the XML header as raw little-endian binary in an
+/// `<AppendedData encoding="raw">` block, each preceded by its byte length as a UInt64, so that
+/// files of tens of millions of triangles write and load quickly:
+/// - the points (Float64, `x y 0`) and the triangles (Int64 `connectivity`, Int64 `offsets`,
+///   UInt8 `types`, all VTK_TRIANGLE);
+/// - point data `input_index` (Int64): the vertex's 0-based input index, or -1 for a Steiner
+///   vertex;
+/// - cell data `min_angle` (Float64): the triangle's smallest angle in degrees.
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_vtu<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
+    let (vertices, triangles) = (mesh.vertices.len(), mesh.triangles.len());
+    let (v, t) = (vertices as u64, triangles as u64);
+    // Byte lengths of the arrays in the order they are appended, as the header lists them.
+    let lengths = [8 * v, 8 * t, 24 * v, 24 * t, 8 * t, t];
+    let mut offsets = [0u64; 6];
+    let mut at = 0;
+    for (offset, length) in offsets.iter_mut().zip(lengths) {
+        *offset = at;
+        at += 8 + length;
+    }
+    write_vtu_header(&mut w, vertices, triangles, offsets)?;
+    write_vtu_array(&mut w, lengths[0], vertices, |buf, i| {
+        buf.extend_from_slice(&input_index(mesh, i).to_le_bytes());
+    })?;
+    write_vtu_array(&mut w, lengths[1], triangles, |buf, i| {
+        buf.extend_from_slice(&min_angle(mesh, i).to_le_bytes());
+    })?;
+    write_vtu_array(&mut w, lengths[2], vertices, |buf, i| {
+        let p = mesh.vertices[i];
+        for x in [p.x, p.y, 0.0] {
+            buf.extend_from_slice(&x.to_le_bytes());
+        }
+    })?;
+    write_vtu_array(&mut w, lengths[3], triangles, |buf, i| {
+        for v in mesh.triangles[i] {
+            buf.extend_from_slice(&i64::from(v).to_le_bytes());
+        }
+    })?;
+    write_vtu_array(&mut w, lengths[4], triangles, |buf, i| {
+        buf.extend_from_slice(&(3 * (i as i64 + 1)).to_le_bytes());
+    })?;
+    write_vtu_array(&mut w, lengths[5], triangles, |buf, _| {
+        buf.push(VTK_TRIANGLE);
+    })?;
+    w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")?;
+    w.flush()
+}
+
+/// The smallest angle of triangle `t`, degrees.
+fn min_angle(mesh: &Mesh, t: usize) -> f64 {
+    let [a, b, c] = mesh.triangles[t].map(|v| mesh.vertices[v as usize]);
+    let [x, y, z] = angles_deg(a, b, c);
+    x.min(y).min(z)
+}
+
+/// The XML of a `.vtu` file up to and including the `_` that starts the appended data, whose
+/// arrays start at `offsets` after it.
+fn write_vtu_header<W: Write>(
+    w: &mut W,
+    vertices: usize,
+    triangles: usize,
+    offsets: [u64; 6],
+) -> io::Result<()> {
+    let [input, angle, points, connectivity, cell_offsets, types] = offsets;
+    write!(
+        w,
+        r#"<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">
+  <UnstructuredGrid>
+    <Piece NumberOfPoints="{vertices}" NumberOfCells="{triangles}">
+      <PointData Scalars="input_index">
+        <DataArray type="Int64" Name="input_index" format="appended" offset="{input}"/>
+      </PointData>
+      <CellData Scalars="min_angle">
+        <DataArray type="Float64" Name="min_angle" format="appended" offset="{angle}"/>
+      </CellData>
+      <Points>
+        <DataArray type="Float64" Name="Points" NumberOfComponents="3" format="appended" offset="{points}"/>
+      </Points>
+      <Cells>
+        <DataArray type="Int64" Name="connectivity" format="appended" offset="{connectivity}"/>
+        <DataArray type="Int64" Name="offsets" format="appended" offset="{cell_offsets}"/>
+        <DataArray type="UInt8" Name="types" format="appended" offset="{types}"/>
+      </Cells>
+    </Piece>
+  </UnstructuredGrid>
+  <AppendedData encoding="raw">
+   _"#
+    )
+}
+
+/// One appended array: its byte length, then `item`'s bytes for `0..n`.
+fn write_vtu_array<W, F>(w: &mut W, length: u64, n: usize, item: F) -> io::Result<()>
+where
+    W: Write,
+    F: Fn(&mut Vec<u8>, usize) + Sync,
+{
+    w.write_all(&length.to_le_bytes())?;
+    write_items(w, n, |buf, i| {
+        item(buf, i);
+        Ok(())
+    })
+}
+
+/// The sides in marker order, with the names the `.msh` file gives their physical groups.
+const SIDES: [(BoundarySide, &str); 4] = [
+    (BoundarySide::Bottom, "bottom"),
+    (BoundarySide::Right, "right"),
+    (BoundarySide::Top, "top"),
+    (BoundarySide::Left, "left"),
+];
+
+/// Writes the mesh as a Gmsh MSH 4.1 ASCII file.
+///
+/// The geometry is the domain: four corner points (entity tags 1 to 4, from the lower-left
+/// corner counter-clockwise), four curves, one per side, whose entity and physical tags are the
+/// [`BoundarySide`] markers (1 bottom, 2 right, 3 top, 4 left, named in `$PhysicalNames`), and
+/// one surface with entity and physical tag 1 (`"domain"`). All vertices are nodes of the
+/// surface, tagged 1 to V in vertex order. Elements are the boundary edges as 2-node lines
+/// (type 1) on their side's curve, tagged from 1 side by side in boundary order, then the
+/// triangles (type 2, counter-clockwise) on the surface, tagged on from there in triangle order.
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_msh<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
+    writeln!(w, "$MeshFormat\n4.1 0 8\n$EndMeshFormat")?;
+    writeln!(w, "$PhysicalNames\n{}", SIDES.len() + 1)?;
+    for (side, name) in SIDES {
+        writeln!(w, "1 {} \"{name}\"", side as u8)?;
+    }
+    writeln!(w, "2 1 \"domain\"\n$EndPhysicalNames")?;
+    write_msh_entities(&mut w, mesh)?;
+    write_msh_nodes(&mut w, mesh)?;
+    write_msh_elements(&mut w, mesh)?;
+    w.flush()
+}
+
+/// The `$Entities` section: the domain's corners, sides and interior.
+fn write_msh_entities<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
+    let (lo, hi) = (mesh.domain.lo, mesh.domain.hi);
+    let corners = [lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
+    writeln!(w, "$Entities\n4 4 1 0")?;
+    for (tag, p) in (1..).zip(corners) {
+        writeln!(w, "{tag} {} {} 0 0", p.x, p.y)?;
+    }
+    // Side k runs from corner k to corner k + 1; the end point's tag is negated, as Gmsh does.
+    for (k, (side, _)) in SIDES.into_iter().enumerate() {
+        let (a, b) = (corners[k], corners[(k + 1) % 4]);
+        let (min, max) = (a.min(b), a.max(b));
+        let tag = side as u8;
+        let (start, end) = (k + 1, (k + 1) % 4 + 1);
+        writeln!(
+            w,
+            "{tag} {} {} 0 {} {} 0 1 {tag} 2 {start} -{end}",
+            min.x, min.y, max.x, max.y
+        )?;
+    }
+    writeln!(
+        w,
+        "1 {} {} 0 {} {} 0 1 1 4 1 2 3 4\n$EndEntities",
+        lo.x, lo.y, hi.x, hi.y
+    )
+}
+
+/// The `$Nodes` section: one block of all vertices on the surface.
+fn write_msh_nodes<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
+    let n = mesh.vertices.len();
+    writeln!(w, "$Nodes")?;
+    if n == 0 {
+        writeln!(w, "0 0 0 0")?;
+    } else {
+        writeln!(w, "1 {n} 1 {n}\n2 1 0 {n}")?;
+        write_items(w, n, |buf, v| {
+            push_line(buf, &[v as i64 + 1]);
+            Ok(())
+        })?;
+        write_items(w, n, |buf, v| {
+            let p = mesh.vertices[v];
+            writeln!(buf, "{} {} 0", p.x, p.y)
+        })?;
+    }
+    writeln!(w, "$EndNodes")
+}
+
+/// The `$Elements` section: a block of lines per side that has boundary edges, then a block of
+/// the triangles.
+fn write_msh_elements<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
+    let sides: Vec<(u8, Vec<[u32; 2]>)> = SIDES
+        .iter()
+        .map(|&(side, _)| {
+            let edges = mesh.boundary.iter().filter(|e| e.side == side);
+            (side as u8, edges.map(|e| e.vertices).collect::<Vec<_>>())
+        })
+        .filter(|(_, edges)| !edges.is_empty())
+        .collect();
+    let lines: usize = sides.iter().map(|(_, edges)| edges.len()).sum();
+    let triangles = mesh.triangles.len();
+    let blocks = sides.len() + usize::from(triangles > 0);
+    let total = lines + triangles;
+    writeln!(w, "$Elements\n{blocks} {total} {} {total}", total.min(1))?;
+    let mut next_tag = 1;
+    for (side, edges) in &sides {
+        writeln!(w, "1 {side} 1 {}", edges.len())?;
+        write_items(w, edges.len(), |buf, e| {
+            let [a, b] = edges[e].map(number);
+            push_line(buf, &[(next_tag + e) as i64, a, b]);
+            Ok(())
+        })?;
+        next_tag += edges.len();
+    }
+    if triangles > 0 {
+        writeln!(w, "2 1 2 {triangles}")?;
+        write_items(w, triangles, |buf, t| {
+            let [a, b, c] = mesh.triangles[t].map(number);
+            push_line(buf, &[(next_tag + t) as i64, a, b, c]);
+            Ok(())
+        })?;
+    }
+    writeln!(w, "$EndElements")
+}
+
+/// Width of the SVG picture, pixels.
+const SVG_WIDTH: f64 = 1000.0;
+
+/// What an SVG picture shows: the triangles drawn and the region in view.
+struct SvgView {
+    /// Which triangles are drawn; `None` when all are.
+    keep: Option<Vec<bool>>,
+    /// How many triangles are drawn.
+    shown: usize,
+    /// Lower-left corner of the region in view, before the margin.
+    lo: DVec2,
+    /// Upper-right corner of the region in view, before the margin.
+    hi: DVec2,
+}
+
+impl SvgView {
+    /// All of `mesh` when it has at most `max_triangles` triangles; otherwise the triangles whose
+    /// bounding boxes meet the smallest window, centred on the domain and of its shape, that
+    /// holds `max_triangles` of them (a few more on ties), and that window.
+    fn new(mesh: &Mesh, max_triangles: usize) -> SvgView {
+        let (lo, hi) = (mesh.domain.lo, mesh.domain.hi);
+        let triangles = mesh.triangles.len();
+        if triangles <= max_triangles {
+            return SvgView {
+                keep: None,
+                shown: triangles,
+                lo,
+                hi,
+            };
+        }
+        if max_triangles == 0 {
+            let keep = Some(vec![false; triangles]);
+            return SvgView {
+                keep,
+                shown: 0,
+                lo,
+                hi,
+            };
+        }
+        let centre = (lo + hi) / 2.0;
+        let half = ((hi - lo) / 2.0).max(DVec2::splat(f64::MIN_POSITIVE));
+        let reach: Vec<f64> = (0..triangles)
+            .into_par_iter()
+            .map(|t| window_reach(mesh, t, centre, half))
+            .collect();
+        let mut sorted = reach.clone();
+        let (_, &mut limit, _) = sorted.select_nth_unstable_by(max_triangles - 1, f64::total_cmp);
+        let keep: Vec<bool> = reach.par_iter().map(|&r| r <= limit).collect();
+        let shown = keep.par_iter().filter(|&&k| k).count();
+        let (lo, hi) = if limit > 0.0 {
+            (centre - half * limit, centre + half * limit)
+        } else {
+            // Every kept triangle touches the centre: show them whole.
+            kept_bounds(mesh, &keep)
+        };
+        SvgView {
+            keep: Some(keep),
+            shown,
+            lo,
+            hi,
+        }
+    }
+
+    fn keeps(&self, t: usize) -> bool {
+        self.keep.as_ref().is_none_or(|keep| keep[t])
+    }
+}
+
+/// The smallest `r` for which triangle `t`'s bounding box meets the window `centre ± r half`.
+fn window_reach(mesh: &Mesh, t: usize, centre: DVec2, half: DVec2) -> f64 {
+    let [a, b, c] = mesh.triangles[t].map(|v| mesh.vertices[v as usize]);
+    let (min, max) = (a.min(b).min(c), a.max(b).max(c));
+    let gap = (min - centre).max(centre - max).max(DVec2::ZERO) / half;
+    gap.max_element()
+}
+
+/// The bounding box of the kept triangles.
+fn kept_bounds(mesh: &Mesh, keep: &[bool]) -> (DVec2, DVec2) {
+    let empty = || (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    (0..mesh.triangles.len())
+        .into_par_iter()
+        .filter(|&t| keep[t])
+        .flat_map_iter(|t| mesh.triangles[t])
+        .map(|v| mesh.vertices[v as usize])
+        .fold(empty, |(lo, hi), p| (lo.min(p), hi.max(p)))
+        .reduce(empty, |(a, b), (c, d)| (a.min(c), b.max(d)))
+}
+
+/// The SVG y coordinate of `y`: flipped so that up is up (`0 - y` keeps 0 from printing as -0).
+fn svg_y(y: f64) -> f64 {
+    0.0 - y
+}
+
+/// Writes an SVG picture of the mesh, about 1000 pixels wide: the triangle edges as one thin
+/// black path, the vertices that are input points as small red dots, y pointing up, the view
+/// fitted to the domain with a small margin.
+///
+/// A mesh of more than `max_triangles` triangles is shown only in part: the triangles that meet
+/// the smallest window around the domain's centre, of the domain's shape, that holds about
+/// `max_triangles` of them, and the input points in that window. The picture's title and a
+/// comment then say so.
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_svg<W: Write>(mesh: &Mesh, mut w: W, max_triangles: usize) -> io::Result<()> {
+    let view = SvgView::new(mesh, max_triangles);
+    let extent = view.hi - view.lo;
+    let mut margin = 0.02 * extent.max_element();
+    if !(margin.is_finite() && margin > 0.0) {
+        margin = 1.0;
+    }
+    let (lo, size) = (view.lo - margin, extent + 2.0 * margin);
+    // Length of a pixel in mesh units, which strokes and dots are measured in.
+    let pixel = size.x / SVG_WIDTH;
+    let height = (SVG_WIDTH * size.y / size.x)
+        .round()
+        .clamp(1.0, 100.0 * SVG_WIDTH);
+    writeln!(
+        w,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{SVG_WIDTH}" height="{height}" viewBox="{} {} {} {}">"#,
+        lo.x,
+        svg_y(lo.y + size.y),
+        size.x,
+        size.y
+    )?;
+    write_svg_title(&mut w, mesh, &view)?;
+    write_svg_edges(&mut w, mesh, &view, pixel)?;
+    write_svg_dots(&mut w, mesh, lo, lo + size, pixel)?;
+    writeln!(w, "</svg>")?;
+    w.flush()
+}
+
+/// The title, and a comment when only part of the mesh is drawn.
+fn write_svg_title<W: Write>(w: &mut W, mesh: &Mesh, view: &SvgView) -> io::Result<()> {
+    let inputs = mesh.vertex_input.par_iter().filter(|&&i| i != NONE).count();
+    let mut title = format!(
+        "Mesh of {} vertices ({inputs} input points, red) and {} triangles",
+        mesh.vertices.len(),
+        mesh.triangles.len()
+    );
+    if view.keep.is_some() {
+        let part = format!(
+            "only the {} triangles that meet the window [{}, {}] x [{}, {}] around the domain's \
+             centre are drawn",
+            view.shown, view.lo.x, view.hi.x, view.lo.y, view.hi.y
+        );
+        writeln!(w, "<!-- Part of the mesh: {part}. -->")?;
+        title = format!("{title}; {part}");
+    }
+    writeln!(w, "<title>{title}</title>")
+}
+
+/// The edges of the drawn triangles as one path, each edge once.
+fn write_svg_edges<W: Write>(w: &mut W, mesh: &Mesh, view: &SvgView, pixel: f64) -> io::Result<()> {
+    if view.shown == 0 {
+        return Ok(());
+    }
+    writeln!(
+        w,
+        r#"<path fill="none" stroke="black" stroke-width="{}" stroke-linecap="round" d=""#,
+        0.5 * pixel
+    )?;
+    // An edge is drawn by its lower-numbered drawn triangle.
+    let draws = |t: usize, i: usize| {
+        let across = mesh.neighbours[t][i];
+        across == NONE || !view.keeps(across as usize) || t < across as usize
+    };
+    write_items(w, mesh.triangles.len(), |buf, t| {
+        if !view.keeps(t) {
+            return Ok(());
+        }
+        for i in (0..3).filter(|&i| draws(t, i)) {
+            let [a, b] = opposite_edge(mesh.triangles[t], i).map(|v| mesh.vertices[v as usize]);
+            writeln!(buf, "M{} {}L{} {}", a.x, svg_y(a.y), b.x, svg_y(b.y))?;
+        }
+        Ok(())
+    })?;
+    writeln!(w, r#""/>"#)
+}
+
+/// The input vertices in `[lo, hi]` as red dots.
+fn write_svg_dots<W: Write>(
+    w: &mut W,
+    mesh: &Mesh,
+    lo: DVec2,
+    hi: DVec2,
+    pixel: f64,
+) -> io::Result<()> {
+    writeln!(w, r#"<g fill="red">"#)?;
+    let radius = 1.5 * pixel;
+    write_items(w, mesh.vertices.len(), |buf, v| {
+        let p = mesh.vertices[v];
+        let inside = p.cmpge(lo).all() && p.cmple(hi).all();
+        if mesh.vertex_input[v] == NONE || !inside {
+            return Ok(());
+        }
+        writeln!(
+            buf,
+            r#"<circle cx="{}" cy="{}" r="{radius}"/>"#,
+            p.x,
+            svg_y(p.y)
+        )
+    })?;
+    writeln!(w, "</g>")
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+
+    use super::*;
+    use crate::mesh::{BoundaryEdge, Domain};
+
+    fn unit_domain() -> Domain {
+        Domain {
+            lo: DVec2::ZERO,
+            hi: DVec2::ONE,
+        }
+    }
+
+    /// The unit square's four boundary edges, counter-clockwise from the origin, given its
+    /// corners in that order.
+    fn square_boundary(corners: [u32; 4]) -> Vec<BoundaryEdge> {
+        use BoundarySide::*;
+        [Bottom, Right, Top, Left]
+            .into_iter()
+            .enumerate()
+            .map(|(k, side)| BoundaryEdge {
+                vertices: [corners[k], corners[(k + 1) % 4]],
+                side,
+            })
+            .collect()
+    }
+
+    /// The unit square cut along its diagonal from the origin.
+    fn two_triangles() -> Mesh {
+        Mesh {
+            vertices: vec![
+                DVec2::new(0.0, 0.0),
+                DVec2::new(1.0, 0.0),
+                DVec2::new(1.0, 1.0),
+                DVec2::new(0.0, 1.0),
+            ],
+            vertex_input: vec![0, 2, 1, NONE],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            neighbours: vec![[NONE, 1, NONE], [NONE, NONE, 0]],
+            boundary: square_boundary([0, 1, 2, 3]),
+            domain: unit_domain(),
+        }
+    }
+
+    /// The unit square fanned around its centre, which is the only input point.
+    fn four_triangles() -> Mesh {
+        Mesh {
+            vertices: vec![
+                DVec2::new(0.0, 0.0),
+                DVec2::new(1.0, 0.0),
+                DVec2::new(1.0, 1.0),
+                DVec2::new(0.0, 1.0),
+                DVec2::new(0.5, 0.5),
+            ],
+            vertex_input: vec![NONE, NONE, NONE, NONE, 0],
+            triangles: vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]],
+            neighbours: vec![[1, 3, NONE], [2, 0, NONE], [3, 1, NONE], [0, 2, NONE]],
+            boundary: square_boundary([0, 1, 2, 3]),
+            domain: unit_domain(),
+        }
+    }
+
+    /// An `n` by `n` grid of unit squares, each cut along the diagonal from its lower-left
+    /// corner; every third vertex is an input point.
+    fn grid(n: u32) -> Mesh {
+        let vertex = |i: u32, j: u32| j * (n + 1) + i;
+        let triangle = |i: u32, j: u32, k: u32| {
+            if i < n && j < n {
+                2 * (j * n + i) + k
+            } else {
+                NONE
+            }
+        };
+        let mut mesh = Mesh {
+            domain: Domain {
+                lo: DVec2::ZERO,
+                hi: DVec2::splat(f64::from(n)),
+            },
+            ..Mesh::default()
+        };
+        for j in 0..=n {
+            for i in 0..=n {
+                mesh.vertices.push(DVec2::new(f64::from(i), f64::from(j)));
+                let v = vertex(i, j);
+                mesh.vertex_input
+                    .push(if v.is_multiple_of(3) { v / 3 } else { NONE });
+            }
+        }
+        for j in 0..n {
+            for i in 0..n {
+                let [a, b, c, d] = [
+                    vertex(i, j),
+                    vertex(i + 1, j),
+                    vertex(i + 1, j + 1),
+                    vertex(i, j + 1),
+                ];
+                mesh.triangles.push([a, b, c]);
+                mesh.triangles.push([a, c, d]);
+                let below = j.checked_sub(1).map_or(NONE, |j| triangle(i, j, 1));
+                let left = i.checked_sub(1).map_or(NONE, |i| triangle(i, j, 0));
+                mesh.neighbours
+                    .push([triangle(i + 1, j, 1), triangle(i, j, 1), below]);
+                mesh.neighbours
+                    .push([triangle(i, j + 1, 0), left, triangle(i, j, 0)]);
+            }
+        }
+        let sides = [
+            (
+                BoundarySide::Bottom,
+                (0..n)
+                    .map(|i| [vertex(i, 0), vertex(i + 1, 0)])
+                    .collect::<Vec<_>>(),
+            ),
+            (
+                BoundarySide::Right,
+                (0..n).map(|j| [vertex(n, j), vertex(n, j + 1)]).collect(),
+            ),
+            (
+                BoundarySide::Top,
+                (0..n)
+                    .rev()
+                    .map(|i| [vertex(i + 1, n), vertex(i, n)])
+                    .collect(),
+            ),
+            (
+                BoundarySide::Left,
+                (0..n)
+                    .rev()
+                    .map(|j| [vertex(0, j + 1), vertex(0, j)])
+                    .collect(),
+            ),
+        ];
+        for (side, edges) in sides {
+            let edges = edges
+                .into_iter()
+                .map(|vertices| BoundaryEdge { vertices, side });
+            mesh.boundary.extend(edges);
+        }
+        mesh
+    }
+
+    fn text<F: Fn(&Mesh, &mut Vec<u8>) -> io::Result<()>>(mesh: &Mesh, write: F) -> String {
+        let mut out = Vec::new();
+        write(mesh, &mut out).unwrap();
+        String::from_utf8(out).unwrap()
+    }
+
+    #[test]
+    fn integer_lines_match_display() {
+        let fields = [0, -1, 7, 10, 42, -1000, i64::MAX, i64::MIN];
+        let mut buf = Vec::new();
+        push_line(&mut buf, &fields);
+        push_line(&mut buf, &[]);
+        let expected = fields.map(|f| f.to_string()).join(" ") + "\n\n";
+        assert_eq!(String::from_utf8(buf).unwrap(), expected);
+    }
+
+    #[test]
+    fn grid_generator_is_consistent() {
+        let mesh = grid(5);
+        let mut boundary = 0;
+        for (t, across) in mesh.neighbours.iter().enumerate() {
+            for (i, &n) in across.iter().enumerate() {
+                let [a, b] = opposite_edge(mesh.triangles[t], i);
+                if n == NONE {
+                    assert!(mesh.boundary.iter().any(|e| e.vertices == [a, b]));
+                    boundary += 1;
+                } else {
+                    let back = mesh.neighbours[n as usize]
+                        .iter()
+                        .position(|&m| m as usize == t);
+                    let j = back.expect("neighbours are mutual");
+                    assert_eq!(opposite_edge(mesh.triangles[n as usize], j), [b, a]);
+                }
+            }
+        }
+        assert_eq!(boundary, mesh.boundary.len());
+    }
+
+    #[test]
+    fn triangle_files_of_two_triangles() {
+        let mesh = two_triangles();
+        let node = text(&mesh, |m, w| write_node(m, w));
+        let expected_node = "\
+# vertex (numbered from 1), x, y, input index (0-based, -1 for none), boundary marker
+4 2 1 1
+1 0 0 0 1
+2 1 0 2 1
+3 1 1 1 1
+4 0 1 -1 1
+";
+        assert_eq!(node, expected_node);
+        let ele = text(&mesh, |m, w| write_ele(m, w));
+        let expected_ele = "\
+# triangle, its vertices counter-clockwise (all numbered from 1)
+2 3 0
+1 1 2 3
+2 1 3 4
+";
+        assert_eq!(ele, expected_ele);
+        let neigh = text(&mesh, |m, w| write_neigh(m, w));
+        let expected_neigh = "\
+# triangle, the triangles across from its corners (numbered from 1, -1 for none)
+2 3
+1 -1 2 -1
+2 -1 -1 1
+";
+        assert_eq!(neigh, expected_neigh);
+        let edge = text(&mesh, |m, w| write_edge(m, w));
+        let expected_edge = "\
+# edge (numbered from 1), its vertices, side marker (1 bottom, 2 right, 3 top, 4 left, 0 interior)
+5 1
+1 2 3 2
+2 3 1 0
+3 1 2 1
+4 3 4 3
+5 4 1 4
+";
+        assert_eq!(edge, expected_edge);
+    }
+
+    #[test]
+    fn interior_vertices_have_marker_zero() {
+        let node = text(&four_triangles(), |m, w| write_node(m, w));
+        assert!(node.ends_with("\n4 0 1 -1 1\n5 0.5 0.5 0 0\n"), "{node}");
+    }
+
+    #[test]
+    fn node_file_reads_back() {
+        let mesh = grid(40);
+        let node = text(&mesh, |m, w| write_node(m, w));
+        assert_eq!(super::super::parse_node(&node, "t").unwrap(), mesh.vertices);
+    }
+
+    /// The edges of an `.edge` file, by their vertex pair (0-based, in either order), with
+    /// their markers; checks the numbering and that no edge comes twice.
+    fn read_edges(edge: &str) -> HashMap<[u32; 2], u8> {
+        let mut lines = edge.lines().filter(|l| !l.starts_with('#'));
+        let header: Vec<usize> = lines
+            .next()
+            .unwrap()
+            .split(' ')
+            .map(|f| f.parse().unwrap())
+            .collect();
+        let mut edges = HashMap::new();
+        for (k, line) in lines.enumerate() {
+            let f: Vec<u32> = line.split(' ').map(|f| f.parse().unwrap()).collect();
+            assert_eq!(f[0] as usize, k + 1, "{line}");
+            let key = [f[1].min(f[2]) - 1, f[1].max(f[2]) - 1];
+            assert!(edges.insert(key, f[3] as u8).is_none(), "{line} twice");
+        }
+        assert_eq!(header, [edges.len(), 1]);
+        edges
+    }
+
+    #[test]
+    fn edge_file_lists_every_edge_once() {
+        for mesh in [four_triangles(), grid(1), grid(70)] {
+            let edges = read_edges(&text(&mesh, |m, w| write_edge(m, w)));
+            let mut expected = HashMap::new();
+            for triangle in &mesh.triangles {
+                for i in 0..3 {
+                    let [a, b] = opposite_edge(*triangle, i);
+                    expected.insert([a.min(b), a.max(b)], 0);
+                }
+            }
+            for e in &mesh.boundary {
+                let [a, b] = e.vertices;
+                expected.insert([a.min(b), a.max(b)], e.side as u8);
+            }
+            assert_eq!(edges, expected);
+            // Euler's formula for a disc.
+            assert_eq!(edges.len(), mesh.vertices.len() + mesh.triangles.len() - 1);
+        }
+    }
+
+    #[test]
+    fn triangle_files_are_written_next_to_the_prefix() {
+        let dir = std::env::temp_dir().join(format!("quadmesh-mesh-write-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let prefix = dir.join("square.1");
+        let paths = write_triangle_files(&two_triangles(), &prefix).unwrap();
+        let names: Vec<String> = paths
+            .iter()
+            .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+            .collect();
+        assert_eq!(
+            names,
+            [
+                "square.1.node",
+                "square.1.ele",
+                "square.1.neigh",
+                "square.1.edge"
+            ]
+        );
+        let ele = std::fs::read_to_string(&paths[1]).unwrap();
+        assert_eq!(ele, text(&two_triangles(), |m, w| write_ele(m, w)));
+        std::fs::remove_dir_all(&dir).unwrap();
+        let missing =
+            write_triangle_files(&two_triangles(), &dir.join("no/such/dir/x")).unwrap_err();
+        assert!(missing.to_string().contains("x.node"), "{missing}");
+    }
+
+    /// Checks that the tags of `xml` (no text content, attributes without `<` or `>`) nest, and
+    /// returns the names of those left open.
+    fn open_tags(xml: &str) -> Vec<String> {
+        let mut open = Vec::new();
+        for piece in xml.split('<').skip(1) {
+            let (tag, _) = piece.split_once('>').expect("tag closed");
+            let name = tag
+                .trim_start_matches('/')
+                .split_whitespace()
+                .next()
+                .unwrap()
+                .trim_end_matches('/');
+            if tag.starts_with('?') || tag.starts_with('!') {
+                continue;
+            } else if tag.starts_with('/') {
+                assert_eq!(
+                    open.pop().as_deref(),
+                    Some(name),
+                    "</{name}> closes nothing"
+                );
+            } else if !tag.ends_with('/') {
+                open.push(name.to_string());
+            }
+        }
+        open
+    }
+
+    fn u64_at(bytes: &[u8], at: usize) -> u64 {
+        u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap())
+    }
+
+    #[test]
+    fn vtu_arrays_have_the_lengths_their_offsets_say() {
+        let mesh = four_triangles();
+        let mut out = Vec::new();
+        write_vtu(&mesh, &mut out).unwrap();
+        let start = b"<AppendedData encoding=\"raw\">\n   _";
+        let at = out.windows(start.len()).position(|w| w == start).unwrap() + start.len();
+        let header = std::str::from_utf8(&out[..at]).unwrap();
+        assert_eq!(open_tags(header), ["VTKFile", "AppendedData"]);
+        let tail = "\n  </AppendedData>\n</VTKFile>\n";
+        assert!(out.ends_with(tail.as_bytes()));
+        assert!(open_tags(&format!("<VTKFile><AppendedData>{tail}")).is_empty());
+        let offsets: Vec<usize> = header
+            .split("offset=\"")
+            .skip(1)
+            .map(|s| s.split('"').next().unwrap().parse().unwrap())
+            .collect();
+        let data = &out[at..out.len() - tail.len()];
+        // input_index, min_angle, points, connectivity, offsets, types.
+        let lengths = [5 * 8, 4 * 8, 5 * 24, 4 * 24, 4 * 8, 4];
+        let mut next = 0;
+        for (&offset, length) in offsets.iter().zip(lengths) {
+            assert_eq!(offset, next);
+            assert_eq!(u64_at(data, offset), length as u64);
+            next = offset + 8 + length;
+        }
+        assert_eq!(next, data.len());
+        let array = |k: usize, i: usize| u64_at(data, offsets[k] + 8 + 8 * i);
+        assert_eq!(array(0, 3) as i64, -1);
+        assert_eq!(array(0, 4), 0);
+        assert_eq!(f64::from_bits(array(1, 0)), 45.0);
+        assert_eq!(f64::from_bits(array(2, 12)), 0.5);
+        assert_eq!(f64::from_bits(array(2, 14)), 0.0);
+        assert_eq!(
+            (0..12).map(|i| array(3, i)).collect::<Vec<_>>(),
+            [0, 1, 4, 1, 2, 4, 2, 3, 4, 3, 0, 4]
+        );
+        assert_eq!(
+            (0..4).map(|i| array(4, i)).collect::<Vec<_>>(),
+            [3, 6, 9, 12]
+        );
+        assert_eq!(&data[offsets[5] + 8..], &[VTK_TRIANGLE; 4]);
+    }
+
+    /// The lines of `section` in an `.msh` text, without its `$` lines.
+    fn msh_section<'a>(msh: &'a str, section: &str) -> Vec<&'a str> {
+        let body = msh.split(&format!("${section}\n")).nth(1).unwrap();
+        let body = body.split(&format!("$End{section}\n")).next().unwrap();
+        body.lines().collect()
+    }
+
+    fn fields(line: &str) -> Vec<i64> {
+        line.split(' ').map(|f| f.parse().unwrap()).collect()
+    }
+
+    #[test]
+    fn msh_sections_count_and_tag_right() {
+        let mesh = four_triangles();
+        let msh = text(&mesh, |m, w| write_msh(m, w));
+        assert!(msh.starts_with("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"));
+        assert_eq!(msh_section(&msh, "PhysicalNames").len(), 6);
+        let entities = msh_section(&msh, "Entities");
+        assert_eq!(entities[0], "4 4 1 0");
+        assert_eq!(entities[5], "1 0 0 0 1 0 0 1 1 2 1 -2");
+        assert_eq!(entities[8], "4 0 0 0 0 1 0 1 4 2 4 -1");
+        assert_eq!(entities.len(), 10);
+        let nodes = msh_section(&msh, "Nodes");
+        assert_eq!(nodes[..2], ["1 5 1 5", "2 1 0 5"]);
+        assert_eq!(nodes[2..7], ["1", "2", "3", "4", "5"]);
+        assert_eq!(nodes[11], "0.5 0.5 0");
+        assert_eq!(nodes.len(), 12);
+        let elements = msh_section(&msh, "Elements");
+        assert_eq!(elements[0], "5 8 1 8");
+        let mut lines = elements[1..].iter();
+        let mut tag = 0;
+        for (side, expected) in [(1, [1, 2]), (2, [2, 3]), (3, [3, 4]), (4, [4, 1])] {
+            assert_eq!(fields(lines.next().unwrap()), [1, side, 1, 1]);
+            tag += 1;
+            assert_eq!(
+                fields(lines.next().unwrap()),
+                [tag, expected[0], expected[1]]
+            );
+        }
+        assert_eq!(fields(lines.next().unwrap()), [2, 1, 2, 4]);
+        for triangle in &mesh.triangles {
+            tag += 1;
+            let nodes = triangle.map(|v| i64::from(v) + 1);
+            assert_eq!(
+                fields(lines.next().unwrap()),
+                [tag, nodes[0], nodes[1], nodes[2]]
+            );
+        }
+        assert!(lines.next().is_none());
+    }
+
+    #[test]
+    fn msh_of_an_empty_mesh_has_empty_sections() {
+        let msh = text(&Mesh::default(), |m, w| write_msh(m, w));
+        assert_eq!(msh_section(&msh, "Nodes"), ["0 0 0 0"]);
+        assert_eq!(msh_section(&msh, "Elements"), ["0 0 0 0"]);
+    }
+
+    /// The segments of the path of an SVG picture, in SVG coordinates.
+    fn svg_path(svg: &str) -> Vec<[DVec2; 2]> {
+        let d = svg
+            .split(" d=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap();
+        d.lines()
+            .filter(|l| !l.is_empty())
+            .map(|line| {
+                let f: Vec<f64> = line[1..]
+                    .split(['L', ' '])
+                    .map(|f| f.parse().unwrap())
+                    .collect();
+                [DVec2::new(f[0], f[1]), DVec2::new(f[2], f[3])]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn svg_of_a_small_mesh_draws_it_all() {
+        let svg = text(&four_triangles(), |m, w| write_svg(m, w, 100));
+        assert!(
+            svg.starts_with("<svg ") && svg.ends_with("</svg>\n"),
+            "{svg}"
+        );
+        assert!(open_tags(&svg).is_empty());
+        assert_eq!(svg.matches("<circle").count(), 1);
+        assert!(svg.contains(r#"<circle cx="0.5" cy="-0.5""#), "{svg}");
+        // 8 edges, each once.
+        assert_eq!(svg_path(&svg).len(), 8);
+        assert!(!svg.contains("<!--"));
+    }
+
+    #[test]
+    fn svg_of_a_large_mesh_draws_a_window() {
+        let mesh = grid(100);
+        let svg = text(&mesh, |m, w| write_svg(m, w, 1000));
+        assert!(svg.starts_with("<svg ") && svg.ends_with("</svg>\n"));
+        assert!(open_tags(&svg).is_empty());
+        assert!(svg.contains("<!-- Part of the mesh: only the "), "{svg}");
+        let shown: usize = svg
+            .split("only the ")
+            .nth(1)
+            .unwrap()
+            .split(' ')
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert!((1000..1200).contains(&shown), "{shown}");
+        // Every drawn edge lies near the centre.
+        let near = |x: f64| (x - 50.0).abs() < 20.0;
+        for [a, b] in svg_path(&svg) {
+            assert!(
+                near(a.x) && near(b.x) && near(-a.y) && near(-b.y),
+                "{a} {b}"
+            );
+        }
+        let none = text(&mesh, |m, w| write_svg(m, w, 0));
+        assert!(none.contains("only the 0 triangles") && !none.contains("<path"));
+    }
+
+    /// Every writer's bytes for `mesh` on a rayon pool of `threads` threads.
+    fn all_bytes(mesh: &Mesh, threads: usize) -> Vec<Vec<u8>> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            type Writer = fn(&Mesh, &mut Vec<u8>) -> io::Result<()>;
+            let writers: [Writer; 8] = [
+                |m, w| write_node(m, w),
+                |m, w| write_ele(m, w),
+                |m, w| write_neigh(m, w),
+                |m, w| write_edge(m, w),
+                |m, w| write_vtu(m, w),
+                |m, w| write_msh(m, w),
+                |m, w| write_svg(m, w, 5000),
+                |m, w| write_svg(m, w, 100_000),
+            ];
+            writers
+                .iter()
+                .map(|write| {
+                    let mut out = Vec::new();
+                    write(mesh, &mut out).unwrap();
+                    out
+                })
+                .collect()
+        })
+    }
+
+    #[test]
+    fn bytes_do_not_depend_on_the_thread_count() {
+        let mesh = grid(100);
+        assert!(mesh.triangles.len() > 2 * BLOCK && mesh.vertices.len() > BLOCK);
+        assert_eq!(all_bytes(&mesh, 1), all_bytes(&mesh, 2));
+    }
+}

@@ -1,0 +1,157 @@
+//! The triangle mesh every meshing mode produces, its validity check and its quality report.
+
+mod validate;
+
+use std::time::Duration;
+
+use glam::DVec2;
+
+pub use validate::{AngleBounds, validate};
+
+/// Marks "no triangle" in [`Mesh::neighbours`] and "no input point" in [`Mesh::vertex_input`].
+pub const NONE: u32 = u32::MAX;
+
+/// An axis-parallel rectangle `[lo, hi]`, the region a mesh covers.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Domain {
+    /// Lower-left corner.
+    pub lo: DVec2,
+    /// Upper-right corner.
+    pub hi: DVec2,
+}
+
+impl Domain {
+    /// Area of the rectangle.
+    pub fn area(&self) -> f64 {
+        let d = self.hi - self.lo;
+        d.x * d.y
+    }
+}
+
+/// Which side of the domain a boundary edge lies on; the value is the edge's marker in the
+/// output files (Triangle's convention: 0 is interior, nonzero is boundary).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+#[repr(u8)]
+pub enum BoundarySide {
+    /// `y = lo.y`.
+    Bottom = 1,
+    /// `x = hi.x`.
+    Right = 2,
+    /// `y = hi.y`.
+    Top = 3,
+    /// `x = lo.x`.
+    Left = 4,
+}
+
+/// A triangle edge on the domain boundary, oriented counter-clockwise around the domain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct BoundaryEdge {
+    /// Its two vertices, the domain's interior on their left.
+    pub vertices: [u32; 2],
+    /// The side of the domain it lies on.
+    pub side: BoundarySide,
+}
+
+/// A conforming triangle mesh of a rectangular domain.
+///
+/// Every distinct input point is a vertex with its exact input coordinates; `vertex_input` says
+/// which. Triangles are counter-clockwise; `neighbours[t][i]` is the triangle across the edge
+/// opposite corner `i` of triangle `t` (the edge from corner `i + 1` to corner `i + 2`), or
+/// [`NONE`] on the boundary.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Mesh {
+    /// Vertex coordinates.
+    pub vertices: Vec<DVec2>,
+    /// Input index (0-based, file order) of each vertex, or [`NONE`] for a Steiner vertex.
+    /// Exact duplicates of a point are merged into its first occurrence.
+    pub vertex_input: Vec<u32>,
+    /// Vertex indices of each triangle, counter-clockwise.
+    pub triangles: Vec<[u32; 3]>,
+    /// The triangle across the edge opposite each corner, or [`NONE`].
+    pub neighbours: Vec<[u32; 3]>,
+    /// The edges on the domain boundary, counter-clockwise.
+    pub boundary: Vec<BoundaryEdge>,
+    /// The region the triangles cover exactly.
+    pub domain: Domain,
+}
+
+impl Default for Domain {
+    fn default() -> Self {
+        Domain {
+            lo: DVec2::ZERO,
+            hi: DVec2::ZERO,
+        }
+    }
+}
+
+/// Angles of a triangle in degrees, at its corners in order.
+pub fn angles_deg(a: DVec2, b: DVec2, c: DVec2) -> [f64; 3] {
+    let angle = |p: DVec2, q: DVec2, r: DVec2| {
+        let (u, v) = (q - p, r - p);
+        u.perp_dot(v).abs().atan2(u.dot(v)).to_degrees()
+    };
+    [angle(a, b, c), angle(b, c, a), angle(c, a, b)]
+}
+
+/// Counts, angles and timings of a mesh run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshReport {
+    /// Distinct input points meshed.
+    pub points: usize,
+    /// Exact duplicates merged into an earlier point.
+    pub duplicates: usize,
+    /// Vertices of the mesh.
+    pub vertices: usize,
+    /// Triangles of the mesh.
+    pub triangles: usize,
+    /// Smallest angle, degrees.
+    pub min_angle: f64,
+    /// Largest angle, degrees.
+    pub max_angle: f64,
+    /// Count of angles per 10° bin: `histogram[i]` counts angles in `[10 i, 10 (i + 1))`.
+    pub histogram: [u64; 18],
+    /// Wall-clock time of each stage.
+    pub stages: Vec<(&'static str, Duration)>,
+}
+
+impl MeshReport {
+    /// Counts and angle statistics of `mesh` (stage times empty).
+    pub fn of(mesh: &Mesh) -> MeshReport {
+        use rayon::prelude::*;
+        let identity = || (f64::INFINITY, f64::NEG_INFINITY, [0u64; 18]);
+        let (min_angle, max_angle, histogram) = mesh
+            .triangles
+            .par_iter()
+            .fold(identity, |(lo, hi, mut hist), t| {
+                let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
+                let angles = angles_deg(a, b, c);
+                for x in angles {
+                    hist[((x / 10.0) as usize).min(17)] += 1;
+                }
+                let (amin, amax) = (angles[0].min(angles[1]).min(angles[2]), angles[0].max(angles[1]).max(angles[2]));
+                (lo.min(amin), hi.max(amax), hist)
+            })
+            .reduce(identity, |a, b| {
+                let mut hist = a.2;
+                for (h, x) in hist.iter_mut().zip(b.2) {
+                    *h += x;
+                }
+                (a.0.min(b.0), a.1.max(b.1), hist)
+            });
+        MeshReport {
+            points: mesh.vertex_input.iter().filter(|&&i| i != NONE).count(),
+            duplicates: 0,
+            vertices: mesh.vertices.len(),
+            triangles: mesh.triangles.len(),
+            min_angle,
+            max_angle,
+            histogram,
+            stages: Vec::new(),
+        }
+    }
+
+    /// Sum of the stage times.
+    pub fn total(&self) -> Duration {
+        self.stages.iter().map(|(_, d)| *d).sum()
+    }
+}

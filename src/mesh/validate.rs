@@ -1,0 +1,978 @@
+//! The mesh validity check every test mesh goes through.
+//!
+//! Every check is exact (integer comparisons, bit patterns, an exact orientation predicate)
+//! except the area sum, which is compensated and compared with a relative tolerance, and the
+//! angle bounds, which allow 1e-9 degrees. Per-element checks run in parallel and report the
+//! lowest-indexed fault; edge and vertex checks sort, so the whole check is O(n log n).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use glam::DVec2;
+use rayon::prelude::*;
+use robust::{Coord, orient2d};
+
+use super::{BoundarySide, Domain, Mesh, NONE, angles_deg};
+
+/// The angle range a meshing mode guarantees, in degrees.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AngleBounds {
+    /// Every angle is at least this.
+    pub min_deg: f64,
+    /// Every angle is at most this.
+    pub max_deg: f64,
+}
+
+/// Slack on the angle bounds, degrees: `angles_deg` is itself rounded.
+const ANGLE_SLACK_DEG: f64 = 1e-9;
+
+/// Allowed relative difference between the summed triangle areas and the domain's area.
+const AREA_REL_TOL: f64 = 1e-9;
+
+/// Checks `mesh` against the input `points` it was made from; returns the first fault found.
+///
+/// In order: sizes and indices, strict counter-clockwise orientation (exact), distinct vertices,
+/// edge manifold and neighbours, boundary edges against `mesh.boundary` and the domain's sides,
+/// total area against the domain's, conformity to `points`, and the angle bounds.
+pub fn validate(mesh: &Mesh, points: &[DVec2], bounds: AngleBounds) -> Result<(), String> {
+    check_sizes(mesh)?;
+    check_orientation(mesh)?;
+    let by_position = sorted_by_position(&mesh.vertices);
+    check_distinct(&by_position)?;
+    let single = check_edges(mesh)?;
+    check_boundary(mesh, &single)?;
+    drop(single);
+    check_area(mesh)?;
+    check_conformity(mesh, points, &by_position)?;
+    check_angles(mesh, bounds)
+}
+
+impl Mesh {
+    /// Checks indices, orientation, edge manifold and neighbours, boundary, area sum, conformity
+    /// to `points` and the angle bounds; see [`validate`].
+    pub fn validate(&self, points: &[DVec2], bounds: AngleBounds) -> Result<(), String> {
+        validate(self, points, bounds)
+    }
+}
+
+/// The message of the lowest `i < n` for which `fault` gives one.
+fn first_fault<F>(n: usize, fault: F) -> Result<(), String>
+where
+    F: Fn(usize) -> Option<String> + Sync + Send,
+{
+    match (0..n).into_par_iter().find_map_first(fault) {
+        Some(message) => Err(message),
+        None => Ok(()),
+    }
+}
+
+/// A point with every digit needed to tell it apart from its neighbours in f64.
+fn pt(p: DVec2) -> String {
+    format!("({}, {})", p.x, p.y)
+}
+
+/// The corners of triangle `t`'s edge opposite corner `i`, in the triangle's direction.
+fn edge(tri: [u32; 3], i: usize) -> (u32, u32) {
+    (tri[(i + 1) % 3], tri[(i + 2) % 3])
+}
+
+fn directed_key(a: u32, b: u32) -> u64 {
+    (u64::from(a) << 32) | u64::from(b)
+}
+
+fn key_vertices(key: u64) -> (u32, u32) {
+    ((key >> 32) as u32, key as u32)
+}
+
+// ---------------------------------------------------------------------------------------------
+// 1. Sizes and indices
+
+fn check_sizes(mesh: &Mesh) -> Result<(), String> {
+    let (nv, nt) = (mesh.vertices.len(), mesh.triangles.len());
+    if mesh.vertex_input.len() != nv {
+        return Err(format!(
+            "vertex_input has {} entries for {nv} vertices",
+            mesh.vertex_input.len()
+        ));
+    }
+    if mesh.neighbours.len() != nt {
+        return Err(format!(
+            "neighbours has {} entries for {nt} triangles",
+            mesh.neighbours.len()
+        ));
+    }
+    if nt == 0 {
+        return Err("the mesh has no triangles".to_string());
+    }
+    // NONE must never be a real index.
+    if nv >= NONE as usize || nt >= NONE as usize {
+        return Err(format!(
+            "{nv} vertices or {nt} triangles do not fit u32 indices"
+        ));
+    }
+    check_domain(&mesh.domain)?;
+    first_fault(nv, |v| {
+        let p = mesh.vertices[v];
+        (!p.is_finite()).then(|| format!("vertex {v} has a non-finite coordinate {}", pt(p)))
+    })?;
+    first_fault(nt, |t| triangle_index_fault(mesh, t))
+}
+
+fn check_domain(d: &Domain) -> Result<(), String> {
+    if d.lo.is_finite() && d.hi.is_finite() && d.lo.x < d.hi.x && d.lo.y < d.hi.y {
+        Ok(())
+    } else {
+        Err(format!(
+            "the domain {} to {} is not a finite non-empty rectangle",
+            pt(d.lo),
+            pt(d.hi)
+        ))
+    }
+}
+
+fn triangle_index_fault(mesh: &Mesh, t: usize) -> Option<String> {
+    let (nv, nt) = (mesh.vertices.len(), mesh.triangles.len());
+    let tri = mesh.triangles[t];
+    if let Some(&v) = tri.iter().find(|&&v| v as usize >= nv) {
+        return Some(format!(
+            "triangle {t} {tri:?}: vertex index {v} out of range ({nv} vertices)"
+        ));
+    }
+    if tri[0] == tri[1] || tri[1] == tri[2] || tri[2] == tri[0] {
+        return Some(format!("triangle {t} {tri:?} repeats a vertex"));
+    }
+    let nb = mesh.neighbours[t];
+    nb.iter()
+        .find(|&&n| n != NONE && n as usize >= nt)
+        .map(|&n| {
+            format!(
+                "triangle {t} neighbours {nb:?}: triangle index {n} out of range ({nt} triangles)"
+            )
+        })
+}
+
+// ---------------------------------------------------------------------------------------------
+// 2. Orientation
+
+fn check_orientation(mesh: &Mesh) -> Result<(), String> {
+    first_fault(mesh.triangles.len(), |t| {
+        let tri = mesh.triangles[t];
+        let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+        let coord = |p: DVec2| Coord { x: p.x, y: p.y };
+        let det = orient2d(coord(a), coord(b), coord(c));
+        (det <= 0.0).then(|| {
+            let how = if det == 0.0 {
+                "degenerate"
+            } else {
+                "clockwise"
+            };
+            format!(
+                "triangle {t} {tri:?} is {how}, not counter-clockwise: {} {} {} (orient2d {det})",
+                pt(a),
+                pt(b),
+                pt(c)
+            )
+        })
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// 3. Distinct vertices
+
+/// Bits of a coordinate with -0.0 taken as 0.0, so equal values have equal bits.
+fn value_bits(x: f64) -> u64 {
+    if x == 0.0 { 0 } else { x.to_bits() }
+}
+
+fn position_key(p: DVec2) -> (u64, u64) {
+    (value_bits(p.x), value_bits(p.y))
+}
+
+/// `(position key, vertex)` sorted, for the distinctness check and point look-ups.
+fn sorted_by_position(vertices: &[DVec2]) -> Vec<((u64, u64), u32)> {
+    let mut keys: Vec<_> = vertices
+        .par_iter()
+        .enumerate()
+        .map(|(v, &p)| (position_key(p), v as u32))
+        .collect();
+    keys.par_sort_unstable();
+    keys
+}
+
+fn check_distinct(by_position: &[((u64, u64), u32)]) -> Result<(), String> {
+    let n = by_position.len().saturating_sub(1);
+    first_fault(n, |k| {
+        let ((key, u), (next, v)) = (by_position[k], by_position[k + 1]);
+        (key == next).then(|| {
+            let p = DVec2::new(f64::from_bits(key.0), f64::from_bits(key.1));
+            format!("vertices {u} and {v} are both at {}", pt(p))
+        })
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// 4. Edge manifold and neighbours
+
+/// `(undirected key, 3 t + i)` for every corner `i` of every triangle `t`, sorted.
+fn sorted_half_edges(mesh: &Mesh) -> Vec<(u64, u64)> {
+    let mut edges = vec![(0u64, 0u64); 3 * mesh.triangles.len()];
+    edges
+        .par_chunks_mut(3)
+        .zip(mesh.triangles.par_iter())
+        .enumerate()
+        .for_each(|(t, (out, &tri))| {
+            for (i, slot) in out.iter_mut().enumerate() {
+                let (a, b) = edge(tri, i);
+                *slot = (directed_key(a.min(b), a.max(b)), (3 * t + i) as u64);
+            }
+        });
+    edges.par_sort_unstable();
+    edges
+}
+
+fn half_edge(h: u64) -> (usize, usize) {
+    ((h / 3) as usize, (h % 3) as usize)
+}
+
+/// Checks that every edge has one or two (opposite) triangles and that `neighbours` says so;
+/// returns the edges with one triangle as sorted `(directed key, triangle)`.
+fn check_edges(mesh: &Mesh) -> Result<Vec<(u64, usize)>, String> {
+    let edges = sorted_half_edges(mesh);
+    let runs = || edges.par_chunk_by(|a, b| a.0 == b.0);
+    if let Some(message) = runs().find_map_first(|run| run_fault(mesh, run)) {
+        return Err(message);
+    }
+    let mut single: Vec<(u64, usize)> = runs()
+        .filter(|run| run.len() == 1)
+        .map(|run| {
+            let (t, i) = half_edge(run[0].1);
+            let (a, b) = edge(mesh.triangles[t], i);
+            (directed_key(a, b), t)
+        })
+        .collect();
+    single.par_sort_unstable();
+    Ok(single)
+}
+
+/// The fault, if any, of the triangles sharing one undirected edge.
+fn run_fault(mesh: &Mesh, run: &[(u64, u64)]) -> Option<String> {
+    let (lo, hi) = key_vertices(run[0].0);
+    match run {
+        [(_, h)] => {
+            let (t, i) = half_edge(*h);
+            let nb = mesh.neighbours[t][i];
+            (nb != NONE).then(|| {
+                format!(
+                    "triangle {t} {:?}: edge {lo}-{hi} (opposite corner {i}) has no other \
+                     triangle, but its neighbour there is {nb}",
+                    mesh.triangles[t]
+                )
+            })
+        }
+        [(_, h1), (_, h2)] => pair_fault(mesh, half_edge(*h1), half_edge(*h2)),
+        _ => {
+            let ts: Vec<usize> = run.iter().map(|&(_, h)| half_edge(h).0).collect();
+            Some(format!(
+                "edge {lo}-{hi} is used by {} triangles {ts:?}",
+                ts.len()
+            ))
+        }
+    }
+}
+
+fn pair_fault(mesh: &Mesh, (t, i): (usize, usize), (u, j): (usize, usize)) -> Option<String> {
+    let (a, b) = edge(mesh.triangles[t], i);
+    if edge(mesh.triangles[u], j) == (a, b) {
+        return Some(format!(
+            "edge {a}->{b} is used in the same direction by triangles {t} {:?} and {u} {:?}",
+            mesh.triangles[t], mesh.triangles[u]
+        ));
+    }
+    for ((x, k), y) in [((t, i), u), ((u, j), t)] {
+        let nb = mesh.neighbours[x][k];
+        if nb as usize != y {
+            return Some(format!(
+                "triangle {x}: neighbour opposite corner {k} (edge {a}-{b}) is {}, expected {y}",
+                shown(nb)
+            ));
+        }
+    }
+    None
+}
+
+fn shown(index: u32) -> String {
+    if index == NONE {
+        "NONE".to_string()
+    } else {
+        index.to_string()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// 5. Boundary
+
+fn on_side(d: &Domain, side: BoundarySide, p: DVec2) -> bool {
+    let within_x = d.lo.x <= p.x && p.x <= d.hi.x;
+    let within_y = d.lo.y <= p.y && p.y <= d.hi.y;
+    match side {
+        BoundarySide::Bottom => p.y == d.lo.y && within_x,
+        BoundarySide::Right => p.x == d.hi.x && within_y,
+        BoundarySide::Top => p.y == d.hi.y && within_x,
+        BoundarySide::Left => p.x == d.lo.x && within_y,
+    }
+}
+
+fn boundary_entry_fault(mesh: &Mesh, e: usize) -> Option<String> {
+    let be = mesh.boundary[e];
+    let nv = mesh.vertices.len();
+    if let Some(&v) = be.vertices.iter().find(|&&v| v as usize >= nv) {
+        return Some(format!(
+            "boundary edge {e} {be:?}: vertex index {v} out of range ({nv} vertices)"
+        ));
+    }
+    let [a, b] = be.vertices;
+    let (p, q) = (mesh.vertices[a as usize], mesh.vertices[b as usize]);
+    let d = &mesh.domain;
+    (!on_side(d, be.side, p) || !on_side(d, be.side, q)).then(|| {
+        format!(
+            "boundary edge {e} {a}->{b} at {} {} is not on the {:?} side of the domain {} to {}",
+            pt(p),
+            pt(q),
+            be.side,
+            pt(d.lo),
+            pt(d.hi)
+        )
+    })
+}
+
+fn check_boundary(mesh: &Mesh, single: &[(u64, usize)]) -> Result<(), String> {
+    first_fault(mesh.boundary.len(), |e| boundary_entry_fault(mesh, e))?;
+    let mut listed: Vec<(u64, usize)> = mesh
+        .boundary
+        .par_iter()
+        .enumerate()
+        .map(|(e, be)| (directed_key(be.vertices[0], be.vertices[1]), e))
+        .collect();
+    listed.par_sort_unstable();
+    first_fault(listed.len().saturating_sub(1), |k| {
+        (listed[k].0 == listed[k + 1].0).then(|| {
+            let (a, b) = key_vertices(listed[k].0);
+            format!(
+                "boundary edges {} and {} are both {a}->{b}",
+                listed[k].1,
+                listed[k + 1].1
+            )
+        })
+    })?;
+    compare_boundary(mesh, single, &listed)?;
+    let d = mesh.domain;
+    first_fault(mesh.vertices.len(), |v| {
+        let p = mesh.vertices[v];
+        let inside = d.lo.x <= p.x && p.x <= d.hi.x && d.lo.y <= p.y && p.y <= d.hi.y;
+        (!inside).then(|| {
+            format!(
+                "vertex {v} at {} is outside the domain {} to {}",
+                pt(p),
+                pt(d.lo),
+                pt(d.hi)
+            )
+        })
+    })
+}
+
+/// Both lists sorted and free of repeats: equal as sets iff equal elementwise. At the first
+/// difference the smaller key is missing from the other list.
+fn compare_boundary(
+    mesh: &Mesh,
+    single: &[(u64, usize)],
+    listed: &[(u64, usize)],
+) -> Result<(), String> {
+    let common = single.len().min(listed.len());
+    let k = (0..common)
+        .into_par_iter()
+        .find_first(|&k| single[k].0 != listed[k].0)
+        .unwrap_or(common);
+    if k == single.len() && k == listed.len() {
+        return Ok(());
+    }
+    if k < single.len() && (k == listed.len() || single[k].0 < listed[k].0) {
+        let ((a, b), t) = (key_vertices(single[k].0), single[k].1);
+        return Err(format!(
+            "edge {a}->{b} of triangle {t} {:?} has no other triangle but is not in the boundary \
+             list (a hole, a T-junction or a missing boundary edge)",
+            mesh.triangles[t]
+        ));
+    }
+    let ((a, b), e) = (key_vertices(listed[k].0), listed[k].1);
+    Err(format!(
+        "boundary edge {e} {a}->{b} is not an edge with exactly one triangle, the interior on its left"
+    ))
+}
+
+// ---------------------------------------------------------------------------------------------
+// 6. Area
+
+/// A Neumaier compensated sum.
+#[derive(Clone, Copy, Default)]
+struct Sum {
+    hi: f64,
+    lo: f64,
+}
+
+impl Sum {
+    fn add(self, x: f64) -> Sum {
+        let s = self.hi + x;
+        let err = if self.hi.abs() >= x.abs() {
+            (self.hi - s) + x
+        } else {
+            (x - s) + self.hi
+        };
+        Sum {
+            hi: s,
+            lo: self.lo + err,
+        }
+    }
+
+    fn merge(self, other: Sum) -> Sum {
+        let s = self.add(other.hi);
+        Sum {
+            hi: s.hi,
+            lo: s.lo + other.lo,
+        }
+    }
+
+    fn value(self) -> f64 {
+        self.hi + self.lo
+    }
+}
+
+fn check_area(mesh: &Mesh) -> Result<(), String> {
+    let total = mesh
+        .triangles
+        .par_iter()
+        .fold(Sum::default, |s, tri| {
+            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+            s.add(0.5 * (b - a).perp_dot(c - a))
+        })
+        .reduce(Sum::default, Sum::merge)
+        .value();
+    let want = mesh.domain.area();
+    let rel = (total - want).abs() / want;
+    if rel <= AREA_REL_TOL {
+        Ok(())
+    } else {
+        Err(format!(
+            "triangle areas sum to {total}, the domain's area is {want} (relative difference {rel:e})"
+        ))
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// 7. Conformity
+
+fn check_conformity(
+    mesh: &Mesh,
+    points: &[DVec2],
+    by_position: &[((u64, u64), u32)],
+) -> Result<(), String> {
+    first_fault(mesh.vertices.len(), |v| input_vertex_fault(mesh, points, v))?;
+    check_inputs_once(mesh)?;
+    check_inputs_used(mesh)?;
+    // A mapped point is at its vertex bit for bit by now; only the others need a look-up.
+    let mapped: Vec<AtomicBool> = (0..points.len()).map(|_| AtomicBool::new(false)).collect();
+    mesh.vertex_input
+        .par_iter()
+        .filter(|&&i| i != NONE)
+        .for_each(|&i| mapped[i as usize].store(true, Ordering::Relaxed));
+    first_fault(points.len(), |j| {
+        let unmapped = !mapped[j].load(Ordering::Relaxed);
+        unmapped
+            .then(|| point_fault(mesh, points, by_position, j))
+            .flatten()
+    })
+}
+
+fn input_vertex_fault(mesh: &Mesh, points: &[DVec2], v: usize) -> Option<String> {
+    let i = mesh.vertex_input[v];
+    if i == NONE {
+        return None;
+    }
+    let p = mesh.vertices[v];
+    let Some(&q) = points.get(i as usize) else {
+        return Some(format!(
+            "vertex {v} is input point {i}, out of range ({} points)",
+            points.len()
+        ));
+    };
+    let same = p.x.to_bits() == q.x.to_bits() && p.y.to_bits() == q.y.to_bits();
+    (!same).then(|| {
+        format!(
+            "vertex {v} at {} is input point {i}, but that point is {} (bits {:#x} {:#x} vs {:#x} {:#x})",
+            pt(p),
+            pt(q),
+            p.x.to_bits(),
+            p.y.to_bits(),
+            q.x.to_bits(),
+            q.y.to_bits()
+        )
+    })
+}
+
+fn check_inputs_once(mesh: &Mesh) -> Result<(), String> {
+    let mut owners: Vec<(u32, u32)> = mesh
+        .vertex_input
+        .par_iter()
+        .enumerate()
+        .filter(|&(_, &i)| i != NONE)
+        .map(|(v, &i)| (i, v as u32))
+        .collect();
+    owners.par_sort_unstable();
+    first_fault(owners.len().saturating_sub(1), |k| {
+        let ((i, u), (j, v)) = (owners[k], owners[k + 1]);
+        (i == j).then(|| format!("input point {i} is both vertex {u} and vertex {v}"))
+    })
+}
+
+/// An input vertex no triangle uses would lie inside a triangle or on an edge.
+fn check_inputs_used(mesh: &Mesh) -> Result<(), String> {
+    let used: Vec<AtomicBool> = (0..mesh.vertices.len())
+        .map(|_| AtomicBool::new(false))
+        .collect();
+    mesh.triangles.par_iter().for_each(|tri| {
+        for &v in tri {
+            used[v as usize].store(true, Ordering::Relaxed);
+        }
+    });
+    first_fault(mesh.vertices.len(), |v| {
+        let i = mesh.vertex_input[v];
+        (i != NONE && !used[v].load(Ordering::Relaxed)).then(|| {
+            format!(
+                "vertex {v}, input point {i} at {}, is in no triangle",
+                pt(mesh.vertices[v])
+            )
+        })
+    })
+}
+
+/// Input point `j` must be at an input vertex whose point is `j` or an earlier exact duplicate.
+/// Duplicates are merged by value, so a later `-0.0` copy of a `0.0` point matches by value.
+fn point_fault(
+    mesh: &Mesh,
+    points: &[DVec2],
+    by_position: &[((u64, u64), u32)],
+    j: usize,
+) -> Option<String> {
+    let q = points[j];
+    let found = by_position.binary_search_by_key(&position_key(q), |&(key, _)| key);
+    let Ok(k) = found else {
+        return Some(format!("input point {j} at {} is not a vertex", pt(q)));
+    };
+    let v = by_position[k].1;
+    let i = mesh.vertex_input[v as usize];
+    if i == NONE {
+        return Some(format!(
+            "input point {j} at {} is vertex {v}, which is marked as a Steiner vertex",
+            pt(q)
+        ));
+    }
+    (i as usize > j).then(|| {
+        format!(
+            "input point {j} at {} is vertex {v}, which belongs to the later input point {i} \
+             (a duplicate must map to its first occurrence)",
+            pt(q)
+        )
+    })
+}
+
+// ---------------------------------------------------------------------------------------------
+// 8. Angles
+
+fn check_angles(mesh: &Mesh, bounds: AngleBounds) -> Result<(), String> {
+    let (lo, hi) = (
+        bounds.min_deg - ANGLE_SLACK_DEG,
+        bounds.max_deg + ANGLE_SLACK_DEG,
+    );
+    first_fault(mesh.triangles.len(), |t| {
+        let tri = mesh.triangles[t];
+        let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+        let angles = angles_deg(a, b, c);
+        let bad = angles.iter().any(|x| !(lo..=hi).contains(x));
+        bad.then(|| {
+            format!(
+                "triangle {t} {tri:?} at {} {} {} has angles {angles:?} degrees, outside [{}, {}]",
+                pt(a),
+                pt(b),
+                pt(c),
+                bounds.min_deg,
+                bounds.max_deg
+            )
+        })
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::BoundaryEdge;
+    use BoundarySide::{Bottom, Left, Right, Top};
+
+    const LOOSE: AngleBounds = AngleBounds {
+        min_deg: 20.0,
+        max_deg: 120.0,
+    };
+
+    fn unit_domain() -> Domain {
+        Domain {
+            lo: DVec2::ZERO,
+            hi: DVec2::ONE,
+        }
+    }
+
+    fn be(a: u32, b: u32, side: BoundarySide) -> BoundaryEdge {
+        BoundaryEdge {
+            vertices: [a, b],
+            side,
+        }
+    }
+
+    fn corners() -> Vec<DVec2> {
+        vec![
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(1.0, 1.0),
+            DVec2::new(0.0, 1.0),
+        ]
+    }
+
+    fn square_boundary() -> Vec<BoundaryEdge> {
+        vec![
+            be(0, 1, Bottom),
+            be(1, 2, Right),
+            be(2, 3, Top),
+            be(3, 0, Left),
+        ]
+    }
+
+    /// The unit square split along its diagonal 0-2.
+    fn square() -> (Mesh, Vec<DVec2>) {
+        let mesh = Mesh {
+            vertices: corners(),
+            vertex_input: vec![0, 1, 2, 3],
+            triangles: vec![[0, 1, 2], [0, 2, 3]],
+            neighbours: vec![[NONE, 1, NONE], [NONE, NONE, 0]],
+            boundary: square_boundary(),
+            domain: unit_domain(),
+        };
+        (mesh, corners())
+    }
+
+    /// The unit square as a fan of four triangles around its centre, vertex 4 = input point 4.
+    fn fan() -> (Mesh, Vec<DVec2>) {
+        let mut vertices = corners();
+        vertices.push(DVec2::splat(0.5));
+        let mesh = Mesh {
+            vertex_input: vec![0, 1, 2, 3, 4],
+            triangles: vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]],
+            neighbours: vec![[1, 3, NONE], [2, 0, NONE], [3, 1, NONE], [0, 2, NONE]],
+            boundary: square_boundary(),
+            domain: unit_domain(),
+            vertices: vertices.clone(),
+        };
+        (mesh, vertices)
+    }
+
+    fn fails(mesh: &Mesh, points: &[DVec2], bounds: AngleBounds, words: &[&str]) {
+        let err = validate(mesh, points, bounds).expect_err("an invalid mesh");
+        for w in words {
+            assert!(err.contains(w), "{err:?} should mention {w:?}");
+        }
+    }
+
+    #[test]
+    fn valid_meshes_pass() {
+        let (mesh, points) = square();
+        assert_eq!(mesh.validate(&points, LOOSE), Ok(()));
+        let (mesh, points) = fan();
+        assert_eq!(validate(&mesh, &points, LOOSE), Ok(()));
+    }
+
+    #[test]
+    fn duplicate_input_points_map_to_the_first() {
+        let (mesh, mut points) = square();
+        points.push(points[2]);
+        points.push(DVec2::new(-0.0, 0.0));
+        assert_eq!(validate(&mesh, &points, LOOSE), Ok(()));
+        // A vertex naming the later copy is a fault.
+        let mut later = mesh.clone();
+        later.vertex_input[2] = 4;
+        fails(
+            &later,
+            &points,
+            LOOSE,
+            &["input point 2", "later input point 4"],
+        );
+    }
+
+    #[test]
+    fn index_out_of_range() {
+        let (mut mesh, points) = square();
+        mesh.triangles[1] = [0, 2, 7];
+        fails(&mesh, &points, LOOSE, &["triangle 1", "7 out of range"]);
+        let (mut mesh, points) = square();
+        mesh.neighbours[0][1] = 2;
+        fails(&mesh, &points, LOOSE, &["triangle 0", "2 out of range"]);
+    }
+
+    #[test]
+    fn sizes() {
+        let (mut mesh, points) = square();
+        mesh.vertex_input.pop();
+        fails(&mesh, &points, LOOSE, &["vertex_input"]);
+        let (mut mesh, points) = square();
+        mesh.triangles[0] = [0, 1, 1];
+        fails(&mesh, &points, LOOSE, &["repeats a vertex"]);
+        let (mut mesh, points) = square();
+        mesh.triangles.clear();
+        mesh.neighbours.clear();
+        fails(&mesh, &points, LOOSE, &["no triangles"]);
+    }
+
+    #[test]
+    fn clockwise_triangle() {
+        let (mut mesh, points) = square();
+        mesh.triangles[0] = [0, 2, 1];
+        fails(&mesh, &points, LOOSE, &["triangle 0", "clockwise"]);
+    }
+
+    #[test]
+    fn duplicate_vertex() {
+        let (mut mesh, points) = square();
+        mesh.vertices.push(DVec2::new(1.0, 1.0));
+        mesh.vertex_input.push(NONE);
+        fails(&mesh, &points, LOOSE, &["vertices 2 and 4", "(1, 1)"]);
+    }
+
+    #[test]
+    fn wrong_neighbour() {
+        let (mut mesh, points) = square();
+        mesh.neighbours[1] = [NONE, NONE, NONE];
+        fails(
+            &mesh,
+            &points,
+            LOOSE,
+            &["triangle 1", "neighbour", "NONE, expected 0"],
+        );
+        let (mut mesh, points) = square();
+        mesh.neighbours[0][0] = 1;
+        fails(&mesh, &points, LOOSE, &["triangle 0", "no other triangle"]);
+    }
+
+    #[test]
+    fn edge_used_in_the_same_direction() {
+        let (mut mesh, points) = square();
+        // Triangle 1 folded over triangle 0: its edge 2->0 runs the same way as 0's.
+        mesh.vertices[3] = DVec2::new(1.0, -1.0);
+        mesh.triangles[1] = [2, 0, 3];
+        fails(
+            &mesh,
+            &points,
+            LOOSE,
+            &["same direction", "triangles 0", "and 1"],
+        );
+    }
+
+    #[test]
+    fn missing_boundary_edge() {
+        let (mut mesh, points) = square();
+        mesh.boundary.pop();
+        fails(
+            &mesh,
+            &points,
+            LOOSE,
+            &["edge 3->0", "triangle 1", "not in the boundary list"],
+        );
+    }
+
+    #[test]
+    fn boundary_edge_on_the_wrong_side() {
+        let (mut mesh, points) = square();
+        mesh.boundary[1].side = Left;
+        fails(&mesh, &points, LOOSE, &["boundary edge 1", "Left"]);
+    }
+
+    #[test]
+    fn t_junction() {
+        // The lower triangle split at the diagonal's midpoint, which lies on the upper
+        // triangle's edge 0-2: that edge has one triangle yet is not on the boundary.
+        let (mut mesh, mut points) = square();
+        mesh.vertices.push(DVec2::splat(0.5));
+        mesh.vertex_input.push(4);
+        points.push(DVec2::splat(0.5));
+        mesh.triangles = vec![[0, 1, 4], [4, 1, 2], [0, 2, 3]];
+        mesh.neighbours = vec![[1, NONE, NONE], [NONE, NONE, 0], [NONE, NONE, NONE]];
+        fails(
+            &mesh,
+            &points,
+            LOOSE,
+            &["edge 0->2", "triangle 2", "not in the boundary list"],
+        );
+    }
+
+    #[test]
+    fn hole() {
+        let (mut mesh, points) = fan();
+        mesh.triangles.pop();
+        mesh.neighbours.pop();
+        mesh.neighbours[0][1] = NONE;
+        mesh.neighbours[2][0] = NONE;
+        // The boundary and edge checks see it first; the area check on its own as well.
+        // Edge 3->0 lost its triangle; the sorted comparison meets it before the hole's rim.
+        fails(
+            &mesh,
+            &points,
+            LOOSE,
+            &["boundary edge 3 3->0", "exactly one triangle"],
+        );
+        let err = check_area(&mesh).expect_err("three quarters of the area");
+        assert!(err.contains("sum to 0.75"), "{err}");
+        assert!(err.contains("area is 1"), "{err}");
+    }
+
+    #[test]
+    fn input_point_moved_by_one_ulp() {
+        let (mesh, mut points) = fan();
+        points[4].x = f64::from_bits(points[4].x.to_bits() + 1);
+        fails(
+            &mesh,
+            &points,
+            LOOSE,
+            &["vertex 4", "input point 4", "0.5000000000000001"],
+        );
+    }
+
+    #[test]
+    fn input_point_missing_or_steiner() {
+        let (mesh, mut points) = square();
+        points.push(DVec2::new(0.25, 0.5));
+        fails(&mesh, &points, LOOSE, &["input point 4", "not a vertex"]);
+        let (mut mesh, points) = fan();
+        mesh.vertex_input[4] = NONE;
+        fails(&mesh, &points, LOOSE, &["input point 4", "Steiner"]);
+        let (mut mesh, points) = fan();
+        mesh.vertex_input[4] = 2;
+        fails(&mesh, &points, LOOSE, &["vertex 4", "input point 2"]);
+    }
+
+    #[test]
+    fn unused_input_vertex() {
+        let (mut mesh, mut points) = square();
+        mesh.vertices.push(DVec2::new(0.75, 0.25));
+        mesh.vertex_input.push(4);
+        points.push(DVec2::new(0.75, 0.25));
+        fails(&mesh, &points, LOOSE, &["vertex 4", "in no triangle"]);
+    }
+
+    #[test]
+    fn angle_out_of_bounds() {
+        let (mesh, points) = square();
+        let tight = AngleBounds {
+            min_deg: 50.0,
+            max_deg: 90.0,
+        };
+        fails(
+            &mesh,
+            &points,
+            tight,
+            &["triangle 0", "[0, 1, 2]", "angles", "[50, 90]"],
+        );
+        let exact = AngleBounds {
+            min_deg: 45.0,
+            max_deg: 90.0,
+        };
+        assert_eq!(validate(&mesh, &points, exact), Ok(()));
+    }
+
+    #[test]
+    fn vertex_outside_the_domain() {
+        let (mut mesh, points) = square();
+        mesh.domain.hi.x = 2.0;
+        fails(&mesh, &points, LOOSE, &["boundary edge 1", "Right"]);
+    }
+
+    /// An `n` by `n` grid of unit squares, each split along its rising diagonal.
+    fn grid(n: u32) -> (Mesh, Vec<DVec2>) {
+        let at = |i: u32, j: u32| j * (n + 1) + i;
+        let vertices: Vec<DVec2> = (0..=n)
+            .flat_map(|j| (0..=n).map(move |i| DVec2::new(f64::from(i), f64::from(j))))
+            .collect();
+        let cell = |i: u32, j: u32| j * n + i;
+        let (mut triangles, mut neighbours) = (Vec::new(), Vec::new());
+        for j in 0..n {
+            for i in 0..n {
+                let c = cell(i, j);
+                let [right, below] = [(i + 1 < n, c + 1), (j > 0, c.wrapping_sub(n))];
+                let [above, left] = [(j + 1 < n, c + n), (i > 0, c.wrapping_sub(1))];
+                let lower = |(ok, d): (bool, u32)| if ok { 2 * d } else { NONE };
+                let upper = |(ok, d): (bool, u32)| if ok { 2 * d + 1 } else { NONE };
+                triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+                neighbours.push([upper(right), 2 * c + 1, upper(below)]);
+                triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+                neighbours.push([lower(above), lower(left), 2 * c]);
+            }
+        }
+        let mut boundary = Vec::new();
+        for k in 0..n {
+            boundary.push(be(at(k, 0), at(k + 1, 0), Bottom));
+            boundary.push(be(at(n, k), at(n, k + 1), Right));
+            boundary.push(be(at(k + 1, n), at(k, n), Top));
+            boundary.push(be(at(0, k + 1), at(0, k), Left));
+        }
+        let mesh = Mesh {
+            vertex_input: (0..vertices.len() as u32).collect(),
+            triangles,
+            neighbours,
+            boundary,
+            domain: Domain {
+                lo: DVec2::ZERO,
+                hi: DVec2::splat(f64::from(n)),
+            },
+            vertices: vertices.clone(),
+        };
+        (mesh, vertices)
+    }
+
+    #[test]
+    fn grid_passes_and_reports_a_swapped_neighbour() {
+        let (mut mesh, points) = grid(40);
+        assert_eq!(validate(&mesh, &points, LOOSE), Ok(()));
+        mesh.neighbours[1001].swap(0, 1);
+        fails(&mesh, &points, LOOSE, &["triangle 1001"]);
+    }
+
+    /// Timing on a large mesh: `QUADMESH_VALIDATE_N=4000 cargo test --release -- --ignored`.
+    #[test]
+    #[ignore]
+    fn large_grid_timing() {
+        let n = std::env::var("QUADMESH_VALIDATE_N").map_or(2000, |s| s.parse().unwrap());
+        let (mesh, points) = grid(n);
+        let start = std::time::Instant::now();
+        assert_eq!(validate(&mesh, &points, LOOSE), Ok(()));
+        println!(
+            "{} triangles validated in {:?}",
+            mesh.triangles.len(),
+            start.elapsed()
+        );
+    }
+
+    #[test]
+    fn compensated_sum_keeps_small_terms() {
+        let s = [1e16, 1.0, -1e16, 1.0]
+            .iter()
+            .fold(Sum::default(), |s, &x| s.add(x));
+        assert_eq!(s.value(), 2.0);
+        let (a, b) = (
+            Sum::default().add(1e16).add(1.0),
+            Sum::default().add(-1e16).add(1.0),
+        );
+        assert_eq!(a.merge(b).value(), 2.0);
+    }
+}

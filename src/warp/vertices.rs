@@ -1,0 +1,326 @@
+//! Leaf geometry and the vertex numbering: each mesh vertex is owned by exactly one leaf, found
+//! from that leaf's links alone, and numbered by a prefix sum over the leaves in Morton order.
+//!
+//! A leaf owns its lower-left corner, the midpoints of its south and west sides when those are
+//! split, its centre when it carries two or more midpoints, and the corners on the root's top
+//! and right sides that no leaf beyond could own. Every other corner or midpoint of a leaf is
+//! the lower-left corner or a south/west midpoint of a neighbour, reached through one or two
+//! links.
+
+use glam::DVec2;
+
+use crate::balance::{BalancedTree, Links};
+use crate::error::Error;
+use crate::mesh::NONE;
+use crate::morton::{Grid, MortonKey, Side};
+use crate::par::{collect_segments, exclusive_scan};
+use crate::quadtree::Leaf;
+
+/// The leaves, their links and the grid, with the geometric questions the warp asks of them.
+pub struct LeafGeometry<'a, K> {
+    leaves: &'a [Leaf<K>],
+    links: &'a [Links],
+    /// The leaf of each point, by Morton position.
+    pub point_leaf: &'a [u32],
+    grid: &'a Grid,
+    /// Leaves at this level or coarser are far larger than f64's spacing anywhere in the root.
+    resolved_level: u8,
+}
+
+impl<'a, K: MortonKey> LeafGeometry<'a, K> {
+    pub fn new(tree: &'a BalancedTree<K>, grid: &'a Grid) -> Self {
+        LeafGeometry {
+            leaves: &tree.tree.leaves,
+            links: &tree.links,
+            point_leaf: &tree.point_leaf,
+            grid,
+            resolved_level: resolved_level(grid, K::AXIS_BITS),
+        }
+    }
+
+    pub fn leaves(&self) -> usize {
+        self.leaves.len()
+    }
+
+    pub fn level(&self, leaf: usize) -> u8 {
+        self.leaves[leaf].cell.level
+    }
+
+    /// Lower-left grid corner and side, in grid units.
+    fn grid_square(&self, leaf: usize) -> (u128, u128, u128) {
+        let cell = self.leaves[leaf].cell;
+        let (x, y) = cell.anchor.decode();
+        (
+            x as u128,
+            y as u128,
+            1u128 << (K::AXIS_BITS - cell.level as u32),
+        )
+    }
+
+    /// Lower-left and upper-right corners in input coordinates.
+    pub fn rect(&self, leaf: usize) -> (DVec2, DVec2) {
+        let (x, y, size) = self.grid_square(leaf);
+        (self.grid.vertex(x, y), self.grid.vertex(x + size, y + size))
+    }
+
+    /// The leaves across `side`: one and [`NONE`], two smaller ones, or two [`NONE`].
+    pub fn across(&self, leaf: usize, side: Side) -> [u32; 2] {
+        let s = 2 * side as usize;
+        [self.links[leaf][s], self.links[leaf][s + 1]]
+    }
+
+    fn split(&self, leaf: usize, side: Side) -> bool {
+        self.links[leaf][2 * side as usize + 1] != NONE
+    }
+
+    fn has(&self, leaf: usize, side: Side) -> bool {
+        self.links[leaf][2 * side as usize] != NONE
+    }
+
+    /// Sides carrying a midpoint, one bit per ring side (south, east, north, west).
+    pub fn midpoint_mask(&self, leaf: usize) -> u8 {
+        [Side::South, Side::East, Side::North, Side::West]
+            .iter()
+            .enumerate()
+            .fold(0, |mask, (bit, &side)| {
+                mask | (u8::from(self.split(leaf, side)) << bit)
+            })
+    }
+
+    /// Whether `leaf` and the larger `other` across `side` start at the same coordinate along
+    /// that side (so `leaf` faces the low half of `other`'s side).
+    pub fn starts_together(&self, leaf: usize, other: usize, side: Side) -> bool {
+        let (x, y, _) = self.grid_square(leaf);
+        let (ox, oy, _) = self.grid_square(other);
+        match side {
+            Side::South | Side::North => x == ox,
+            Side::West | Side::East => y == oy,
+        }
+    }
+
+    /// Whether f64 keeps the leaf's corners, midpoints and centre apart.
+    pub fn resolvable(&self, leaf: usize) -> bool {
+        if self.level(leaf) <= self.resolved_level {
+            return true;
+        }
+        let (x, y, size) = self.grid_square(leaf);
+        let half = size / 2;
+        let lo = self.grid.vertex(x, y);
+        let mid = self.grid.vertex(x + half, y + half);
+        let hi = self.grid.vertex(x + size, y + size);
+        lo.x < mid.x && mid.x < hi.x && lo.y < mid.y && mid.y < hi.y
+    }
+
+    /// A point of the grid in input coordinates.
+    fn vertex(&self, x: u128, y: u128) -> DVec2 {
+        self.grid.vertex(x, y)
+    }
+}
+
+/// The deepest level whose half-size squares span at least 2^10 f64 spacings of the largest
+/// coordinate in the root, so that their corners, midpoints and centres are surely distinct.
+fn resolved_level(grid: &Grid, axis_bits: u32) -> u8 {
+    let lo = grid.origin();
+    let largest = lo
+        .abs()
+        .max(lo + grid.side())
+        .max_element()
+        .abs()
+        .max(f64::MIN_POSITIVE);
+    let spacing = largest * f64::EPSILON;
+    let mut level = 0;
+    while level < axis_bits && grid.side() / (2.0f64).powi(level as i32 + 2) >= spacing * 1024.0 {
+        level += 1;
+    }
+    level as u8
+}
+
+/// What a leaf owns besides its lower-left corner, in slot order.
+mod own {
+    pub const SOUTH_MID: u8 = 1;
+    pub const WEST_MID: u8 = 2;
+    pub const CENTRE: u8 = 4;
+    pub const UPPER_LEFT: u8 = 8;
+    pub const LOWER_RIGHT: u8 = 16;
+    pub const UPPER_RIGHT: u8 = 32;
+}
+
+/// The vertex numbering: per leaf, what it owns and where its vertices start.
+pub struct Numbering {
+    owns: Vec<u8>,
+    first: Vec<usize>,
+}
+
+impl Numbering {
+    pub fn new<K: MortonKey>(geometry: &LeafGeometry<K>) -> Result<Numbering, Error> {
+        use rayon::prelude::*;
+        let owns: Vec<u8> = (0..geometry.leaves())
+            .into_par_iter()
+            .map(|leaf| owned(geometry, leaf))
+            .collect();
+        let counts: Vec<u32> = owns.par_iter().map(|o| 1 + o.count_ones()).collect();
+        let first = exclusive_scan(&counts);
+        let total = first[first.len() - 1];
+        if total >= NONE as usize {
+            return Err(Error::TooLarge {
+                what: "vertices",
+                count: total,
+            });
+        }
+        Ok(Numbering { owns, first })
+    }
+
+    /// The coordinates of every vertex (grid positions, before any corner moves) and, for each,
+    /// [`NONE`] as its input index.
+    pub fn vertices<K: MortonKey>(&self, geometry: &LeafGeometry<K>) -> (Vec<DVec2>, Vec<u32>) {
+        let coordinates = collect_segments(&self.first, |leaf| {
+            let (x, y, size) = geometry.grid_square(leaf);
+            let half = size / 2;
+            let owns = self.owns[leaf];
+            let slots = [
+                (own::SOUTH_MID, (x + half, y)),
+                (own::WEST_MID, (x, y + half)),
+                (own::CENTRE, (x + half, y + half)),
+                (own::UPPER_LEFT, (x, y + size)),
+                (own::LOWER_RIGHT, (x + size, y)),
+                (own::UPPER_RIGHT, (x + size, y + size)),
+            ];
+            std::iter::once((x, y))
+                .chain(
+                    slots
+                        .into_iter()
+                        .filter(move |(bit, _)| owns & bit != 0)
+                        .map(|(_, at)| at),
+                )
+                .map(|(gx, gy)| geometry.vertex(gx, gy))
+        });
+        let inputs = vec![NONE; coordinates.len()];
+        (coordinates, inputs)
+    }
+
+    fn anchor(&self, leaf: u32) -> u32 {
+        self.first[leaf as usize] as u32
+    }
+
+    /// The vertex `bit` (one of [`own`]) that `leaf` owns.
+    fn slot(&self, leaf: u32, bit: u8) -> u32 {
+        let before = self.owns[leaf as usize] & (bit - 1);
+        self.first[leaf as usize] as u32 + 1 + before.count_ones()
+    }
+
+    /// The vertices of `leaf` by ring label: LL, S-mid, LR, E-mid, UR, N-mid, UL, W-mid,
+    /// centre ([`NONE`] for absent midpoints and centre).
+    pub fn labels<K: MortonKey>(&self, geometry: &LeafGeometry<K>, leaf: usize) -> [u32; 9] {
+        let l = leaf as u32;
+        let owns = self.owns[leaf];
+        let owned_or_none = |bit: u8| {
+            if owns & bit != 0 {
+                self.slot(l, bit)
+            } else {
+                NONE
+            }
+        };
+        let [_, upper_east] = geometry.across(leaf, Side::East);
+        let [_, right_north] = geometry.across(leaf, Side::North);
+        [
+            self.anchor(l),
+            owned_or_none(own::SOUTH_MID),
+            self.lower_right(geometry, l),
+            if upper_east == NONE {
+                NONE
+            } else {
+                self.anchor(upper_east)
+            },
+            self.upper_right(geometry, l),
+            if right_north == NONE {
+                NONE
+            } else {
+                self.anchor(right_north)
+            },
+            self.upper_left(geometry, l),
+            owned_or_none(own::WEST_MID),
+            owned_or_none(own::CENTRE),
+        ]
+    }
+
+    fn lower_right<K: MortonKey>(&self, geometry: &LeafGeometry<K>, leaf: u32) -> u32 {
+        let l = leaf as usize;
+        match geometry.across(l, Side::East) {
+            [NONE, _] => self.slot(leaf, own::LOWER_RIGHT),
+            [lower, other] if other != NONE => self.anchor(lower),
+            [q, _] if geometry.level(q as usize) >= geometry.level(l) => self.anchor(q),
+            [q, _] if geometry.starts_together(l, q as usize, Side::East) => self.anchor(q),
+            // Our lower-right corner is the midpoint of the larger leaf's west side.
+            [q, _] => self.slot(q, own::WEST_MID),
+        }
+    }
+
+    fn upper_left<K: MortonKey>(&self, geometry: &LeafGeometry<K>, leaf: u32) -> u32 {
+        let l = leaf as usize;
+        match geometry.across(l, Side::North) {
+            [NONE, _] => self.slot(leaf, own::UPPER_LEFT),
+            [left, other] if other != NONE => self.anchor(left),
+            [q, _] if geometry.level(q as usize) >= geometry.level(l) => self.anchor(q),
+            [q, _] if geometry.starts_together(l, q as usize, Side::North) => self.anchor(q),
+            // Our upper-left corner is the midpoint of the larger leaf's south side.
+            [q, _] => self.slot(q, own::SOUTH_MID),
+        }
+    }
+
+    fn upper_right<K: MortonKey>(&self, geometry: &LeafGeometry<K>, leaf: u32) -> u32 {
+        let l = leaf as usize;
+        match geometry.across(l, Side::North) {
+            [NONE, _] => match geometry.across(l, Side::East) {
+                [NONE, _] => self.slot(leaf, own::UPPER_RIGHT),
+                [_, upper] if upper != NONE => self.upper_left(geometry, upper),
+                [q, _] if geometry.level(q as usize) >= geometry.level(l) => {
+                    self.upper_left(geometry, q)
+                }
+                // A larger leaf on the east, on the root's top side: our corner is its
+                // upper-left one (we cannot lie along its lower half and touch the top).
+                [q, _] => self.upper_left(geometry, q),
+            },
+            [left, right] => {
+                let t = if right != NONE { right } else { left };
+                if right != NONE || geometry.level(t as usize) >= geometry.level(l) {
+                    return self.lower_right(geometry, t);
+                }
+                // A larger leaf on the north: our corner is its lower-right one or the midpoint
+                // of its south side.
+                if geometry.starts_together(l, t as usize, Side::North) {
+                    self.slot(t, own::SOUTH_MID)
+                } else {
+                    self.lower_right(geometry, t)
+                }
+            }
+        }
+    }
+}
+
+/// What `leaf` owns besides its lower-left corner.
+fn owned<K: MortonKey>(geometry: &LeafGeometry<K>, leaf: usize) -> u8 {
+    let mut owns = 0;
+    if geometry.split(leaf, Side::South) {
+        owns |= own::SOUTH_MID;
+    }
+    if geometry.split(leaf, Side::West) {
+        owns |= own::WEST_MID;
+    }
+    if geometry.midpoint_mask(leaf).count_ones() >= 2 {
+        owns |= own::CENTRE;
+    }
+    let (north, east) = (
+        geometry.has(leaf, Side::North),
+        geometry.has(leaf, Side::East),
+    );
+    if !north {
+        owns |= own::UPPER_LEFT;
+    }
+    if !east {
+        owns |= own::LOWER_RIGHT;
+    }
+    if !north && !east {
+        owns |= own::UPPER_RIGHT;
+    }
+    owns
+}

@@ -1,0 +1,131 @@
+//! Warped meshes of point sets: every mesh passes `Mesh::validate` with the warp's angle bounds,
+//! and 1 and 2 threads give the same mesh.
+
+mod common;
+
+use common::{FAMILIES, on_threads};
+use quadmesh::generate::{self, Distribution2d};
+use quadmesh::mesh::AngleBounds;
+use quadmesh::warp::ANGLE_BOUNDS;
+use quadmesh::{DVec2, Error, Mesh, MeshOptions, MeshReport, mesh_points};
+
+const WARP: AngleBounds = AngleBounds {
+    min_deg: ANGLE_BOUNDS.0,
+    max_deg: ANGLE_BOUNDS.1,
+};
+
+fn mesh_checked(points: &[DVec2]) -> (Mesh, MeshReport) {
+    let (mesh, report) = mesh_points(points, &MeshOptions::default()).unwrap();
+    if let Err(fault) = mesh.validate(points, WARP) {
+        panic!("invalid mesh of {} points: {fault}", points.len());
+    }
+    assert_eq!(report.triangles, mesh.triangles.len());
+    assert_eq!(report.vertices, mesh.vertices.len());
+    assert!(report.min_angle >= WARP.min_deg - 1e-9, "{}", report.min_angle);
+    assert!(report.max_angle <= WARP.max_deg + 1e-9, "{}", report.max_angle);
+    let angles: u64 = report.histogram.iter().sum();
+    assert_eq!(angles, 3 * mesh.triangles.len() as u64);
+    (mesh, report)
+}
+
+#[test]
+fn single_point() {
+    let points = [DVec2::new(3.0, -2.0)];
+    let (mesh, _) = mesh_checked(&points);
+    assert_eq!(mesh.vertex_input.iter().filter(|&&i| i == 0).count(), 1);
+}
+
+#[test]
+fn two_and_three_points() {
+    mesh_checked(&[DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0)]);
+    mesh_checked(&[
+        DVec2::new(0.0, 0.0),
+        DVec2::new(1.0, 0.5),
+        DVec2::new(0.25, 0.75),
+    ]);
+}
+
+#[test]
+fn every_family_meshes_validly() {
+    for dist in FAMILIES {
+        for n in [10, 200, 3000] {
+            let points = generate::points(dist, n, 7);
+            let (_, report) = mesh_checked(&points);
+            assert_eq!(report.points, n, "{dist:?}");
+        }
+    }
+}
+
+#[test]
+fn collinear_points() {
+    let points: Vec<DVec2> = (0..500).map(|i| DVec2::new(i as f64 * 0.37, 2.0)).collect();
+    mesh_checked(&points);
+    let diagonal: Vec<DVec2> = (0..500).map(|i| DVec2::splat(i as f64 / 499.0)).collect();
+    mesh_checked(&diagonal);
+}
+
+#[test]
+fn duplicates_are_merged_and_reported() {
+    let mut points = generate::points(Distribution2d::Uniform, 400, 3);
+    points.extend_from_within(..50);
+    let (mesh, report) = mesh_checked(&points);
+    assert_eq!(report.duplicates, 50);
+    assert_eq!(report.points, 400);
+    // The first occurrence is the one kept.
+    assert!(mesh.vertex_input.iter().all(|&i| i == u32::MAX || i < 400));
+}
+
+#[test]
+fn points_closer_than_the_narrow_grid_resolves() {
+    // Two points a few narrow-grid quanta apart, far from the rest: their leaves go below the
+    // narrow grid's resolution, so the mesh moves to the wide grid.
+    let quantum = 2.0 / (1u64 << 28) as f64;
+    let mut points = generate::points(Distribution2d::Uniform, 100, 5);
+    points.push(DVec2::new(0.5, 0.5));
+    points.push(DVec2::new(0.5 + 2.5 * quantum, 0.5));
+    mesh_checked(&points);
+}
+
+#[test]
+fn bad_input_is_a_typed_error() {
+    assert_eq!(
+        mesh_points(&[], &MeshOptions::default()).unwrap_err(),
+        Error::Empty
+    );
+    let nan = [DVec2::new(0.0, 0.0), DVec2::new(f64::NAN, 1.0)];
+    assert!(matches!(
+        mesh_points(&nan, &MeshOptions::default()),
+        Err(Error::NonFinite { index: 1, .. })
+    ));
+}
+
+#[test]
+fn one_and_two_threads_give_the_same_mesh() {
+    for dist in FAMILIES {
+        let points = generate::points(dist, 20_000, 11);
+        let one = on_threads(1, || mesh_points(&points, &MeshOptions::default()).unwrap().0);
+        let two = on_threads(2, || mesh_points(&points, &MeshOptions::default()).unwrap().0);
+        assert!(one == two, "{dist:?}");
+    }
+}
+
+#[test]
+fn validate_catches_a_corrupted_mesh() {
+    let points = generate::points(Distribution2d::Uniform, 300, 2);
+    let (mesh, _) = mesh_checked(&points);
+    let mut flipped = mesh.clone();
+    flipped.triangles[7].swap(0, 1);
+    assert!(flipped.validate(&points, WARP).is_err());
+    let mut moved = mesh.clone();
+    let v = moved.vertex_input.iter().position(|&i| i != u32::MAX).unwrap();
+    moved.vertices[v].x = f64::from_bits(moved.vertices[v].x.to_bits() + 1);
+    assert!(moved.validate(&points, WARP).is_err());
+    let mut rewired = mesh.clone();
+    rewired.neighbours[3][0] = rewired.neighbours[3][1];
+    assert!(rewired.validate(&points, WARP).is_err());
+    let tight = AngleBounds {
+        min_deg: 30.0,
+        max_deg: 90.0,
+    };
+    assert!(mesh.validate(&points, tight).is_err());
+}
