@@ -12,7 +12,7 @@ use common::{DISTRIBUTIONS, SEED, configure, env_counts, pools};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use quadmesh::generate::points;
 use quadmesh::morton::MortonKey;
-use quadmesh::pipeline::separated_tree;
+use quadmesh::pipeline::{StageTimes, separated_tree};
 use quadmesh::warp::warp;
 use quadmesh::{DVec2, MeshOptions, Tree, TreeBuild, mesh_points};
 use rayon::ThreadPool;
@@ -26,7 +26,11 @@ fn bench_warp<K: MortonKey>(
 ) {
     let tree = build.balanced.as_ref().expect("a separated tree");
     let m = &build.morton;
-    let run = || pool.install(|| warp(tree, &m.order, &m.grid, pts).expect("a mesh"));
+    let run = || {
+        pool.install(|| {
+            warp(tree, &m.order, &m.grid, pts, &mut StageTimes::default()).expect("a mesh")
+        })
+    };
     let triangles = run().0.triangles.len();
     let mut group = c.benchmark_group(group_name);
     configure(&mut group, pts.len());

@@ -2,8 +2,23 @@
 //! level-parallel balancing) and quality triangle meshes from them, in parallel with rayon.
 //!
 //! The stages are functions from flat, Morton-sorted arrays to flat arrays:
-//! [`morton`] → [`framework`] → [`quadtree`] → `balance` → `warp` / `pslg` → mesh.
+//! [`morton`] → [`framework`] → [`quadtree`] → [`balance`] → [`warp`] → [`mesh`].
 //! See `ARCHITECTURE.md` for the module graph.
+//!
+//! ```
+//! use quadmesh::mesh::AngleBounds;
+//! use quadmesh::warp::ANGLE_BOUNDS;
+//! use quadmesh::{DVec2, MeshOptions, mesh_points};
+//!
+//! let points = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.5), DVec2::new(0.25, 0.75)];
+//! let (mesh, report) = mesh_points(&points, &MeshOptions::default())?;
+//! let (min_deg, max_deg) = ANGLE_BOUNDS;
+//! mesh.validate(&points, AngleBounds { min_deg, max_deg }).expect("a valid mesh");
+//! assert!(report.min_angle >= 22.5 - 1e-9 && report.max_angle <= 112.5 + 1e-9);
+//! # Ok::<(), quadmesh::Error>(())
+//! ```
+//!
+//! The trees alone:
 //!
 //! ```
 //! use quadmesh::{DVec2, Refinement, Tree, TreeOptions, build_tree};

@@ -21,7 +21,8 @@ use crate::warp::{AngleQuality, point_finer_than_grid, warp};
 pub struct StageTimes(pub Vec<(&'static str, Duration)>);
 
 impl StageTimes {
-    fn time<T>(&mut self, stage: &'static str, f: impl FnOnce() -> T) -> T {
+    /// Runs `f`, recording its wall-clock time under `stage`.
+    pub fn time<T>(&mut self, stage: &'static str, f: impl FnOnce() -> T) -> T {
         let start = Instant::now();
         let out = f();
         self.0.push((stage, start.elapsed()));
@@ -231,7 +232,7 @@ fn warp_build<K: MortonKey>(
 ) -> Result<Warped, Error> {
     let tree = build.balanced.as_ref().expect("a separated tree");
     let morton = &build.morton;
-    let (mesh, quality) = times.time("warp", || warp(tree, &morton.order, &morton.grid, points))?;
+    let (mesh, quality) = warp(tree, &morton.order, &morton.grid, points, times)?;
     Ok((mesh, quality, morton.duplicates.count))
 }
 

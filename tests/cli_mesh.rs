@@ -161,7 +161,7 @@ fn mesh_files_read_back_as_a_valid_mesh() {
     let prefix = dir.file("out");
     let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--check"]);
     assert!(out.status.success(), "{}", stderr(&out));
-    assert!(stderr(&out).contains("check               passed"));
+    assert!(stderr(&out).contains("check                   passed"));
     let mesh = read_triangle_files(&prefix);
     if let Err(fault) = mesh.validate(&points, WARP) {
         panic!("mesh read back from files is invalid: {fault}");

@@ -4,6 +4,7 @@
 mod common;
 
 use common::{FAMILIES, on_threads};
+use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::mesh::AngleBounds;
 use quadmesh::warp::ANGLE_BOUNDS;
@@ -21,8 +22,16 @@ fn mesh_checked(points: &[DVec2]) -> (Mesh, MeshReport) {
     }
     assert_eq!(report.triangles, mesh.triangles.len());
     assert_eq!(report.vertices, mesh.vertices.len());
-    assert!(report.min_angle >= WARP.min_deg - 1e-9, "{}", report.min_angle);
-    assert!(report.max_angle <= WARP.max_deg + 1e-9, "{}", report.max_angle);
+    assert!(
+        report.min_angle >= WARP.min_deg - 1e-9,
+        "{}",
+        report.min_angle
+    );
+    assert!(
+        report.max_angle <= WARP.max_deg + 1e-9,
+        "{}",
+        report.max_angle
+    );
     let angles: u64 = report.histogram.iter().sum();
     assert_eq!(angles, 3 * mesh.triangles.len() as u64);
     (mesh, report)
@@ -103,8 +112,12 @@ fn bad_input_is_a_typed_error() {
 fn one_and_two_threads_give_the_same_mesh() {
     for dist in FAMILIES {
         let points = generate::points(dist, 20_000, 11);
-        let one = on_threads(1, || mesh_points(&points, &MeshOptions::default()).unwrap().0);
-        let two = on_threads(2, || mesh_points(&points, &MeshOptions::default()).unwrap().0);
+        let one = on_threads(1, || {
+            mesh_points(&points, &MeshOptions::default()).unwrap().0
+        });
+        let two = on_threads(2, || {
+            mesh_points(&points, &MeshOptions::default()).unwrap().0
+        });
         assert!(one == two, "{dist:?}");
     }
 }
@@ -117,7 +130,11 @@ fn validate_catches_a_corrupted_mesh() {
     flipped.triangles[7].swap(0, 1);
     assert!(flipped.validate(&points, WARP).is_err());
     let mut moved = mesh.clone();
-    let v = moved.vertex_input.iter().position(|&i| i != u32::MAX).unwrap();
+    let v = moved
+        .vertex_input
+        .iter()
+        .position(|&i| i != u32::MAX)
+        .unwrap();
     moved.vertices[v].x = f64::from_bits(moved.vertices[v].x.to_bits() + 1);
     assert!(moved.validate(&points, WARP).is_err());
     let mut rewired = mesh.clone();
@@ -128,4 +145,33 @@ fn validate_catches_a_corrupted_mesh() {
         max_deg: 90.0,
     };
     assert!(mesh.validate(&points, tight).is_err());
+}
+
+/// Small point sets mixing free coordinates, coordinates on a coarse grid (points on the
+/// dyadic lines and corners of the quadtree), collinear runs, points very close together (the
+/// wide grid) and exact duplicates.
+fn point_sets() -> impl Strategy<Value = Vec<DVec2>> {
+    let free = (-1e3f64..1e3, -1e3f64..1e3).prop_map(|(x, y)| DVec2::new(x, y));
+    let on_grid =
+        (0u8..=16, 0u8..=16).prop_map(|(i, j)| DVec2::new(i as f64 / 16.0, j as f64 / 16.0));
+    let on_line = (0.0f64..1.0).prop_map(|t| DVec2::new(t, 0.25));
+    let near = (0.0f64..1e-6).prop_map(|v| DVec2::new(0.25 + v, 0.5));
+    let point = prop_oneof![free, on_grid, on_line, near];
+    (prop::collection::vec(point, 1..60), 0usize..10).prop_map(|(mut pts, copies)| {
+        let copies = copies.min(pts.len());
+        pts.extend_from_within(..copies);
+        pts
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn random_point_sets_mesh_validly(points in point_sets()) {
+        let (_, report) = mesh_checked(&points);
+        let distinct: std::collections::HashSet<(u64, u64)> =
+            points.iter().map(|p| ((p.x + 0.0).to_bits(), (p.y + 0.0).to_bits())).collect();
+        prop_assert_eq!(report.points, distinct.len());
+    }
 }

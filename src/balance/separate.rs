@@ -15,9 +15,13 @@
 //! round checks the neighbourhoods of the new squares alone, in parallel, and closes them under
 //! balance. The result does not depend on the thread count or on the order splits are found in.
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 
-use super::split_set::{KeyMap, SplitSet, Squares, at_position, grid_position, last_position};
+use super::split_set::{
+    KeyMap, SplitSet, Squares, at_position, grid_position, last_position, window_tiles,
+};
 use super::{BalancedTree, linked_tree};
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey};
@@ -44,7 +48,9 @@ pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K>
     let internal: Vec<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
     set.insert_closed(internal.iter().map(|&c| Squares::one(c)));
     let mut leaves = PointLeaves::new(keys.len());
+    let t_init = clock.elapsed().as_secs_f64();
     let mut moves = first_moves(&set, tree, keys);
+    let t_first = clock.elapsed().as_secs_f64() - t_init;
     let mut rounds = 0;
     let (mut nd, mut na, mut nc) = (0, 0, 0);
     lap(1, &mut tm, &mut clock);
@@ -79,7 +85,7 @@ pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K>
         tm[3] += tr;
         na += added.len();
         lap(4, &mut tm, &mut clock);
-        let candidates = leaves.near(keys, &added);
+        let candidates = leaves.near(&added);
         nc += candidates.len();
         lap(5, &mut tm, &mut clock);
         moves = settle_all(&set, keys, &leaves.level, &candidates);
@@ -90,6 +96,7 @@ pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K>
     let out = linked_tree(&pre, keys);
     lap(7, &mut tm, &mut clock);
     if std::env::var("SEP_TIMES").is_ok() {
+        eprintln!("init {t_init:.3} first {t_first:.3}");
         eprintln!(
             "rounds {rounds} cand {nc} demanded {nd} added {na} | insert_only {:.3} settle {:.3} demands {:.3} record {:.3} insert {:.3} near {:.3} preorder {:.3} linked {:.3}",
             tm[0], tm[1], tm[2], tm[3], tm[4], tm[5], tm[6], tm[7]
@@ -101,33 +108,32 @@ pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K>
 /// Moves whose demands one task gathers.
 const MOVES_PER_TASK: usize = 256;
 
-/// A point whose leaf went down from level `from` to level `to`.
+/// A point whose leaf went down from level `from` to level `to`; the squares of its path
+/// above level `split` were split already.
 #[derive(Clone, Copy)]
 struct Move {
     point: u32,
     from: u8,
+    split: u8,
     to: u8,
 }
 
 /// The first moves: each point from the root down past its leaf in the unbalanced tree (split
 /// already) and every level whose block is crowded by points or the root (R3c, d), then as
-/// [`settle`] goes. Crowding by points only lessens going down, so later rounds skip it.
+/// [`descend`] goes. Crowding by points only lessens going down, so later rounds skip it.
 fn first_moves<K: MortonKey>(set: &SplitSet<K>, tree: &Quadtree<K>, keys: &[K]) -> Vec<Move> {
-    let finest = K::AXIS_BITS as u8;
     tree.leaves
         .par_iter()
         .filter(|leaf| leaf.point != NONE)
         .map(|leaf| {
             let i = leaf.point as usize;
-            let mut level = walk(set, keys[i], leaf.cell.level);
-            while level < finest && crowded_by_points(keys, i, level) {
-                level += 1;
-            }
-            let to = settle(set, keys, i, level);
+            let split = walk(set, keys[i], leaf.cell.level);
+            let level = clear_of_points(keys, i, split);
             Move {
                 point: leaf.point,
                 from: 0,
-                to,
+                split,
+                to: descend(set, keys[i], level),
             }
         })
         .collect()
@@ -143,21 +149,26 @@ fn settle_all<K: MortonKey>(
     candidates
         .par_iter()
         .filter_map(|&point| {
+            let key = keys[point as usize];
             let from = level[point as usize];
-            let to = settle(set, keys, point as usize, from);
-            (to != from).then_some(Move { point, from, to })
+            let split = walk(set, key, from);
+            let to = descend(set, key, split);
+            (to != from).then_some(Move {
+                point,
+                from,
+                split,
+                to,
+            })
         })
         .collect()
 }
 
-/// The level of point `i`'s leaf, from level `from` on, once the rules are applied to it
-/// alone: below the split squares on its path, and below every square whose block holds a
-/// split square (R3a).
-fn settle<K: MortonKey>(set: &SplitSet<K>, keys: &[K], i: usize, from: u8) -> u8 {
-    let finest = K::AXIS_BITS as u8;
-    let mut level = walk(set, keys[i], from);
+/// The level of the leaf of `key`, from its unsplit square at level `from` on, once the rules
+/// are applied to it alone: below every square whose block holds a split square (R3a).
+fn descend<K: MortonKey>(set: &SplitSet<K>, key: K, from: u8) -> u8 {
+    let mut level = from;
     // Squares below an unsplit one are unsplit, so the path need not be walked again.
-    while level < finest && crowded_by_splits(set, Cell::containing(keys[i], level)) {
+    while (level as u32) < K::AXIS_BITS && crowded_by_splits(set, Cell::containing(key, level)) {
         level += 1;
     }
     level
@@ -185,26 +196,34 @@ fn demands_of<K: MortonKey>(set: &SplitSet<K>, keys: &[K], m: Move, out: &mut Ve
     for level in m.from..m.to {
         let square = Cell::containing(keys[i], level);
         let first = i == 0 || !square.contains(keys[i - 1]);
-        set.missing_near(square, u64::from(first), out);
+        if first || level >= m.split {
+            set.missing_near(square, u64::from(first), out);
+        }
     }
 }
 
-/// Each point's leaf level, and an index from squares to the point leaves near them.
+/// Each point's leaf level, and an index from tiles to the point leaves whose block meets them.
 struct PointLeaves<K> {
     level: Vec<u8>,
-    /// Heads of lists in `entries`, by square: each point leaf is listed under the squares
-    /// four times as large that its block meets (at most 2×2), so a square finds the leaves
-    /// whose block holds it under the one square that holds it.
-    by_coarse: KeyMap<Cell<K>, u32>,
-    /// (point, next entry or `NONE`). Entries of points that moved on are stale and skipped.
-    entries: Vec<(u32, u32)>,
+    /// By level and tile anchor, heads of lists in `entries`.
+    by_tile: Vec<KeyMap<K, u32>>,
+    /// Entries of points that moved on are stale and skipped.
+    entries: Vec<Entry>,
+}
+
+/// A point leaf listed under a tile: its point, its block's (and its own) bits in the tile,
+/// and the next entry of the tile or `NONE`.
+struct Entry {
+    point: u32,
+    window: u64,
+    next: u32,
 }
 
 impl<K: MortonKey> PointLeaves<K> {
     fn new(points: usize) -> Self {
         PointLeaves {
             level: vec![0; points],
-            by_coarse: KeyMap::default(),
+            by_tile: (0..=K::AXIS_BITS).map(|_| KeyMap::default()).collect(),
             entries: Vec::new(),
         }
     }
@@ -213,78 +232,102 @@ impl<K: MortonKey> PointLeaves<K> {
         for m in moves {
             self.level[m.point as usize] = m.to;
             // A finest-level leaf is never split, so nothing can crowd it any more.
-            if m.to >= 2 && (m.to as u32) < K::AXIS_BITS {
-                let leaf = Cell::containing(keys[m.point as usize], m.to);
-                for coarse in window_cover(leaf, 2) {
-                    let head = self.by_coarse.entry(coarse).or_insert(NONE);
-                    self.entries.push((m.point, *head));
-                    *head = (self.entries.len() - 1) as u32;
-                }
+            if (m.to as u32) >= K::AXIS_BITS {
+                continue;
+            }
+            let leaf = Cell::containing(keys[m.point as usize], m.to);
+            for (tile, window) in window_tiles(leaf, 2) {
+                let head = self.by_tile[m.to as usize].entry(tile).or_insert(NONE);
+                self.entries.push(Entry {
+                    point: m.point,
+                    window,
+                    next: *head,
+                });
+                *head = (self.entries.len() - 1) as u32;
             }
         }
     }
 
     /// The points whose leaf is one of the `added` squares or has one in its block, sorted.
-    fn near(&self, keys: &[K], added: &[Cell<K>]) -> Vec<u32> {
+    fn near(&self, added: &[Squares<K>]) -> Vec<u32> {
         let mut points: Vec<u32> = added
             .par_iter()
-            .filter(|square| square.level >= 2)
-            .flat_map_iter(|&square| self.near_square(keys, square))
+            .flat_map_iter(|&squares| self.near_squares(squares))
             .collect();
         points.par_sort_unstable();
         points.dedup();
         points
     }
 
-    fn near_square(&self, keys: &[K], square: Cell<K>) -> Vec<u32> {
+    fn near_squares(&self, squares: Squares<K>) -> Vec<u32> {
         let mut out = Vec::new();
-        let coarse = Cell::containing(square.anchor, square.level - 2);
-        let Some(&head) = self.by_coarse.get(&coarse) else {
-            return out;
-        };
-        let centre = grid_position(square);
-        let mut entry = head;
-        while entry != NONE {
-            let (point, next) = self.entries[entry as usize];
-            let leaf = Cell::containing(keys[point as usize], square.level);
-            if self.level[point as usize] == square.level
-                && chebyshev(grid_position(leaf), centre) <= 2
-            {
-                out.push(point);
+        let level = squares.level();
+        let mut next = self.by_tile[level as usize]
+            .get(&squares.tile())
+            .copied()
+            .unwrap_or(NONE);
+        while next != NONE {
+            let entry = &self.entries[next as usize];
+            if entry.window & squares.mask() != 0 && self.level[entry.point as usize] == level {
+                out.push(entry.point);
             }
-            entry = next;
+            next = entry.next;
         }
         out
     }
 }
 
-/// Whether the 5×5 block around point `i`'s square at `level` sticks out of the root or holds
-/// another point. Only the points in the (at most 2×2) squares four times as large that cover
-/// the block are looked at, found by galloping from `i`: they are mostly close in Morton order.
-fn crowded_by_points<K: MortonKey>(keys: &[K], i: usize, level: u8) -> bool {
-    let cell = Cell::containing(keys[i], level);
-    let centre = grid_position(cell);
-    if !window_inside(centre, level, 2) {
-        return true;
+/// The first level from `from` on where the 5×5 block around point `i`'s square lies in the
+/// root and holds no other point (R3c, d), or the finest level.
+///
+/// Each block lies inside the one a level up, so the points that may crowd them are gathered
+/// once: those of the (at most 2×2) squares four times as large that cover the first block
+/// inside the root, found by galloping from `i`, as they are mostly close in Morton order.
+fn clear_of_points<K: MortonKey>(keys: &[K], i: usize, from: u8) -> u8 {
+    let mut near = None;
+    let mut level = from;
+    while (level as u32) < K::AXIS_BITS {
+        let cell = Cell::containing(keys[i], level);
+        if window_inside(grid_position(cell), level, 2) {
+            near = near.or_else(|| points_near(keys, i, cell));
+            let crowded = match &near {
+                Some(ranges) => ranges
+                    .iter()
+                    .flat_map(|r| &keys[r.clone()])
+                    .any(|&k| crowds(k, cell)),
+                // Many points close by: ask the 24 squares instead of measuring each point.
+                None => block(cell).flatten().any(|c| holds_point(c, keys)),
+            };
+            if !crowded {
+                break;
+            }
+        }
+        level += 1;
     }
-    for coarse in window_cover(cell, 2) {
+    level
+}
+
+/// The points of the squares four times as large as `cell` that cover its block (inside the
+/// root), as ranges of `keys`; `None` if they are many.
+fn points_near<K: MortonKey>(keys: &[K], i: usize, cell: Cell<K>) -> Option<[Range<usize>; 4]> {
+    let mut ranges: [Range<usize>; 4] = Default::default();
+    for (range, coarse) in ranges.iter_mut().zip(window_cover(cell, 2)) {
         let start = partition_from(keys, i, |k| *k < coarse.anchor);
         let end = partition_from(keys, start, |k| {
             k.cell_anchor(coarse.level) <= coarse.anchor
         });
-        // Many points close by: ask the 24 squares instead of measuring each point.
         if end - start > 16 {
-            return block(cell).flatten().any(|c| holds_point(c, keys));
+            return None;
         }
-        let crowding = |k: &K| {
-            let other = Cell::containing(*k, level);
-            other != cell && chebyshev(grid_position(other), centre) <= 2
-        };
-        if keys[start..end].iter().any(crowding) {
-            return true;
-        }
+        *range = start..end;
     }
-    false
+    Some(ranges)
+}
+
+/// Whether key `k` lies in the 5×5 block around `cell`, outside `cell` itself.
+fn crowds<K: MortonKey>(k: K, cell: Cell<K>) -> bool {
+    let other = Cell::containing(k, cell.level);
+    other != cell && chebyshev(grid_position(other), grid_position(cell)) <= 2
 }
 
 /// `v.partition_point(pred)` by galloping from index `i`: O(log d) for an answer d away.

@@ -110,7 +110,10 @@ fn axis_mask(masks: &[u64; 8], lo: u64, hi: u64, t: u64) -> u64 {
 
 /// The tiles that the squares within `radius` (at most 8) of `cell` inside the root meet, with
 /// the bits of those squares in each.
-fn window_tiles<K: MortonKey>(cell: Cell<K>, radius: u64) -> impl Iterator<Item = (K, u64)> {
+pub(super) fn window_tiles<K: MortonKey>(
+    cell: Cell<K>,
+    radius: u64,
+) -> impl Iterator<Item = (K, u64)> {
     let (x, y) = grid_position(cell);
     let last = last_position(cell.level);
     let span = move |c: u64| (c.saturating_sub(radius), c.saturating_add(radius).min(last));
@@ -142,6 +145,18 @@ impl<K: MortonKey> Squares<K> {
         }
     }
 
+    pub(super) fn level(&self) -> u8 {
+        self.level
+    }
+
+    pub(super) fn tile(&self) -> K {
+        self.tile
+    }
+
+    pub(super) fn mask(&self) -> u64 {
+        self.mask
+    }
+
     /// The square of bit `index`.
     fn square(&self, index: u32) -> Cell<K> {
         let shift = (2 * (K::AXIS_BITS - self.level as u32)).min(127);
@@ -151,6 +166,16 @@ impl<K: MortonKey> Squares<K> {
                 .wrapping_add(K::from_u128(u128::from(index) << shift)),
             level: self.level,
         }
+    }
+}
+
+/// Appends `squares` to `list`, into its last entry if that is of the same tile.
+fn push_merged<K: MortonKey>(list: &mut Vec<Squares<K>>, squares: Squares<K>) {
+    match list.last_mut() {
+        Some(last) if last.tile == squares.tile && last.level == squares.level => {
+            last.mask |= squares.mask;
+        }
+        _ => list.push(squares),
     }
 }
 
@@ -234,20 +259,23 @@ impl<K: MortonKey> SplitSet<K> {
     }
 
     /// Adds `cell`. If it was new, returns which of its siblings (by quadrant bit) were split
-    /// before it.
-    fn insert(&mut self, cell: Cell<K>) -> Option<u8> {
+    /// before it. `recent` holds a tile per level seen lately, with bits split then: bits are
+    /// never cleared, so those still are, and most forced squares are found there.
+    fn insert(&mut self, cell: Cell<K>, recent: &mut [(K, u64)]) -> Option<u8> {
         let (tile, bit) = tile_bit(cell);
-        let mask = self.levels[cell.level as usize].entry(tile).or_insert(0);
-        if *mask & bit != 0 {
+        let level = cell.level as usize;
+        if recent[level].0 == tile && recent[level].1 & bit != 0 {
             return None;
         }
-        let siblings = sibling_bits(*mask, bit.trailing_zeros());
+        let mask = self.levels[level].entry(tile).or_insert(0);
+        let before = *mask;
         *mask |= bit;
-        Some(siblings)
+        recent[level] = (tile, *mask);
+        (before & bit == 0).then(|| sibling_bits(before, bit.trailing_zeros()))
     }
 
     /// Adds the squares `wanted` and whatever balance then forces; returns the squares that
-    /// were new, in an order fixed by that of `wanted`.
+    /// were new, a tile at a time, in an order fixed by that of `wanted`.
     ///
     /// Each new square's forced squares are added at once (depth first), while its tiles are
     /// still in cache; the closure is the same in any order. When a square comes in, every
@@ -256,9 +284,11 @@ impl<K: MortonKey> SplitSet<K> {
     pub(super) fn insert_closed(
         &mut self,
         wanted: impl IntoIterator<Item = Squares<K>>,
-    ) -> Vec<Cell<K>> {
+    ) -> Vec<Squares<K>> {
         let mut added = Vec::new();
         let mut stack = Vec::new();
+        // An empty mask matches nothing.
+        let mut recent = vec![(K::default(), 0); self.levels.len()];
         for squares in wanted {
             let mask = self.levels[squares.level as usize]
                 .entry(squares.tile)
@@ -266,20 +296,22 @@ impl<K: MortonKey> SplitSet<K> {
             let mut done = *mask;
             let mut fresh = squares.mask & !done;
             *mask |= squares.mask;
+            if fresh != 0 {
+                added.push(Squares {
+                    mask: fresh,
+                    ..squares
+                });
+            }
             while fresh != 0 {
                 let index = fresh.trailing_zeros();
                 fresh &= fresh - 1;
                 let cell = squares.square(index);
-                added.push(cell);
-                stack.extend(
-                    forced_anew(cell, sibling_bits(done, index))
-                        .into_iter()
-                        .flatten(),
-                );
+                let forced = forced_anew(cell, sibling_bits(done, index));
+                stack.extend(forced.into_iter().flatten());
                 done |= 1 << index;
                 while let Some(cell) = stack.pop() {
-                    if let Some(siblings) = self.insert(cell) {
-                        added.push(cell);
+                    if let Some(siblings) = self.insert(cell, &mut recent) {
+                        push_merged(&mut added, Squares::one(cell));
                         stack.extend(forced_anew(cell, siblings).into_iter().flatten());
                     }
                 }

@@ -244,15 +244,15 @@ fn mesh(
         });
         let files = written?;
         let mut err = io::stderr().lock();
-        let _ = writeln!(err, "{:<20}{}", "input points", points.len());
-        let _ = writeln!(err, "{:<20}{}", "time read", millis(read_time));
+        let _ = writeln!(err, "{:<24}{}", "input points", points.len());
+        let _ = writeln!(err, "{:<24}{}", "time read", millis(read_time));
         print_report(&mut err, &report, &mesh);
         if check {
-            let _ = writeln!(err, "{:<20}passed", "check");
+            let _ = writeln!(err, "{:<24}passed", "check");
         }
-        let _ = writeln!(err, "{:<20}{}", "time write", millis(write_time));
+        let _ = writeln!(err, "{:<24}{}", "time write", millis(write_time));
         for file in files {
-            let _ = writeln!(err, "{:<20}{}", "wrote", file.display());
+            let _ = writeln!(err, "{:<24}{}", "wrote", file.display());
         }
         Ok(())
     })
@@ -327,10 +327,10 @@ fn print_report(err: &mut dyn Write, report: &MeshReport, mesh: &Mesh) {
         ("angle histogram", histogram_line(&report.histogram)),
     ];
     for (label, value) in lines {
-        let _ = writeln!(err, "{label:<20}{value}");
+        let _ = writeln!(err, "{label:<24}{value}");
     }
     for (stage, d) in &report.stages {
-        let _ = writeln!(err, "{:<20}{}", format!("time {stage}"), millis(*d));
+        let _ = writeln!(err, "{:<24}{}", format!("time {stage}"), millis(*d));
     }
 }
 
@@ -359,7 +359,7 @@ fn bench(
     let (mesh, report) = meshed?;
     let mut out = io::stdout().lock();
     print_report(&mut out, &report, &mesh);
-    let _ = writeln!(out, "{:<20}{}", "time total", millis(wall));
+    let _ = writeln!(out, "{:<24}{}", "time total", millis(wall));
     if json {
         let stages: Vec<String> = report
             .stages
@@ -468,7 +468,7 @@ fn report(input_points: usize, tree: &Tree, times: &StageTimes, read: Duration, 
     lines.push(("time write".into(), millis(write)));
     let mut err = io::stderr().lock();
     for (label, value) in lines {
-        let _ = writeln!(err, "{label:<20}{value}");
+        let _ = writeln!(err, "{label:<24}{value}");
     }
 }
 

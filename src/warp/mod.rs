@@ -18,7 +18,8 @@ use crate::balance::BalancedTree;
 use crate::error::Error;
 use crate::mesh::{BoundaryEdge, BoundarySide, Domain, Mesh, NONE, angles_deg};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
-use crate::par::{collect_segments, exclusive_scan};
+use crate::par::{collect_segments, exclusive_scan_by};
+use crate::pipeline::StageTimes;
 use templates::{Across, Kind, Part, RingSide, template};
 use vertices::{LeafGeometry, Numbering};
 
@@ -39,65 +40,69 @@ pub fn warp<K: MortonKey>(
     order: &[u32],
     grid: &Grid,
     points: &[DVec2],
+    times: &mut StageTimes,
 ) -> Result<(Mesh, AngleQuality), Error> {
     if let Some(p) = point_finer_than_grid(tree) {
         let index = order[p] as usize;
         return Err(unresolvable(points[index], Some(index as u32)));
     }
     let geometry = LeafGeometry::new(tree, grid);
-    let numbering = Numbering::new(&geometry)?;
-    let (mut vertices, mut vertex_input) = numbering.vertices(&geometry);
-    let moves = move_corners(
-        &geometry,
-        &numbering,
-        order,
-        points,
-        &mut vertices,
-        &mut vertex_input,
-    );
+    let (numbering, vertices, vertex_input, moves) = times.time("warp vertices", || {
+        let numbering = Numbering::new(&geometry)?;
+        let (mut vertices, mut vertex_input) = numbering.vertices(&geometry);
+        let moves = move_corners(
+            &geometry,
+            &numbering,
+            order,
+            points,
+            &mut vertices,
+            &mut vertex_input,
+        );
+        Ok::<_, Error>((numbering, vertices, vertex_input, moves))
+    })?;
     let labels = |leaf: usize| numbering.labels(&geometry, leaf);
-    let mut kinds = unmoved_templates(&geometry)?;
-    let moved_leaves = warped_templates(
-        &geometry,
-        &labels,
-        &moves,
-        (&vertices, &vertex_input),
-        &mut kinds,
-    )?;
-    let counts: Vec<u32> = kinds
-        .par_iter()
-        .map(|&k| template(k & !MOVED).triangles.len() as u32)
-        .collect();
-    let offsets = exclusive_scan(&counts);
-    let total = offsets[offsets.len() - 1];
-    if total >= NONE as usize {
-        return Err(Error::TooLarge {
-            what: "triangles",
-            count: total,
-        });
-    }
-    let triangles = collect_segments(&offsets, |leaf| {
-        let labels = labels(leaf);
-        template(kinds[leaf] & !MOVED)
-            .triangles
-            .iter()
-            .map(move |t| t.map(|label| labels[label as usize]))
+    let (kinds, moved_leaves, offsets) = times.time("warp templates", || {
+        let mut kinds = unmoved_templates(&geometry)?;
+        let moved_leaves = warped_templates(
+            &geometry,
+            &labels,
+            &moves,
+            (&vertices, &vertex_input),
+            &mut kinds,
+        )?;
+        let offsets = triangle_offsets(&kinds)?;
+        Ok::<_, Error>((kinds, moved_leaves, offsets))
+    })?;
+    let triangles = times.time("warp triangles", || {
+        collect_segments(&offsets, |leaf| {
+            let labels = labels(leaf);
+            template(kinds[leaf] & !MOVED)
+                .triangles
+                .iter()
+                .map(move |t| t.map(|label| labels[label as usize]))
+        })
     });
-    let neighbours = collect_segments(&offsets, |leaf| {
-        let across = &template(kinds[leaf] & !MOVED).across;
-        let geometry = &geometry;
-        let (kinds, offsets) = (&kinds, &offsets);
-        across.iter().map(move |row| {
-            row.map(|a| match a {
-                Across::Inside { triangle, .. } => (offsets[leaf] + triangle as usize) as u32,
-                Across::Boundary { side, part } => {
-                    facing_triangle(geometry, kinds, offsets, leaf, side, part)
-                }
+    let neighbours = times.time("warp neighbours", || {
+        collect_segments(&offsets, |leaf| {
+            let across = &template(kinds[leaf] & !MOVED).across;
+            let geometry = &geometry;
+            let (kinds, offsets) = (&kinds, &offsets);
+            across.iter().map(move |row| {
+                row.map(|a| match a {
+                    Across::Inside { triangle, .. } => (offsets[leaf] + triangle as usize) as u32,
+                    Across::Boundary { side, part } => {
+                        facing_triangle(geometry, kinds, offsets, leaf, side, part)
+                    }
+                })
             })
         })
     });
-    let boundary = boundary_edges(&geometry, &kinds, &triangles, &offsets);
-    let quality = angle_quality(&kinds, &moved_leaves, &offsets, &triangles, &vertices);
+    let (boundary, quality) = times.time("warp boundary", || {
+        (
+            boundary_edges(&geometry, &kinds, &triangles, &offsets),
+            angle_quality(&kinds, &moved_leaves, &offsets, &triangles, &vertices),
+        )
+    });
     let mesh = Mesh {
         vertices,
         vertex_input,
@@ -110,6 +115,21 @@ pub fn warp<K: MortonKey>(
         },
     };
     Ok((mesh, quality))
+}
+
+/// Where each leaf's triangles start, with the total appended.
+fn triangle_offsets(kinds: &[u8]) -> Result<Vec<usize>, Error> {
+    let offsets = exclusive_scan_by(kinds.len(), |leaf| {
+        template(kinds[leaf] & !MOVED).triangles.len()
+    });
+    let total = offsets[offsets.len() - 1];
+    if total >= NONE as usize {
+        return Err(Error::TooLarge {
+            what: "triangles",
+            count: total,
+        });
+    }
+    Ok(offsets)
 }
 
 /// The Morton position of a point whose leaf is finer than the grid resolves the points, if

@@ -13,7 +13,9 @@ use crate::balance::{BalancedTree, Links};
 use crate::error::Error;
 use crate::mesh::NONE;
 use crate::morton::{Grid, MortonKey, Side};
-use crate::par::{collect_segments, exclusive_scan};
+use rayon::prelude::*;
+
+use crate::par::{collect_segments, exclusive_scan_by};
 use crate::quadtree::Leaf;
 
 /// The leaves, their links and the grid, with the geometric questions the warp asks of them.
@@ -153,13 +155,11 @@ pub struct Numbering {
 
 impl Numbering {
     pub fn new<K: MortonKey>(geometry: &LeafGeometry<K>) -> Result<Numbering, Error> {
-        use rayon::prelude::*;
         let owns: Vec<u8> = (0..geometry.leaves())
             .into_par_iter()
             .map(|leaf| owned(geometry, leaf))
             .collect();
-        let counts: Vec<u32> = owns.par_iter().map(|o| 1 + o.count_ones()).collect();
-        let first = exclusive_scan(&counts);
+        let first = exclusive_scan_by(owns.len(), |leaf| 1 + owns[leaf].count_ones() as usize);
         let total = first[first.len() - 1];
         if total >= NONE as usize {
             return Err(Error::TooLarge {
@@ -194,7 +194,10 @@ impl Numbering {
                 )
                 .map(|(gx, gy)| geometry.vertex(gx, gy))
         });
-        let inputs = vec![NONE; coordinates.len()];
+        let inputs = (0..coordinates.len())
+            .into_par_iter()
+            .map(|_| NONE)
+            .collect();
         (coordinates, inputs)
     }
 
