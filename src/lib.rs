@@ -52,4 +52,6 @@ pub mod warp;
 pub use error::Error;
 pub use glam::DVec2;
 pub use mesh::{Mesh, MeshReport};
-pub use pipeline::{MeshOptions, Refinement, Tree, TreeBuild, TreeOptions, build_tree, mesh_points};
+pub use pipeline::{
+    MeshOptions, Refinement, Tree, TreeBuild, TreeOptions, build_tree, mesh_points,
+};

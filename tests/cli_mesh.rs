@@ -247,7 +247,8 @@ fn bench_prints_one_json_object_last() {
         "\"min_angle\":",
         "\"max_angle\":",
         "\"peak_rss_bytes\":",
-        "\"warp_s\":",
+        "\"warp_vertices_s\":",
+        "\"separate_s\":",
     ] {
         assert!(last.contains(key), "{key} missing from {last}");
     }

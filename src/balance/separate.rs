@@ -10,12 +10,17 @@
 //! * R3a, c, d: a point's leaf is split if its 5×5 block holds a split square, another point, or
 //!   sticks out of the root.
 //!
-//! Every rule only adds splits, so their least fixed point is unique. The rounds are
-//! incremental: a rule can only newly fire near a square split in the previous round, so each
-//! round checks the neighbourhoods of the new squares alone, in parallel, and closes them under
-//! balance. The result does not depend on the thread count or on the order splits are found in.
-
-use std::ops::Range;
+//! Every rule only adds splits, so their least fixed point is unique. The split squares holding
+//! a point are the squares of its path above its leaf, so the state is each point's leaf level
+//! and the set of split squares, found in incremental rounds:
+//! 1. the points whose rules may newly fire are settled, in parallel: each leaf goes down past
+//!    split squares and past squares whose block is crowded (by points and the root only in the
+//!    first round: that crowding only lessens going down);
+//! 2. the paths they passed and the rings of the paths' squares (R3b) are split, and closed
+//!    under balance;
+//! 3. the points whose leaf or block got a new split square are the next round's.
+//!
+//! The result does not depend on the thread count or on the order splits are found in.
 
 use rayon::prelude::*;
 
@@ -33,29 +38,18 @@ use crate::quadtree::Quadtree;
 /// guard levels of [`crate::morton`] give 16. Squares at the finest level are never split.
 ///
 /// # Complexity
-/// Expected O(k) work for k output squares plus a final O(k log k) sort: membership is hashed,
-/// and a round costs O(a + m log n) for a squares added and m points moved. Typical inputs need
-/// 5–20 rounds; a chain of points placed so that each split forces the next one takes a round
-/// per point, each as cheap as the splits it adds.
+/// Expected O(k + n log n) work for k output squares and n points, plus O(L) per round for L
+/// levels: membership is hashed (bit masks over tiles of 8×8 squares), a round costs what it
+/// adds and the points it moves, the first one a galloping search per point and level for
+/// crowding points, and the preorder comes from a depth-first walk. Typical inputs need 4–15
+/// rounds; a chain of points placed so that each split forces the next one takes a round per
+/// point, each as cheap as the splits it adds.
 pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K> {
-    let mut tm = [0f64; 8];
-    let mut clock = std::time::Instant::now();
-    let lap = |i: usize, tm: &mut [f64; 8], clock: &mut std::time::Instant| {
-        tm[i] += clock.elapsed().as_secs_f64();
-        *clock = std::time::Instant::now();
-    };
     let mut set = SplitSet::new();
-    let internal: Vec<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
-    set.insert_closed(internal.iter().map(|&c| Squares::one(c)));
+    set.insert_closed(tree.internal.iter().map(|s| Squares::one(s.cell)));
     let mut leaves = PointLeaves::new(keys.len());
-    let t_init = clock.elapsed().as_secs_f64();
     let mut moves = first_moves(&set, tree, keys);
-    let t_first = clock.elapsed().as_secs_f64() - t_init;
-    let mut rounds = 0;
-    let (mut nd, mut na, mut nc) = (0, 0, 0);
-    lap(1, &mut tm, &mut clock);
     while !moves.is_empty() {
-        rounds += 1;
         let demanded: Vec<Vec<Squares<K>>> = moves
             .par_chunks(MOVES_PER_TASK)
             .map(|chunk| {
@@ -66,43 +60,15 @@ pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K>
                 out
             })
             .collect();
-        nd += demanded.iter().map(Vec::len).sum::<usize>();
-        lap(2, &mut tm, &mut clock);
         // The two updates touch different structures.
-        let ((added, ti), tr) = rayon::join(
-            || {
-                let c = std::time::Instant::now();
-                let a = set.insert_closed(demanded.iter().flatten().copied());
-                (a, c.elapsed().as_secs_f64())
-            },
-            || {
-                let c = std::time::Instant::now();
-                leaves.record(keys, &moves);
-                c.elapsed().as_secs_f64()
-            },
+        let (added, ()) = rayon::join(
+            || set.insert_closed(demanded.iter().flatten().copied()),
+            || leaves.record(keys, &moves),
         );
-        tm[0] += ti;
-        tm[3] += tr;
-        na += added.len();
-        lap(4, &mut tm, &mut clock);
         let candidates = leaves.near(&added);
-        nc += candidates.len();
-        lap(5, &mut tm, &mut clock);
         moves = settle_all(&set, keys, &leaves.level, &candidates);
-        lap(1, &mut tm, &mut clock);
     }
-    let pre = set.preorder();
-    lap(6, &mut tm, &mut clock);
-    let out = linked_tree(&pre, keys);
-    lap(7, &mut tm, &mut clock);
-    if std::env::var("SEP_TIMES").is_ok() {
-        eprintln!("init {t_init:.3} first {t_first:.3}");
-        eprintln!(
-            "rounds {rounds} cand {nc} demanded {nd} added {na} | insert_only {:.3} settle {:.3} demands {:.3} record {:.3} insert {:.3} near {:.3} preorder {:.3} linked {:.3}",
-            tm[0], tm[1], tm[2], tm[3], tm[4], tm[5], tm[6], tm[7]
-        );
-    }
-    out
+    linked_tree(&set.preorder(), keys)
 }
 
 /// Moves whose demands one task gathers.
@@ -279,55 +245,47 @@ impl<K: MortonKey> PointLeaves<K> {
 
 /// The first level from `from` on where the 5×5 block around point `i`'s square lies in the
 /// root and holds no other point (R3c, d), or the finest level.
-///
-/// Each block lies inside the one a level up, so the points that may crowd them are gathered
-/// once: those of the (at most 2×2) squares four times as large that cover the first block
-/// inside the root, found by galloping from `i`, as they are mostly close in Morton order.
 fn clear_of_points<K: MortonKey>(keys: &[K], i: usize, from: u8) -> u8 {
-    let mut near = None;
     let mut level = from;
-    while (level as u32) < K::AXIS_BITS {
-        let cell = Cell::containing(keys[i], level);
-        if window_inside(grid_position(cell), level, 2) {
-            near = near.or_else(|| points_near(keys, i, cell));
-            let crowded = match &near {
-                Some(ranges) => ranges
-                    .iter()
-                    .flat_map(|r| &keys[r.clone()])
-                    .any(|&k| crowds(k, cell)),
-                // Many points close by: ask the 24 squares instead of measuring each point.
-                None => block(cell).flatten().any(|c| holds_point(c, keys)),
-            };
-            if !crowded {
-                break;
-            }
-        }
+    while (level as u32) < K::AXIS_BITS && crowded_by_points(keys, i, level) {
         level += 1;
     }
     level
 }
 
-/// The points of the squares four times as large as `cell` that cover its block (inside the
-/// root), as ranges of `keys`; `None` if they are many.
-fn points_near<K: MortonKey>(keys: &[K], i: usize, cell: Cell<K>) -> Option<[Range<usize>; 4]> {
-    let mut ranges: [Range<usize>; 4] = Default::default();
-    for (range, coarse) in ranges.iter_mut().zip(window_cover(cell, 2)) {
+/// Whether the 5×5 block around point `i`'s square at `level` sticks out of the root or holds
+/// another point. Only the points in the (at most 2×2) squares four times as large that cover
+/// the block are looked at, found by galloping from `i`: they are mostly close in Morton order.
+fn crowded_by_points<K: MortonKey>(keys: &[K], i: usize, level: u8) -> bool {
+    let cell = Cell::containing(keys[i], level);
+    let centre = grid_position(cell);
+    if !window_inside(centre, level, 2) {
+        return true;
+    }
+    let crowds = |&k: &K| {
+        let other = Cell::containing(k, level);
+        other != cell && chebyshev(grid_position(other), centre) <= 2
+    };
+    for coarse in window_cover(cell, 2) {
         let start = partition_from(keys, i, |k| *k < coarse.anchor);
         let end = partition_from(keys, start, |k| {
             k.cell_anchor(coarse.level) <= coarse.anchor
         });
-        if end - start > 16 {
-            return None;
+        let inside = &keys[start..end];
+        let crowded = if inside.len() <= 32 {
+            inside.iter().any(crowds)
+        } else {
+            // Many points close by: search them for the block's squares instead.
+            block(cell)
+                .flatten()
+                .filter(|c| coarse.contains(c.anchor))
+                .any(|c| holds_point(c, inside))
+        };
+        if crowded {
+            return true;
         }
-        *range = start..end;
     }
-    Some(ranges)
-}
-
-/// Whether key `k` lies in the 5×5 block around `cell`, outside `cell` itself.
-fn crowds<K: MortonKey>(k: K, cell: Cell<K>) -> bool {
-    let other = Cell::containing(k, cell.level);
-    other != cell && chebyshev(grid_position(other), grid_position(cell)) <= 2
+    false
 }
 
 /// `v.partition_point(pred)` by galloping from index `i`: O(log d) for an answer d away.

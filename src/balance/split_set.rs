@@ -1,14 +1,16 @@
-//! A growing set of split squares, closed under balance, with constant-time membership: one
-//! hash set of anchors per level, so a round costs what it adds, not the size of the set.
+//! A growing set of split squares, closed under balance, with expected constant-time
+//! membership, so that a round of [`super::separate()`] costs what it adds, not the size of the
+//! set: per level, a hash map from tiles of 8×8 squares to a bit mask of the split ones.
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
+use rayon::prelude::*;
+
 use crate::morton::{Cell, MortonKey, Side};
 
-/// A multiplicative hasher for Morton keys. Anchors of coarse squares end in long runs of zero
-/// bits, so each word is mixed by a folded 64×64→128-bit product, whose high half depends on
-/// every input bit.
+/// A fast hasher for Morton indices: each word is mixed by a folded 64×64→128-bit product, so
+/// both the low bits (the table's slot) and the top bits (its tag) depend on every input bit.
 #[derive(Clone, Copy, Default)]
 pub(super) struct KeyHasher(u64);
 
@@ -34,10 +36,6 @@ impl Hasher for KeyHasher {
         }
     }
 
-    fn write_u8(&mut self, v: u8) {
-        self.mix(u64::from(v));
-    }
-
     fn write_u64(&mut self, v: u64) {
         self.mix(v);
     }
@@ -48,8 +46,7 @@ impl Hasher for KeyHasher {
     }
 }
 
-pub(super) type KeyHash = BuildHasherDefault<KeyHasher>;
-pub(super) type KeyMap<T, V> = HashMap<T, V, KeyHash>;
+pub(super) type KeyMap<T, V> = HashMap<T, V, BuildHasherDefault<KeyHasher>>;
 
 /// A square's column and row among the squares of its level.
 pub(super) fn grid_position<K: MortonKey>(cell: Cell<K>) -> (u64, u64) {
@@ -108,7 +105,7 @@ fn axis_mask(masks: &[u64; 8], lo: u64, hi: u64, t: u64) -> u64 {
     (from..=to).fold(0, |m, i| m | masks[i as usize])
 }
 
-/// The tiles that the squares within `radius` (at most 8) of `cell` inside the root meet, with
+/// The tiles that the squares within `radius` of `cell` inside the root meet, with
 /// the bits of those squares in each.
 pub(super) fn window_tiles<K: MortonKey>(
     cell: Cell<K>,
@@ -121,13 +118,13 @@ pub(super) fn window_tiles<K: MortonKey>(
     (x0 >> 3..=x1 >> 3).flat_map(move |tx| {
         let columns = axis_mask(&COLUMNS, x0, x1, tx);
         (y0 >> 3..=y1 >> 3).map(move |ty| {
-            let tile = at_position::<K>(tx << 3, ty << 3, cell.level).anchor;
+            let tile = K::encode(tx, ty);
             (tile, columns & axis_mask(&ROWS, y0, y1, ty))
         })
     })
 }
 
-/// Squares of one tile: the tile's anchor and level, and a bit per square.
+/// Squares of one tile: the tile (see [`tile_bit`]), its level, and a bit per square.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Squares<K> {
     tile: K,
@@ -159,11 +156,11 @@ impl<K: MortonKey> Squares<K> {
 
     /// The square of bit `index`.
     fn square(&self, index: u32) -> Cell<K> {
-        let shift = (2 * (K::AXIS_BITS - self.level as u32)).min(127);
+        let position = self.tile.to_u128() << 6 | u128::from(index);
+        let shift = 2 * (K::AXIS_BITS - self.level as u32);
         Cell {
-            anchor: self
-                .tile
-                .wrapping_add(K::from_u128(u128::from(index) << shift)),
+            // Only the root has a 128-bit shift, and position 0.
+            anchor: K::from_u128(position.checked_shl(shift).unwrap_or(0)),
             level: self.level,
         }
     }
@@ -206,19 +203,18 @@ fn forced_anew<K: MortonKey>(cell: Cell<K>, siblings: u8) -> [Option<Cell<K>>; 3
 }
 
 /// Split squares closed under parents and balance, as bit masks over tiles: a tile is the 8×8
-/// squares of one level inside a square three levels up, so neighbouring squares mostly share
-/// one hash entry and one cache line.
+/// squares of one level inside a square three levels up (the root for levels 0 to 2), so
+/// neighbouring squares mostly share one hash entry and one cache line.
 pub(super) struct SplitSet<K> {
     levels: Vec<KeyMap<K, u64>>,
 }
 
-/// The anchor of the tile holding `cell`, and the cell's bit in it (the tile's squares are
-/// numbered in Morton order).
+/// The tile holding `cell`, and the cell's bit in it: a tile is named by its Morton index among
+/// the tiles of its level, and numbers its squares in Morton order.
 fn tile_bit<K: MortonKey>(cell: Cell<K>) -> (K, u64) {
-    let tile = cell.anchor.cell_anchor(cell.level.saturating_sub(3));
     let shift = 2 * (K::AXIS_BITS - cell.level as u32);
-    let index = cell.anchor.to_u128().checked_shr(shift).unwrap_or(0) & 63;
-    (tile, 1 << index)
+    let position = cell.anchor.to_u128().checked_shr(shift).unwrap_or(0);
+    (K::from_u128(position >> 6), 1 << (position & 63))
 }
 
 impl<K: MortonKey> SplitSet<K> {
@@ -320,46 +316,62 @@ impl<K: MortonKey> SplitSet<K> {
         added
     }
 
-    /// Every square of the set, in preorder, by a depth-first walk.
+    /// Every square of the set, in preorder, by a depth-first walk. The walk meets each
+    /// level's tiles in Morton order, so it reads them from sorted lists rather than looking
+    /// them up (which misses the cache on large sets).
     pub(super) fn preorder(&self) -> Vec<Cell<K>> {
-        let mut out = Vec::new();
-        if self.contains(Cell::root()) {
-            let mut walk = Walk {
-                set: self,
-                tiles: vec![None; self.levels.len()],
-                out: &mut out,
-            };
+        let tiles: Vec<Vec<(K, u64)>> = self
+            .levels
+            .par_iter()
+            .map(|level| {
+                let mut tiles: Vec<(K, u64)> = level.iter().map(|(&t, &m)| (t, m)).collect();
+                tiles.par_sort_unstable_by_key(|&(tile, _)| tile);
+                tiles
+            })
+            .collect();
+        let count = tiles.iter().flatten().map(|(_, m)| m.count_ones() as usize);
+        let out = Vec::with_capacity(count.sum());
+        let mut walk = Walk {
+            next: vec![0; tiles.len()],
+            tiles,
+            out,
+        };
+        if walk.mask(0, K::default()) & 1 != 0 {
             walk.visit(Cell::root());
         }
-        out
+        walk.out
     }
 }
 
-/// A depth-first walk of the split squares. It passes each tile's squares in one stretch, so
-/// it looks each tile up once and keeps the last one of each level.
-struct Walk<'a, K> {
-    set: &'a SplitSet<K>,
-    tiles: Vec<Option<(K, u64)>>,
-    out: &'a mut Vec<Cell<K>>,
+/// A depth-first walk of the split squares, with each level's tiles sorted and the next one
+/// to read.
+struct Walk<K> {
+    tiles: Vec<Vec<(K, u64)>>,
+    next: Vec<usize>,
+    out: Vec<Cell<K>>,
 }
 
-impl<K: MortonKey> Walk<'_, K> {
+impl<K: MortonKey> Walk<K> {
+    /// The mask of `tile` at `level`; tiles must be asked for in increasing order per level.
+    fn mask(&mut self, level: usize, tile: K) -> u64 {
+        let (tiles, next) = (&self.tiles[level], &mut self.next[level]);
+        while tiles.get(*next).is_some_and(|&(t, _)| t < tile) {
+            *next += 1;
+        }
+        tiles
+            .get(*next)
+            .filter(|&&(t, _)| t == tile)
+            .map_or(0, |&(_, m)| m)
+    }
+
     fn visit(&mut self, cell: Cell<K>) {
         self.out.push(cell);
         if cell.level as u32 >= K::AXIS_BITS {
             return;
         }
-        let level = cell.level as usize + 1;
         // The four children are consecutive bits of one tile.
         let (tile, first) = tile_bit(cell.child(0));
-        let mask = match self.tiles[level] {
-            Some((cached, mask)) if cached == tile => mask,
-            _ => {
-                let mask = self.set.levels[level].get(&tile).copied().unwrap_or(0);
-                self.tiles[level] = Some((tile, mask));
-                mask
-            }
-        };
+        let mask = self.mask(cell.level as usize + 1, tile);
         for quadrant in 0..4 {
             if mask & first << quadrant != 0 {
                 self.visit(cell.child(quadrant));

@@ -364,7 +364,7 @@ fn bench(
         let stages: Vec<String> = report
             .stages
             .iter()
-            .map(|(stage, d)| format!("\"{stage}_s\":{}", d.as_secs_f64()))
+            .map(|(stage, d)| format!("\"{}_s\":{}", stage.replace(' ', "_"), d.as_secs_f64()))
             .collect();
         writeln!(
             out,

@@ -128,7 +128,10 @@ impl MeshReport {
                 for x in angles {
                     hist[((x / 10.0) as usize).min(17)] += 1;
                 }
-                let (amin, amax) = (angles[0].min(angles[1]).min(angles[2]), angles[0].max(angles[1]).max(angles[2]));
+                let (amin, amax) = (
+                    angles[0].min(angles[1]).min(angles[2]),
+                    angles[0].max(angles[1]).max(angles[2]),
+                );
                 (lo.min(amin), hi.max(amax), hist)
             })
             .reduce(identity, |a, b| {

@@ -87,7 +87,10 @@ pub fn morton_order(points: &[DVec2], sort: SortAlgorithm) -> Result<Morton, Err
 ///
 /// # Errors
 /// As [`morton_order`].
-pub fn morton_order_wide(points: &[DVec2], sort: SortAlgorithm) -> Result<MortonOrder<u128>, Error> {
+pub fn morton_order_wide(
+    points: &[DVec2],
+    sort: SortAlgorithm,
+) -> Result<MortonOrder<u128>, Error> {
     let (lo, hi) = validate(points)?;
     wide_order(points, lo, hi, sort)
 }
