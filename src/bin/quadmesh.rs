@@ -87,15 +87,8 @@ enum Command {
     },
     /// Generate points in memory and mesh them, for timing and scaling studies.
     Bench {
-        /// How many points.
-        #[arg(long, value_name = "N")]
-        points: usize,
-        /// Distribution: uniform, cluster, kuzmin or grid.
-        #[arg(long, default_value = "uniform")]
-        dist: Distribution2d,
-        /// Seed (the same points as `quadmesh generate` with this seed).
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
+        #[command(flatten)]
+        points: PointsArgs,
         /// Worker threads [default: all cores].
         #[arg(long, value_name = "N")]
         threads: Option<NonZeroUsize>,
@@ -105,19 +98,26 @@ enum Command {
     },
     /// Write seeded random points as `x y` lines that read back exactly.
     Generate {
-        /// How many points.
-        #[arg(long, value_name = "N")]
-        points: usize,
-        /// Distribution: uniform, cluster, kuzmin or grid.
-        #[arg(long, default_value = "uniform")]
-        dist: Distribution2d,
-        /// Seed; the same seed gives the same points on every machine.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
+        #[command(flatten)]
+        points: PointsArgs,
         /// Where to write the points; `-` for standard output.
         #[arg(short, long, value_name = "FILE")]
         output: PathBuf,
     },
+}
+
+/// Which generated points: the same arguments give the same points on every machine.
+#[derive(clap::Args)]
+struct PointsArgs {
+    /// How many points.
+    #[arg(long, value_name = "N")]
+    points: usize,
+    /// Distribution: uniform, cluster, kuzmin or grid.
+    #[arg(long, default_value = "uniform")]
+    dist: Distribution2d,
+    /// Seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
 }
 
 fn main() -> ExitCode {
@@ -152,18 +152,11 @@ fn main() -> ExitCode {
         } => mesh(&input, &output, &format, threads, check, svg_max_triangles),
         Command::Bench {
             points,
-            dist,
-            seed,
             threads,
             json,
-        } => bench(points, dist, seed, threads, json),
-        Command::Generate {
-            points,
-            dist,
-            seed,
-            output,
-        } => {
-            let points = generate::points(dist, points, seed);
+        } => bench(points, threads, json),
+        Command::Generate { points, output } => {
+            let points = generate::points(points.dist, points.points, points.seed);
             write_to(&output, |w| write_points(w, &points))
         }
     };
@@ -346,13 +339,12 @@ fn histogram_line(histogram: &[u64; 18]) -> String {
 }
 
 /// `quadmesh bench`: generate, mesh, report; with `json`, one JSON object as the last line.
-fn bench(
-    n: usize,
-    dist: Distribution2d,
-    seed: u64,
-    threads: Option<NonZeroUsize>,
-    json: bool,
-) -> Result<()> {
+fn bench(points: PointsArgs, threads: Option<NonZeroUsize>, json: bool) -> Result<()> {
+    let PointsArgs {
+        points: n,
+        dist,
+        seed,
+    } = points;
     let pool = pool(threads)?;
     let points = pool.install(|| generate::points(dist, n, seed));
     let (meshed, wall) = timed(|| pool.install(|| mesh_points(&points, &MeshOptions::default())));

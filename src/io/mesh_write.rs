@@ -175,14 +175,23 @@ pub fn write_node<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
 ///
 /// # Errors
 /// Whatever `w` returns.
-pub fn write_ele<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
-    writeln!(
-        w,
-        "# triangle, its vertices counter-clockwise (all numbered from 1)"
-    )?;
-    writeln!(w, "{} 3 0", mesh.triangles.len())?;
-    write_items(&mut w, mesh.triangles.len(), |buf, t| {
-        let [a, b, c] = mesh.triangles[t].map(number);
+pub fn write_ele<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
+    let comment = "# triangle, its vertices counter-clockwise (all numbered from 1)";
+    let header = format!("{} 3 0", mesh.triangles.len());
+    write_triples(w, comment, &header, &mesh.triangles)
+}
+
+/// Writes a comment line, a header line, then `<i> <a> <b> <c>` per triple, numbered from 1.
+fn write_triples<W: Write>(
+    mut w: W,
+    comment: &str,
+    header: &str,
+    triples: &[[u32; 3]],
+) -> io::Result<()> {
+    writeln!(w, "{comment}")?;
+    writeln!(w, "{header}")?;
+    write_items(&mut w, triples.len(), |buf, t| {
+        let [a, b, c] = triples[t].map(number);
         push_line(buf, &[t as i64 + 1, a, b, c]);
         Ok(())
     })?;
@@ -195,18 +204,11 @@ pub fn write_ele<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
 ///
 /// # Errors
 /// Whatever `w` returns.
-pub fn write_neigh<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
-    writeln!(
-        w,
-        "# triangle, the triangles across from its corners (numbered from 1, -1 for none)"
-    )?;
-    writeln!(w, "{} 3", mesh.triangles.len())?;
-    write_items(&mut w, mesh.triangles.len(), |buf, t| {
-        let [a, b, c] = mesh.neighbours[t].map(number);
-        push_line(buf, &[t as i64 + 1, a, b, c]);
-        Ok(())
-    })?;
-    w.flush()
+pub fn write_neigh<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
+    let comment =
+        "# triangle, the triangles across from its corners (numbered from 1, -1 for none)";
+    let header = format!("{} 3", mesh.triangles.len());
+    write_triples(w, comment, &header, &mesh.neighbours)
 }
 
 /// Writes every edge of the mesh once as a Triangle `.edge` file: the header `<#edges> 1`, then
