@@ -175,3 +175,43 @@ proptest! {
         prop_assert_eq!(report.points, distinct.len());
     }
 }
+
+/// The example inputs shipped with Triangle's Python package (`pip install triangle`), read from
+/// the installed copy when there is one: every `.node` file and every `.poly` file that carries
+/// its own vertices meshes validly.
+#[test]
+fn triangle_package_examples_mesh_validly() {
+    let found = std::process::Command::new("python3")
+        .args([
+            "-c",
+            "import os, triangle; print(os.path.join(os.path.dirname(triangle.__file__), 'data'))",
+        ])
+        .output();
+    let Some(dir) = found
+        .ok()
+        .filter(|out| out.status.success())
+        .map(|out| String::from_utf8_lossy(&out.stdout).trim().to_owned())
+    else {
+        eprintln!("Triangle's Python package is not installed; its examples are skipped");
+        return;
+    };
+    let mut meshed = 0;
+    for entry in std::fs::read_dir(&dir).unwrap() {
+        let path = entry.unwrap().path();
+        let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if extension != "node" && extension != "poly" {
+            continue;
+        }
+        // A .poly file whose vertices live in a .node file is refused with a clear error.
+        let Ok(points) = quadmesh::io::read_points(&path) else {
+            assert_eq!(extension, "poly", "{}", path.display());
+            continue;
+        };
+        let (mesh, _) = mesh_points(&points, &MeshOptions::default()).unwrap();
+        if let Err(fault) = mesh.validate(&points, WARP) {
+            panic!("{}: {fault}", path.display());
+        }
+        meshed += 1;
+    }
+    assert!(meshed > 0, "no examples found in {dir}");
+}
