@@ -215,3 +215,24 @@ fn triangle_package_examples_mesh_validly() {
     }
     assert!(meshed > 0, "no examples found in {dir}");
 }
+
+/// A single point, worked out by hand. The root is [0, 6] × [-5, 1] (side 2 · max(|centre|, 1)
+/// around the point) and the point is its centre, a grid vertex, so nothing warps. Separation
+/// splits the root (its block leaves the root), the point's level-1 and level-2 squares with
+/// their same-size neighbours (R3b), and stops at level 3, where the point's 5×5 block first fits
+/// in the root: the inner 3×3 level-2 squares are split into 36 level-3 leaves (2 triangles
+/// each), and the 7 level-2 leaves along the bottom and left are the corner one (no midpoint, 2
+/// triangles) and six with one midpoint (3 triangles each): 92 triangles, angles from 26.57°
+/// (arctan 1/2) to 90°.
+#[test]
+fn single_point_mesh_by_hand() {
+    let points = [DVec2::new(3.0, -2.0)];
+    let (mesh, report) = mesh_checked(&points);
+    assert_eq!(mesh.domain.lo, DVec2::new(0.0, -5.0));
+    assert_eq!(mesh.domain.hi, DVec2::new(6.0, 1.0));
+    assert_eq!(report.triangles, 36 * 2 + 2 + 6 * 3);
+    assert!((report.min_angle - 0.5f64.atan().to_degrees()).abs() < 1e-9);
+    assert!((report.max_angle - 90.0).abs() < 1e-9);
+    let point = mesh.vertex_input.iter().position(|&i| i == 0).unwrap();
+    assert_eq!(mesh.vertices[point], points[0]);
+}
