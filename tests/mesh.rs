@@ -236,3 +236,24 @@ fn single_point_mesh_by_hand() {
     let point = mesh.vertex_input.iter().position(|&i| i == 0).unwrap();
     assert_eq!(mesh.vertices[point], points[0]);
 }
+
+#[test]
+fn points_closer_than_f64_can_mesh_between_are_an_error() {
+    // Adjacent floats next to a point a unit away: the grid separates them, but the leaves
+    // between them would need corners f64 cannot place apart.
+    let next = f64::from_bits(1.0f64.to_bits() + 1);
+    let points = [
+        DVec2::new(0.0, 0.0),
+        DVec2::new(1.0, 1.0),
+        DVec2::new(next, 1.0),
+    ];
+    match mesh_points(&points, &MeshOptions::default()) {
+        Err(Error::Unresolvable { index, .. }) => assert!(index == 1 || index == 2, "{index}"),
+        Err(other) => panic!("unexpected error {other}"),
+        Ok((mesh, _)) => panic!(
+            "expected an error, got a mesh of {} triangles ({:?})",
+            mesh.triangles.len(),
+            mesh.validate(&points, WARP)
+        ),
+    }
+}

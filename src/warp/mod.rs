@@ -44,7 +44,7 @@ pub fn warp<K: MortonKey>(
 ) -> Result<(Mesh, AngleQuality), Error> {
     if let Some(p) = point_finer_than_grid(tree) {
         let index = order[p] as usize;
-        return Err(unresolvable(points[index], Some(index as u32)));
+        return Err(unresolvable(points[index], index as u32));
     }
     let geometry = LeafGeometry::new(tree, grid);
     let (numbering, vertices, vertex_input, moves) = times.time("warp vertices", || {
@@ -62,7 +62,7 @@ pub fn warp<K: MortonKey>(
     })?;
     let labels = |leaf: usize| numbering.labels(&geometry, leaf);
     let (kinds, moved_leaves, offsets) = times.time("warp templates", || {
-        let mut kinds = unmoved_templates(&geometry)?;
+        let mut kinds = unmoved_templates(&geometry, order, points)?;
         let moved_leaves = warped_templates(
             &geometry,
             &labels,
@@ -283,7 +283,11 @@ const MOVED: u8 = 0x80;
 const UNRESOLVED: u8 = 0xFF;
 
 /// The template code of every leaf by its midpoints alone, or [`UNRESOLVED`].
-fn unmoved_templates<K: MortonKey>(geometry: &LeafGeometry<K>) -> Result<Vec<u8>, Error> {
+fn unmoved_templates<K: MortonKey>(
+    geometry: &LeafGeometry<K>,
+    order: &[u32],
+    points: &[DVec2],
+) -> Result<Vec<u8>, Error> {
     let kinds: Vec<u8> = (0..geometry.leaves())
         .into_par_iter()
         .map(|leaf| {
@@ -296,15 +300,24 @@ fn unmoved_templates<K: MortonKey>(geometry: &LeafGeometry<K>) -> Result<Vec<u8>
         .collect();
     match kinds.par_iter().position_first(|&k| k == UNRESOLVED) {
         None => Ok(kinds),
-        Some(leaf) => Err(unresolvable(geometry.rect(leaf).0, None)),
+        Some(leaf) => {
+            // Leaves that small only surround points that close: name the nearest in Morton
+            // order.
+            let holding = |j: &usize| geometry.point(*j) != NONE;
+            let after = (leaf..geometry.leaves()).find(holding);
+            let before = (0..leaf).rev().find(holding);
+            let p = after.or(before).map_or(0, |j| geometry.point(j) as usize);
+            let input = order[p];
+            Err(unresolvable(points[input as usize], input))
+        }
     }
 }
 
-fn unresolvable(near: DVec2, input: Option<u32>) -> Error {
+fn unresolvable(point: DVec2, input: u32) -> Error {
     Error::Unresolvable {
-        index: input.map_or(usize::MAX, |i| i as usize),
-        x: near.x,
-        y: near.y,
+        index: input as usize,
+        x: point.x,
+        y: point.y,
     }
 }
 
@@ -336,7 +349,7 @@ fn warped_templates<K: MortonKey>(
     if let Some(bad) = blocks.iter().position(Option::is_none) {
         let leaf = moves[bad].leaf as usize;
         let vertex = labels(leaf)[moves[bad].corner as usize] as usize;
-        return Err(unresolvable(vertices[vertex], Some(vertex_input[vertex])));
+        return Err(unresolvable(vertices[vertex], vertex_input[vertex]));
     }
     let mut moved_leaves = Vec::with_capacity(4 * moves.len());
     for &(leaf, kind) in blocks.iter().flatten().flatten() {

@@ -40,6 +40,11 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
         }
     }
 
+    /// The Morton position of the point in `leaf`, or [`NONE`].
+    pub fn point(&self, leaf: usize) -> u32 {
+        self.leaves[leaf].point
+    }
+
     pub fn leaves(&self) -> usize {
         self.leaves.len()
     }
