@@ -14,7 +14,7 @@ use crate::morton::{
     morton_order_wide,
 };
 use crate::quadtree::{Quadtree, expand};
-use crate::warp::{AngleQuality, point_finer_than_grid, warp};
+use crate::warp::{AngleQuality, point_finer_than_grid, unresolvable, warp};
 
 /// Wall-clock time of each stage, in the order they ran.
 #[derive(Clone, Debug, Default)]
@@ -187,12 +187,8 @@ pub fn separated_tree(
     };
     let build = trees_of(m, &separated, &mut times);
     if let Some(p) = deepest_point_leaf(&build) {
-        let index = build.morton.order[p] as usize;
-        return Err(Error::Unresolvable {
-            index,
-            x: points[index].x,
-            y: points[index].y,
-        });
+        let index = build.morton.order[p];
+        return Err(unresolvable(points[index as usize], index));
     }
     Ok((Tree::Wide(build), times))
 }

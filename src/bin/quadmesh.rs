@@ -19,8 +19,8 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{
-    read_points, write_leaves_csv, write_msh, write_points, write_svg, write_triangle_files,
-    write_vtu,
+    read_points, with_extension_appended, write_leaves_csv, write_msh, write_points, write_svg,
+    write_triangle_files, write_vtu,
 };
 use quadmesh::mesh::AngleBounds;
 use quadmesh::morton::MortonKey;
@@ -251,13 +251,6 @@ fn mesh(
     })
 }
 
-fn with_extension(prefix: &Path, extension: &str) -> PathBuf {
-    let mut name = prefix.as_os_str().to_owned();
-    name.push(".");
-    name.push(extension);
-    PathBuf::from(name)
-}
-
 fn write_formats(
     mesh: &Mesh,
     prefix: &Path,
@@ -286,7 +279,7 @@ fn write_file(
     extension: &str,
     write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<PathBuf> {
-    let path = with_extension(prefix, extension);
+    let path = with_extension_appended(prefix, extension);
     write_to(&path, write)?;
     Ok(path)
 }

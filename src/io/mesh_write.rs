@@ -278,8 +278,9 @@ pub fn write_triangle_files(mesh: &Mesh, prefix: &Path) -> io::Result<Vec<PathBu
         .collect()
 }
 
-/// `prefix` with `.extension` appended.
-fn with_extension_appended(prefix: &Path, extension: &str) -> PathBuf {
+/// `prefix` with `.extension` appended (`mesh.1` → `mesh.1.node`; `Path::with_extension` would
+/// replace the `.1`).
+pub fn with_extension_appended(prefix: &Path, extension: &str) -> PathBuf {
     let mut name = OsString::from(prefix.as_os_str());
     name.push(".");
     name.push(extension);

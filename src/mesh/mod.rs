@@ -12,7 +12,7 @@ pub use validate::{AngleBounds, validate};
 pub const NONE: u32 = u32::MAX;
 
 /// An axis-parallel rectangle `[lo, hi]`, the region a mesh covers.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Domain {
     /// Lower-left corner.
     pub lo: DVec2,
@@ -75,15 +75,6 @@ pub struct Mesh {
     pub domain: Domain,
 }
 
-impl Default for Domain {
-    fn default() -> Self {
-        Domain {
-            lo: DVec2::ZERO,
-            hi: DVec2::ZERO,
-        }
-    }
-}
-
 /// Angles of a triangle in degrees, at its corners in order.
 pub fn angles_deg(a: DVec2, b: DVec2, c: DVec2) -> [f64; 3] {
     let angle = |p: DVec2, q: DVec2, r: DVec2| {
@@ -115,44 +106,6 @@ pub struct MeshReport {
 }
 
 impl MeshReport {
-    /// Counts and angle statistics of `mesh` (stage times empty).
-    pub fn of(mesh: &Mesh) -> MeshReport {
-        use rayon::prelude::*;
-        let identity = || (f64::INFINITY, f64::NEG_INFINITY, [0u64; 18]);
-        let (min_angle, max_angle, histogram) = mesh
-            .triangles
-            .par_iter()
-            .fold(identity, |(lo, hi, mut hist), t| {
-                let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
-                let angles = angles_deg(a, b, c);
-                for x in angles {
-                    hist[((x / 10.0) as usize).min(17)] += 1;
-                }
-                let (amin, amax) = (
-                    angles[0].min(angles[1]).min(angles[2]),
-                    angles[0].max(angles[1]).max(angles[2]),
-                );
-                (lo.min(amin), hi.max(amax), hist)
-            })
-            .reduce(identity, |a, b| {
-                let mut hist = a.2;
-                for (h, x) in hist.iter_mut().zip(b.2) {
-                    *h += x;
-                }
-                (a.0.min(b.0), a.1.max(b.1), hist)
-            });
-        MeshReport {
-            points: mesh.vertex_input.iter().filter(|&&i| i != NONE).count(),
-            duplicates: 0,
-            vertices: mesh.vertices.len(),
-            triangles: mesh.triangles.len(),
-            min_angle,
-            max_angle,
-            histogram,
-            stages: Vec::new(),
-        }
-    }
-
     /// Sum of the stage times.
     pub fn total(&self) -> Duration {
         self.stages.iter().map(|(_, d)| *d).sum()

@@ -23,8 +23,6 @@ use crate::pipeline::StageTimes;
 use templates::{Across, Kind, Part, RingSide, template};
 use vertices::{LeafGeometry, Numbering};
 
-pub use templates::KINDS as TEMPLATE_KINDS;
-
 /// The angles every warped mesh keeps, in degrees: the max-min rule's proven range.
 pub const ANGLE_BOUNDS: (f64, f64) = (22.5, 112.5);
 
@@ -76,7 +74,7 @@ pub fn warp<K: MortonKey>(
     let triangles = times.time("warp triangles", || {
         collect_segments(&offsets, |leaf| {
             let labels = labels(leaf);
-            template(kinds[leaf] & !MOVED)
+            template_of(kinds[leaf])
                 .triangles
                 .iter()
                 .map(move |t| t.map(|label| labels[label as usize]))
@@ -86,7 +84,7 @@ pub fn warp<K: MortonKey>(
     drop(numbering);
     let neighbours = times.time("warp neighbours", || {
         collect_segments(&offsets, |leaf| {
-            let across = &template(kinds[leaf] & !MOVED).across;
+            let across = &template_of(kinds[leaf]).across;
             let geometry = &geometry;
             let (kinds, offsets) = (&kinds, &offsets);
             across.iter().map(move |row| {
@@ -119,11 +117,14 @@ pub fn warp<K: MortonKey>(
     Ok((mesh, quality))
 }
 
+/// The template of a leaf's code, whether or not a corner of the leaf moved.
+fn template_of(kind: u8) -> &'static templates::Template {
+    template(kind & !MOVED)
+}
+
 /// Where each leaf's triangles start, with the total appended.
 fn triangle_offsets(kinds: &[u8]) -> Result<Vec<usize>, Error> {
-    let offsets = exclusive_scan_by(kinds.len(), |leaf| {
-        template(kinds[leaf] & !MOVED).triangles.len()
-    });
+    let offsets = exclusive_scan_by(kinds.len(), |leaf| template_of(kinds[leaf]).triangles.len());
     let total = offsets[offsets.len() - 1];
     if total >= NONE as usize {
         return Err(Error::TooLarge {
@@ -169,6 +170,12 @@ impl AngleQuality {
         self.histogram[((angle / 10.0) as usize).min(17)] += count;
     }
 
+    /// The same angles `count` times over.
+    fn repeated(mut self, count: u64) -> Self {
+        self.histogram.iter_mut().for_each(|h| *h *= count);
+        self
+    }
+
     fn merge(mut self, other: Self) -> Self {
         self.min = self.min.min(other.min);
         self.max = self.max.max(other.max);
@@ -188,37 +195,31 @@ fn angle_quality(
     triangles: &[[u32; 3]],
     vertices: &[DVec2],
 ) -> AngleQuality {
-    let per_kind = kinds
+    // Leaves whose corner moved are measured below; the others count by template.
+    let unmoved_per_kind = kinds
         .par_chunks(crate::par::GRAIN)
         .fold(
-            || [0u64; 2 * templates::KINDS],
+            || [0u64; templates::KINDS],
             |mut counts, chunk| {
-                for &k in chunk {
-                    counts
-                        [((k & MOVED != 0) as usize) * templates::KINDS + (k & !MOVED) as usize] +=
-                        1;
+                for &k in chunk.iter().filter(|&&k| k & MOVED == 0) {
+                    counts[k as usize] += 1;
                 }
                 counts
             },
         )
         .reduce(
-            || [0u64; 2 * templates::KINDS],
+            || [0u64; templates::KINDS],
             |mut a, b| {
                 a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
                 a
             },
         );
-    let mut quality = AngleQuality::empty();
-    for (code, &count) in per_kind[..templates::KINDS].iter().enumerate() {
-        if count > 0 {
-            let unit = templates::unit_angles(code as u8);
-            quality.min = quality.min.min(unit.min);
-            quality.max = quality.max.max(unit.max);
-            for (h, u) in quality.histogram.iter_mut().zip(unit.histogram) {
-                *h += u * count;
-            }
-        }
-    }
+    let quality = unmoved_per_kind
+        .iter()
+        .enumerate()
+        .filter(|(_, count)| **count > 0)
+        .map(|(code, &count)| templates::unit_angles(code as u8).repeated(count))
+        .fold(AngleQuality::empty(), AngleQuality::merge);
     moved_leaves
         .par_iter()
         .fold(AngleQuality::empty, |mut q, &leaf| {
@@ -313,7 +314,8 @@ fn unmoved_templates<K: MortonKey>(
     }
 }
 
-fn unresolvable(point: DVec2, input: u32) -> Error {
+/// The error for input point `input` at `point`.
+pub(crate) fn unresolvable(point: DVec2, input: u32) -> Error {
     Error::Unresolvable {
         index: input as usize,
         x: point.x,
@@ -470,7 +472,7 @@ fn facing_triangle<K: MortonKey>(
         (first as usize, if low { Part::Low } else { Part::High })
     };
     let (triangle, _) =
-        template(kinds[other] & !MOVED).facing[side.opposite() as usize][other_part as usize];
+        template_of(kinds[other]).facing[side.opposite() as usize][other_part as usize];
     (offsets[other] + triangle as usize) as u32
 }
 
@@ -489,7 +491,7 @@ fn boundary_edges<K: MortonKey>(
                 .filter(move |&side| geometry.across(leaf, link_side(side))[0] == NONE)
                 .map(move |side| {
                     let (t, corner) =
-                        template(kinds[leaf] & !MOVED).facing[side as usize][Part::Full as usize];
+                        template_of(kinds[leaf]).facing[side as usize][Part::Full as usize];
                     let tri = triangles[offsets[leaf] + t as usize];
                     let c = corner as usize;
                     BoundaryEdge {
