@@ -70,6 +70,38 @@ pub enum Error {
         /// How many there would be.
         count: usize,
     },
+    /// An option's value is out of range.
+    #[error("--{option}: {message}")]
+    InvalidOption {
+        /// The option, as the command line spells it.
+        option: &'static str,
+        /// What is wrong with the value.
+        message: String,
+    },
+    /// Refinement needed more vertices than its budget allows: the angle bound is above what
+    /// refinement reaches on this input, or the budget is too small for it.
+    #[error(
+        "refinement stopped at its budget of {limit} vertices with {remaining} triangles still \
+         below the bounds; raise the vertex budget or lower the angle bound (termination is \
+         proven up to 20.7 degrees)"
+    )]
+    VertexBudget {
+        /// The budget.
+        limit: usize,
+        /// Triangles still below the bounds when it stopped.
+        remaining: usize,
+    },
+    /// Refinement needed a vertex closer to others than f64 resolves.
+    #[error(
+        "refinement needs a vertex at ({x}, {y}), closer to others than f64 resolves there; the \
+         points span too many orders of magnitude for this angle bound"
+    )]
+    RefinementResolution {
+        /// Its x coordinate.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+    },
     /// A line of an input file could not be read.
     #[error("{source_name}:{line}: {message}")]
     Parse {

@@ -47,6 +47,7 @@ pub mod par;
 pub mod pipeline;
 pub mod pslg;
 pub mod quadtree;
+pub mod refine;
 pub mod warp;
 
 pub use error::Error;

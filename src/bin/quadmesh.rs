@@ -25,6 +25,7 @@ use quadmesh::io::{
 use quadmesh::mesh::AngleBounds;
 use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::StageTimes;
+use quadmesh::refine::{GUARANTEED_MIN_ANGLE_DEG, RefineOptions, refine_points};
 use quadmesh::warp::ANGLE_BOUNDS;
 use quadmesh::{
     Mesh, MeshOptions, MeshReport, Refinement, Tree, TreeBuild, TreeOptions, build_tree,
@@ -60,9 +61,10 @@ enum Command {
         #[arg(long)]
         separated: bool,
     },
-    /// Mesh a point file: every angle in [22.5°, 112.5°], every input point a vertex with its
-    /// exact coordinates, the domain the square around the points with room to spare (the
-    /// points' bounding box centred in a square twice its larger side).
+    /// Mesh a point file: every angle in [22.5°, 112.5°] by warping a quadtree, or a Delaunay
+    /// mesh with every angle at least `--min-angle`; every input point a vertex with its exact
+    /// coordinates, the domain the square around the points with room to spare (the points'
+    /// bounding box centred in a square twice its larger side).
     Mesh {
         /// Points: Triangle `.node` / `.poly` (its vertices), or text with one `x y` or `x,y`
         /// per line.
@@ -84,6 +86,8 @@ enum Command {
         /// The most triangles an SVG shows (a window around the centre beyond that).
         #[arg(long, default_value_t = 200_000, value_name = "N")]
         svg_max_triangles: usize,
+        #[command(flatten)]
+        quality: QualityArgs,
     },
     /// Generate points in memory and mesh them, for timing and scaling studies.
     Bench {
@@ -95,6 +99,8 @@ enum Command {
         /// Print one JSON object as the last line.
         #[arg(long)]
         json: bool,
+        #[command(flatten)]
+        quality: QualityArgs,
     },
     /// Write seeded random points as `x y` lines that read back exactly.
     Generate {
@@ -104,6 +110,71 @@ enum Command {
         #[arg(short, long, value_name = "FILE")]
         output: PathBuf,
     },
+}
+
+/// Which mesh: warped (the default) or Delaunay refinement with bounds.
+#[derive(clap::Args, Clone, Copy)]
+struct QualityArgs {
+    /// Delaunay refinement instead of warping, every angle at least A degrees (0 to 45).
+    /// Termination is proven up to 20.7°; above that refinement usually finishes up to about
+    /// 34° and stops at the vertex budget otherwise.
+    #[arg(long, value_name = "A")]
+    min_angle: Option<f64>,
+    /// Delaunay refinement with every triangle's area at most X (with no `--min-angle`, no
+    /// angle bound).
+    #[arg(long, value_name = "X")]
+    max_area: Option<f64>,
+    /// Refinement stops with an error past N vertices [default: 100 per point + 10000].
+    #[arg(long, value_name = "N")]
+    max_vertices: Option<usize>,
+}
+
+impl QualityArgs {
+    /// The refinement asked for, if any.
+    fn refinement(&self) -> Option<RefineOptions> {
+        if self.min_angle.is_none() && self.max_area.is_none() {
+            return None;
+        }
+        Some(RefineOptions {
+            min_angle_deg: self.min_angle.unwrap_or(0.0),
+            max_area: self.max_area,
+            max_vertices: self.max_vertices,
+            ..RefineOptions::default()
+        })
+    }
+
+    /// The angles the mesh guarantees.
+    fn bounds(&self) -> AngleBounds {
+        match self.refinement() {
+            Some(r) => AngleBounds {
+                min_deg: r.min_angle_deg,
+                max_deg: 180.0 - 2.0 * r.min_angle_deg,
+            },
+            None => AngleBounds {
+                min_deg: ANGLE_BOUNDS.0,
+                max_deg: ANGLE_BOUNDS.1,
+            },
+        }
+    }
+
+    /// Meshes `points` the way these arguments ask, warning on standard error about an angle
+    /// bound beyond the proven one.
+    fn mesh(&self, points: &[quadmesh::DVec2]) -> Result<(Mesh, MeshReport), quadmesh::Error> {
+        match self.refinement() {
+            Some(options) => {
+                if options.min_angle_deg > GUARANTEED_MIN_ANGLE_DEG {
+                    let _ = writeln!(
+                        io::stderr(),
+                        "warning: termination is proven up to {GUARANTEED_MIN_ANGLE_DEG:.1}°; \
+                         at {}° refinement may stop at its vertex budget",
+                        options.min_angle_deg
+                    );
+                }
+                refine_points(points, &options)
+            }
+            None => mesh_points(points, &MeshOptions::default()),
+        }
+    }
 }
 
 /// Which generated points: the same arguments give the same points on every machine.
@@ -149,12 +220,21 @@ fn main() -> ExitCode {
             threads,
             check,
             svg_max_triangles,
-        } => mesh(&input, &output, &format, threads, check, svg_max_triangles),
+            quality,
+        } => mesh(
+            &input,
+            &output,
+            &format,
+            threads,
+            (check, svg_max_triangles),
+            quality,
+        ),
         Command::Bench {
             points,
             threads,
             json,
-        } => bench(points, threads, json),
+            quality,
+        } => bench(points, threads, json, quality),
         Command::Generate { points, output } => {
             let points = generate::points(points.dist, points.points, points.seed);
             write_to(&output, |w| write_points(w, &points))
@@ -213,20 +293,16 @@ fn mesh(
     prefix: &Path,
     formats: &[Format],
     threads: Option<NonZeroUsize>,
-    check: bool,
-    svg_max_triangles: usize,
+    (check, svg_max_triangles): (bool, usize),
+    quality: QualityArgs,
 ) -> Result<()> {
     pool(threads)?.install(|| {
         let (points, read_time) = timed(|| with_spinner("reading", || read_points(input)));
         let points = points?;
-        let (meshed, _) =
-            timed(|| with_spinner("meshing", || mesh_points(&points, &MeshOptions::default())));
+        let (meshed, _) = timed(|| with_spinner("meshing", || quality.mesh(&points)));
         let (mesh, report) = meshed.with_context(|| format!("{}", input.display()))?;
         if check {
-            let bounds = AngleBounds {
-                min_deg: ANGLE_BOUNDS.0,
-                max_deg: ANGLE_BOUNDS.1,
-            };
+            let bounds = quality.bounds();
             with_spinner("checking", || mesh.validate(&points, bounds))
                 .map_err(|fault| anyhow::anyhow!("the mesh failed its check: {fault}"))?;
         }
@@ -332,7 +408,12 @@ fn histogram_line(histogram: &[u64; 18]) -> String {
 }
 
 /// `quadmesh bench`: generate, mesh, report; with `json`, one JSON object as the last line.
-fn bench(points: PointsArgs, threads: Option<NonZeroUsize>, json: bool) -> Result<()> {
+fn bench(
+    points: PointsArgs,
+    threads: Option<NonZeroUsize>,
+    json: bool,
+    quality: QualityArgs,
+) -> Result<()> {
     let PointsArgs {
         points: n,
         dist,
@@ -340,7 +421,7 @@ fn bench(points: PointsArgs, threads: Option<NonZeroUsize>, json: bool) -> Resul
     } = points;
     let pool = pool(threads)?;
     let points = pool.install(|| generate::points(dist, n, seed));
-    let (meshed, wall) = timed(|| pool.install(|| mesh_points(&points, &MeshOptions::default())));
+    let (meshed, wall) = timed(|| pool.install(|| quality.mesh(&points)));
     let (mesh, report) = meshed?;
     let mut out = io::stdout().lock();
     print_report(&mut out, &report, &mesh);

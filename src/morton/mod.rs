@@ -6,7 +6,7 @@
 //! separate are an error naming them.
 
 mod cell;
-mod interleave;
+pub(crate) mod interleave;
 mod key;
 mod quantize;
 mod sort;

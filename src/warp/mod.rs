@@ -156,7 +156,7 @@ pub struct AngleQuality {
 }
 
 impl AngleQuality {
-    fn empty() -> Self {
+    pub(crate) fn empty() -> Self {
         AngleQuality {
             min: f64::INFINITY,
             max: f64::NEG_INFINITY,

@@ -1,0 +1,100 @@
+//! Triangles waiting for refinement, smallest size class first (Har-Peled and Üngör process
+//! cells from the smallest up: a Steiner point then never lands where a smaller one would).
+
+/// A bad triangle as it was when queued: refinement replaces triangles and reuses their slots,
+/// so an entry is live only while its slot still holds the same corners.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Queued {
+    pub triangle: u32,
+    pub corners: [u32; 3],
+    /// Morton key of the triangle's position: a class is worked through in this order, so
+    /// that consecutive insertions touch nearby memory.
+    pub place: u64,
+}
+
+/// One stack per binary exponent of the squared shortest edge.
+#[derive(Clone, Debug)]
+pub(crate) struct SizeQueue {
+    classes: Vec<Vec<Queued>>,
+    lowest: usize,
+    /// The class last put in Morton order.
+    sorted: usize,
+}
+
+impl SizeQueue {
+    pub fn new() -> Self {
+        SizeQueue {
+            classes: vec![Vec::new(); 8192],
+            lowest: 8192,
+            sorted: usize::MAX,
+        }
+    }
+
+    /// The class of a triangle whose shortest edge has squared length `shortest2`: its binary
+    /// exponent and two leading mantissa bits, so each class spans at most a factor of 1.12 in
+    /// edge length. Finer classes than whole octaves leave fewer Steiner points.
+    #[inline]
+    pub fn class_of(shortest2: f64) -> usize {
+        ((shortest2.to_bits() >> 50) & 0x1fff) as usize
+    }
+
+    #[inline]
+    pub fn push(&mut self, class: usize, entry: Queued) {
+        self.classes[class].push(entry);
+        self.lowest = self.lowest.min(class);
+    }
+
+    /// An entry of the smallest non-empty class: on reaching a class, its entries are put in
+    /// Morton order and taken from the low end; entries queued while it is worked on come
+    /// first, last in first out.
+    pub fn pop(&mut self) -> Option<Queued> {
+        while self.lowest < self.classes.len() {
+            let class = &mut self.classes[self.lowest];
+            if class.is_empty() {
+                self.lowest += 1;
+                continue;
+            }
+            if self.sorted != self.lowest {
+                class.sort_unstable_by_key(|e| std::cmp::Reverse(e.place));
+                self.sorted = self.lowest;
+            }
+            return class.pop();
+        }
+        None
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn entry(t: u32) -> Queued {
+        Queued {
+            triangle: t,
+            corners: [t; 3],
+            place: u64::from(t),
+        }
+    }
+
+    #[test]
+    fn smallest_class_first_in_place_order_within_a_class() {
+        let mut q = SizeQueue::new();
+        q.push(SizeQueue::class_of(4.0), entry(1));
+        q.push(SizeQueue::class_of(0.3), entry(3));
+        q.push(SizeQueue::class_of(0.25), entry(2));
+        q.push(SizeQueue::class_of(100.0), entry(4));
+        let order: Vec<u32> = std::iter::from_fn(|| q.pop()).map(|e| e.triangle).collect();
+        assert_eq!(order, vec![2, 3, 1, 4]);
+        assert_eq!(q.pop(), None);
+    }
+
+    #[test]
+    fn classes_follow_the_binary_exponent() {
+        assert_eq!(SizeQueue::class_of(1.0), 4 * 1023);
+        assert_eq!(SizeQueue::class_of(1.2), 4 * 1023);
+        assert_eq!(SizeQueue::class_of(1.3), 4 * 1023 + 1);
+        assert_eq!(SizeQueue::class_of(1.99), 4 * 1023 + 3);
+        assert_eq!(SizeQueue::class_of(2.0), 4 * 1024);
+        assert!(SizeQueue::class_of(f64::MIN_POSITIVE) < SizeQueue::class_of(1e-300));
+    }
+}
