@@ -5,7 +5,8 @@ Usage (from the repository root):
 
     pip install triangle numpy          # once; the script installs nothing itself
     python3 scripts/compare_peers.py [--sizes 100000,1000000] [--dists uniform,cluster,kuzmin]
-        [--threads 1,2] [--repeats 3] [--angles 20,30] [--tools triangle,spade,quadmesh]
+        [--threads 1,2] [--repeats 3] [--angles 20,30,33]
+        [--tools triangle,spade,quadmesh,quadmesh-refine]
         [--quadmesh-args='--some-flag value'] [--timeout 600] [--out results.json] [--markdown]
 
 Options that take a value beginning with '-' need the '=' form, as in --quadmesh-args above.
@@ -14,6 +15,7 @@ What it does:
 
 * builds the release CLI and the spade example once
   (``cargo build --release --bin quadmesh --example spade_mesh``; ``--no-build`` skips this);
+  the binaries are taken from ``$CARGO_TARGET_DIR`` when it is set, ``target/`` otherwise;
 * for every distribution and size, writes the points with
   ``target/release/quadmesh generate --points N --dist D --seed 1`` into a temporary directory;
 * computes the square every tool meshes, the one quadmesh meshes: centred on the centre of the
@@ -24,7 +26,8 @@ What it does:
   switches ``Q`` (plain Delaunay triangulation of the points and corners) and ``q<A>Q`` for every
   angle A of ``--angles`` (quality refinement, no angle below A degrees). Only the
   ``triangle.triangulate`` call is timed; it includes the package's copying of the input and output
-  arrays. Its peak memory is the child's ``ru_maxrss`` taken right after that call, so it includes
+  arrays. Above about 34 degrees Triangle's refinement does not finish: it grows until the
+  timeout or the system kills it (shown as "killed by SIGKILL (out of memory?)"). Its peak memory is the child's ``ru_maxrss`` taken right after that call, so it includes
   the Python interpreter, numpy and the numpy arrays of the input points (the raw results also
   give ``peak_rss_before_mesh_bytes``, the child's high-water mark just before the call);
 * spade, through ``target/release/examples/spade_mesh`` (one process per run): plain Delaunay
@@ -32,20 +35,37 @@ What it does:
   not reading the file; its peak memory is the process's high-water mark, which includes the
   points as read (``peak_rss_before_mesh_bytes`` in the raw results is the mark after reading).
   The example uses mimalloc, as the quadmesh CLI does;
-* quadmesh, through ``target/release/quadmesh bench --points N --dist D --seed 1 --threads T
-  --json`` plus ``--quadmesh-args``, once per thread count of ``--threads``. It generates the
-  same points in memory and prints one JSON object as its last line of output; its time is that
-  object's ``total_s``. If the subcommand is missing or fails, quadmesh rows say so and the
-  other tools still run. Triangle and spade are sequential and run once per size and
-  distribution, whatever ``--threads`` says.
+* quadmesh (tool ``quadmesh``, the warped quadtree mesh), through ``target/release/quadmesh bench
+  --points N --dist D --seed 1 --threads T --json`` plus ``--quadmesh-args``, once per thread
+  count of ``--threads``. It generates the same points in memory and prints one JSON object as
+  its last line of output; its time is that object's ``total_s``. If the subcommand is missing
+  or fails, quadmesh rows say so and the other tools still run;
+* quadmesh's Delaunay refinement (tool ``quadmesh-refine``): the same command with
+  ``--min-angle A`` for every angle A of ``--angles`` and every thread count of ``--threads``
+  (``--quadmesh-args`` too). Above 20.7 degrees quadmesh warns on standard error that
+  termination is not proven; the warning is kept in the raw results (``stderr``). If this quadmesh
+  has no ``--min-angle``, these rows say so.
+
+Triangle and spade are sequential and run once per size and distribution, whatever ``--threads``
+says.
 
 Each run is repeated ``--repeats`` times; the tables give the median time and the largest peak
-memory. Columns: tool and mode, threads, time (s, median), time relative to Triangle's plain
-Delaunay triangulation, output triangles per input point, smallest and largest angle of the
-output (degrees), peak resident memory (MB, 10^6 bytes) and peak memory per output triangle
-(bytes). Every subprocess has a timeout (``--timeout``, 600 s by default); failures and
-timeouts are shown in the tables and never stop the script. ``--markdown`` prints GitHub
-markdown tables; ``--out FILE`` writes every raw run as JSON, with the machine's description.
+memory. Rows come in groups: the unrefined meshes (Triangle ``Q``, spade's Delaunay, quadmesh's
+warped mesh), then for each angle A Triangle ``qA``, spade at A and quadmesh's refinement at A.
+Columns: tool and mode, threads, time (s, median), time relative to Triangle at the same angle
+(``qA`` for refinement rows, plain ``Q`` for the others), output triangles per input point,
+triangles relative to Triangle at the same angle, smallest and largest angle of the output
+(degrees), peak resident memory (MB, 10^6 bytes) and peak memory per output triangle (bytes).
+A spade row marked "incomplete" ran out of its vertex allowance before meeting the angle; a
+refinement row marked "below the bound" has a smaller angle than it was asked for. Below
+each table a line checks quadmesh's target at 30 degrees on 2 threads: time at most 0.25 times
+Triangle ``q30``'s and no more triangles per point than Triangle ``q30``.
+
+Every subprocess has a timeout (``--timeout``, 600 s by default); failures and timeouts are
+shown in the tables and never stop the script. A configuration that timed out is skipped for
+larger sizes of the same distribution (spade at 33 degrees, say, which may not finish at
+10^6 points). ``--markdown`` prints GitHub markdown tables; ``--out FILE`` writes every raw run
+as JSON, with the machine's description.
 
 Triangle and spade see the points only after they were written as text and read back; the
 ``x y`` text that ``quadmesh generate`` writes reads back to the same doubles, so all three
@@ -57,6 +77,7 @@ import json
 import os
 import platform
 import shlex
+import signal
 import statistics
 import subprocess
 import sys
@@ -65,10 +86,21 @@ import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-QUADMESH = REPO / "target" / "release" / "quadmesh"
-SPADE = REPO / "target" / "release" / "examples" / "spade_mesh"
+# Cargo's target directory: $CARGO_TARGET_DIR (relative to the repository root) if set.
+TARGET = REPO / os.environ.get("CARGO_TARGET_DIR", "target")
+QUADMESH = TARGET / "release" / "quadmesh"
+SPADE = TARGET / "release" / "examples" / "spade_mesh"
 
 CHILD_MARK = "__triangle_child__"
+
+# The --tools names.
+TOOLS = ("triangle", "spade", "quadmesh", "quadmesh-refine")
+
+# The issue's target for quadmesh's refinement: at this angle and thread count, at most this
+# fraction of Triangle's time and no more triangles per point than Triangle.
+TARGET_ANGLE = 30.0
+TARGET_THREADS = 2
+TARGET_TIME_RATIO = 0.25
 
 
 # --------------------------------------------------------------------------------------------
@@ -170,10 +202,12 @@ def parse_args():
     parser.add_argument("--threads", type=int_list, default=sorted({1, cores}),
                         help=f"quadmesh thread counts (default 1,{cores})")
     parser.add_argument("--repeats", type=int, default=3, help="runs of each configuration")
-    parser.add_argument("--angles", type=float_list, default=[20.0, 30.0],
-                        help="minimum angles for Triangle's and spade's refinement (default 20,30)")
-    parser.add_argument("--tools", type=str_list, default=["triangle", "spade", "quadmesh"],
-                        help="which tools to run (default triangle,spade,quadmesh)")
+    parser.add_argument("--angles", type=float_list, default=[20.0, 30.0, 33.0],
+                        help="minimum angles for Triangle's, spade's and quadmesh's refinement "
+                             "(default 20,30,33)")
+    parser.add_argument("--tools", type=str_list, default=list(TOOLS),
+                        help=f"which tools to run (default {','.join(TOOLS)}; quadmesh is the "
+                             f"warped mesh, quadmesh-refine the Delaunay refinement)")
     parser.add_argument("--quadmesh-args", default="",
                         help="extra arguments for `quadmesh bench`, one shell-quoted string; "
                              "use the --quadmesh-args='...' form")
@@ -185,7 +219,7 @@ def parse_args():
     args = parser.parse_args()
     if args.repeats < 1:
         parser.error("--repeats must be at least 1")
-    unknown = set(args.tools) - {"triangle", "spade", "quadmesh"}
+    unknown = set(args.tools) - set(TOOLS)
     if unknown:
         parser.error(f"unknown tools: {', '.join(sorted(unknown))}")
     if any(not 0.0 < a < 60.0 for a in args.angles):
@@ -224,8 +258,18 @@ def run_json(command, timeout):
         return None, f"timeout after {timeout:g} s"
     except OSError as e:
         return None, f"could not start: {e}"
+    if done.returncode < 0:
+        try:
+            name = signal.Signals(-done.returncode).name
+        except ValueError:
+            name = f"signal {-done.returncode}"
+        hint = " (out of memory?)" if name == "SIGKILL" else ""
+        return None, f"killed by {name}{hint}: {tail(done.stderr or done.stdout)}"
     if done.returncode != 0:
-        return None, f"exit status {done.returncode}: {tail(done.stderr or done.stdout)}"
+        # The error lines alone, when the tool marks them (quadmesh prints warnings first).
+        errors = [line for line in (done.stderr or "").splitlines() if line.startswith("error")]
+        text = "\n".join(errors) if errors else (done.stderr or done.stdout)
+        return None, f"exit status {done.returncode}: {tail(text)}"
     lines = [line for line in done.stdout.splitlines() if line.strip()]
     if not lines:
         return None, f"no output; stderr: {tail(done.stderr)}"
@@ -245,36 +289,55 @@ def angle_text(angle):
 
 
 class Config:
-    """One row of a table: a tool, a mode, a thread count and the command that runs it."""
+    """One row of a table: a tool, a mode, a thread count and the command that runs it.
 
-    def __init__(self, tool, mode, threads, command, time_key="time_s"):
+    `selector` is the --tools name that asked for it; `angle` the minimum angle of a
+    refinement, None for an unrefined mesh (Triangle Q, spade's Delaunay, quadmesh's warp)."""
+
+    def __init__(self, tool, mode, threads, command, time_key="time_s", selector=None,
+                 angle=None):
         self.tool = tool
         self.mode = mode
         self.threads = threads
         self.command = command
         self.time_key = time_key
+        self.selector = selector or tool
+        self.angle = angle
 
 
 def configs_for(args, dist, size, points_txt, points_npy, corners):
+    """The rows of one table: the unrefined meshes first, then one group per angle, each with
+    Triangle, spade and quadmesh side by side."""
+    child = [sys.executable, str(Path(__file__).resolve()), CHILD_MARK, str(points_npy)]
+    spade = [str(SPADE), str(points_txt), "--corners=" + ",".join(repr(c) for c in corners)]
+    extra = shlex.split(args.quadmesh_args)
+    suffix = f" {args.quadmesh_args}" if extra else ""
+
+    def bench(t, more):
+        return ([str(QUADMESH), "bench", "--points", str(size), "--dist", dist, "--seed", "1",
+                 "--threads", str(t), "--json"] + more + extra)
+
     configs = []
     if "triangle" in args.tools:
-        child = [sys.executable, str(Path(__file__).resolve()), CHILD_MARK, str(points_npy)]
-        configs.append(Config("Triangle", "Delaunay", 1, child + ["Q"]))
-        for a in args.angles:
-            configs.append(Config("Triangle", f"q{angle_text(a)}", 1, child + [f"q{a:g}Q"]))
+        configs.append(Config("Triangle", "Delaunay", 1, child + ["Q"], selector="triangle"))
     if "spade" in args.tools:
-        base = [str(SPADE), str(points_txt), "--corners=" + ",".join(repr(c) for c in corners)]
-        configs.append(Config("spade", "Delaunay", 1, base))
-        for a in args.angles:
-            configs.append(Config("spade", f"refine {angle_text(a)}°", 1,
-                                  base + ["--min-angle", f"{a:g}"]))
+        configs.append(Config("spade", "Delaunay", 1, spade, selector="spade"))
     if "quadmesh" in args.tools:
-        extra = shlex.split(args.quadmesh_args)
         for t in args.threads:
-            command = [str(QUADMESH), "bench", "--points", str(size), "--dist", dist,
-                       "--seed", "1", "--threads", str(t), "--json"] + extra
-            mode = "mesh" + (f" {args.quadmesh_args}" if extra else "")
-            configs.append(Config("quadmesh", mode, t, command, time_key="total_s"))
+            configs.append(Config("quadmesh", "warp" + suffix, t, bench(t, []),
+                                  time_key="total_s", selector="quadmesh"))
+    for a in args.angles:
+        if "triangle" in args.tools:
+            configs.append(Config("Triangle", f"q{angle_text(a)}", 1, child + [f"q{a:g}Q"],
+                                  selector="triangle", angle=a))
+        if "spade" in args.tools:
+            configs.append(Config("spade", f"refine {angle_text(a)}°", 1,
+                                  spade + ["--min-angle", f"{a:g}"], selector="spade", angle=a))
+        if "quadmesh-refine" in args.tools:
+            for t in args.threads:
+                configs.append(Config("quadmesh", f"refine {angle_text(a)}°{suffix}", t,
+                                      bench(t, ["--min-angle", f"{a:g}"]), time_key="total_s",
+                                      selector="quadmesh-refine", angle=a))
     return configs
 
 
@@ -290,12 +353,14 @@ def summarize(runs, time_key):
         "triangles": last.get("triangles"),
         "min_angle": last.get("min_angle"),
         "max_angle": last.get("max_angle"),
+        "refinement_complete": last.get("refinement_complete"),
     }
 
 
 def measure(config, repeats, timeout, skip_note):
     """Runs one configuration `repeats` times; stops at the first failure."""
     result = {"tool": config.tool, "mode": config.mode, "threads": config.threads,
+              "angle": config.angle, "selector": config.selector,
               "command": config.command, "runs": [], "error": None}
     if skip_note:
         result["error"] = skip_note
@@ -327,12 +392,23 @@ def square_of(points):
             float(centre[0] + half), float(centre[1] + half))
 
 
+HEADER = ["tool / mode", "threads", "time s (median)", "vs Triangle", "triangles/point",
+          "triangles vs Triangle", "min angle", "max angle", "peak MB", "bytes/triangle"]
+
+
+def ratio_of(value, base):
+    if isinstance(value, (int, float)) and isinstance(base, (int, float)) and base > 0:
+        return value / base
+    return None
+
+
 def format_row(result, size, baseline):
+    """One table row; `baseline` is Triangle's result at the row's angle, or None."""
     name = f"{result['tool']} {result['mode']}"
     if not result["runs"]:
         error = " ".join(result["error"].split())
         status = error if error.startswith("skipped") else "failed: " + error
-        return [name, str(result["threads"]), status, "", "", "", "", "", ""]
+        return [name, str(result["threads"]), status] + [""] * (len(HEADER) - 3)
     t = result["median_time_s"]
     tris = result["triangles"]
     peak = result["max_peak_rss_bytes"]
@@ -340,33 +416,60 @@ def format_row(result, size, baseline):
     def num(value, fmt):
         return format(value, fmt) if isinstance(value, (int, float)) else "-"
 
-    ratio = t / baseline if baseline and t is not None else None
+    base_time = baseline["median_time_s"] if baseline else None
+    base_tris = baseline["triangles"] if baseline else None
     cells = [
         name,
         str(result["threads"]),
         num(t, ".3f"),
-        num(ratio, ".2f"),
+        num(ratio_of(t, base_time), ".2f"),
         num(tris / size if isinstance(tris, int) else None, ".3f"),
+        num(ratio_of(tris, base_tris), ".2f"),
         num(result["min_angle"], ".2f"),
         num(result["max_angle"], ".2f"),
         num(peak / 1e6 if peak is not None else None, ".1f"),
         num(peak / tris if peak is not None and tris else None, ".0f"),
     ]
+    if result.get("refinement_complete") is False:
+        cells[0] += " (incomplete)"
+    elif (result.get("angle") is not None and isinstance(result["min_angle"], (int, float))
+          and result["min_angle"] < result["angle"] - 1e-6):
+        cells[0] += " (below the bound)"
     if result["error"]:
         cells[0] += f" (then failed: {' '.join(result['error'].split())})"
     return cells
 
 
-HEADER = ["tool / mode", "threads", "time s (median)", "vs Triangle", "triangles/point",
-          "min angle", "max angle", "peak MB", "bytes/triangle"]
+def triangle_baselines(results):
+    """Triangle's successful results by angle (None for plain Delaunay)."""
+    return {r["angle"]: r for r in results if r["tool"] == "Triangle" and r["runs"]}
+
+
+def target_line(size, results):
+    """quadmesh's refinement at the target angle and thread count against Triangle's, or None."""
+    base = triangle_baselines(results).get(TARGET_ANGLE)
+    ours = [r for r in results if r["selector"] == "quadmesh-refine" and r["runs"]
+            and r["angle"] == TARGET_ANGLE and r["threads"] == TARGET_THREADS]
+    if base is None or not ours:
+        return None
+    ours = ours[0]
+    time_ratio = ratio_of(ours["median_time_s"], base["median_time_s"])
+    ours_tpp = ours["triangles"] / size if isinstance(ours["triangles"], int) else None
+    base_tpp = base["triangles"] / size if isinstance(base["triangles"], int) else None
+    if time_ratio is None or ours_tpp is None or base_tpp is None:
+        return None
+    time_ok = time_ratio <= TARGET_TIME_RATIO
+    tris_ok = ours_tpp <= base_tpp
+    a = angle_text(TARGET_ANGLE)
+    return (f"target, quadmesh refine {a}° on {TARGET_THREADS} threads vs Triangle q{a}: "
+            f"time {time_ratio:.2f}x (target <= {TARGET_TIME_RATIO:g}x: "
+            f"{'met' if time_ok else 'NOT met'}), triangles/point {ours_tpp:.3f} vs "
+            f"{base_tpp:.3f} ({'met' if tris_ok else 'NOT met'})")
 
 
 def print_table(dist, size, results, markdown):
-    baseline = None
-    for r in results:
-        if r["tool"] == "Triangle" and r["mode"] == "Delaunay" and r["runs"]:
-            baseline = r["median_time_s"]
-    rows = [format_row(r, size, baseline) for r in results]
+    baselines = triangle_baselines(results)
+    rows = [format_row(r, size, baselines.get(r["angle"])) for r in results]
     title = f"{dist}, {size:,} points"
     if markdown:
         print(f"\n#### {title}\n")
@@ -386,6 +489,9 @@ def print_table(dist, size, results, markdown):
             else:
                 print("  ".join(c.ljust(widths[i]) if i == 0 else c.rjust(widths[i])
                                 for i, c in enumerate(row)))
+    target = target_line(size, results)
+    if target:
+        print(f"\n{target}")
     sys.stdout.flush()
 
 
@@ -413,7 +519,11 @@ def main():
     everything = {"machine": machine(), "arguments": {k: (str(v) if isinstance(v, Path) else v)
                                                       for k, v in vars(args).items()},
                   "tables": []}
-    quadmesh_skip = None
+    # Notes that skip every later row of a --tools name: quadmesh without `bench`, or without
+    # `--min-angle` for its refinement.
+    skips = {}
+    # Sizes at which a row (distribution, tool, mode, threads) timed out: larger sizes skip it.
+    timed_out = {}
     with tempfile.TemporaryDirectory(prefix="compare-peers-") as tmp:
         tmp = Path(tmp)
         for dist in args.dists:
@@ -445,13 +555,27 @@ def main():
                 table["square"] = list(corners)
                 del points
                 for config in configs_for(args, dist, size, points_txt, points_npy, corners):
-                    skip = quadmesh_skip if config.tool == "quadmesh" else None
+                    key = (dist, config.tool, config.mode, config.threads)
+                    skip = skips.get(config.selector)
+                    if skip is None and key in timed_out and size >= timed_out[key]:
+                        skip = (f"skipped: timed out at {timed_out[key]:,} points "
+                                f"(--timeout {args.timeout:g})")
                     result = measure(config, args.repeats, args.timeout, skip)
-                    if (config.tool == "quadmesh" and not result["runs"] and result["error"]
-                            and "unrecognized subcommand" in result["error"]):
-                        quadmesh_skip = ("skipped: this quadmesh has no `bench` subcommand yet "
-                                         "(`quadmesh bench ... --json` failed)")
-                        result["error"] = quadmesh_skip
+                    error = result["error"] or ""
+                    if config.tool == "quadmesh" and not result["runs"] and error:
+                        if "unrecognized subcommand" in error:
+                            note = ("skipped: this quadmesh has no `bench` subcommand yet "
+                                    "(`quadmesh bench ... --json` failed)")
+                            skips["quadmesh"] = skips["quadmesh-refine"] = note
+                            result["error"] = note
+                        elif (config.selector == "quadmesh-refine"
+                              and "unexpected argument '--min-angle'" in error):
+                            note = ("skipped: this quadmesh has no refinement yet "
+                                    "(`quadmesh bench --min-angle` failed)")
+                            skips["quadmesh-refine"] = note
+                            result["error"] = note
+                    if error.startswith("timeout"):
+                        timed_out[key] = min(size, timed_out.get(key, size))
                     table["results"].append(result)
                 everything["tables"].append(table)
                 print_table(dist, size, table["results"], args.markdown)
@@ -462,8 +586,8 @@ def main():
     if args.out:
         args.out.write_text(json.dumps(everything, indent=1) + "\n")
         log(f"raw results written to {args.out}")
-    if quadmesh_skip:
-        print(f"\nnote: quadmesh {quadmesh_skip}")
+    for note in dict.fromkeys(skips.values()):
+        print(f"\nnote: quadmesh {note}")
 
 
 if __name__ == "__main__":

@@ -81,8 +81,8 @@ pub enum Error {
     /// Refinement needed more vertices than its budget allows: the angle bound is above what
     /// refinement reaches on this input, or the budget is too small for it.
     #[error(
-        "refinement stopped at its budget of {limit} vertices with {remaining} triangles still \
-         below the bounds; raise the vertex budget or lower the angle bound (termination is \
+        "refinement stopped at its budget of {limit} vertices (input points included) with \
+         {remaining} triangles still outside the bounds; raise the vertex budget or lower the angle bound (termination is \
          proven up to 20.7 degrees)"
     )]
     VertexBudget {
@@ -91,10 +91,13 @@ pub enum Error {
         /// Triangles still below the bounds when it stopped.
         remaining: usize,
     },
-    /// Refinement needed a vertex closer to others than f64 resolves.
+    /// Refinement needed a vertex closer to others than f64 resolves: it kept shrinking the
+    /// triangles at one place, which happens above the angle bounds refinement can reach.
     #[error(
-        "refinement needs a vertex at ({x}, {y}), closer to others than f64 resolves there; the \
-         points span too many orders of magnitude for this angle bound"
+        "refinement needs a vertex at ({x}, {y}), closer to others than f64 resolves there: it \
+         cannot reach the angle bound near that point (it reliably does up to about 33 degrees; \
+         termination is proven up to 20.7), or the points there are closer together than f64 \
+         can refine between"
     )]
     RefinementResolution {
         /// Its x coordinate.

@@ -188,6 +188,16 @@ pub fn with_capacity_huge<T>(n: usize) -> Vec<T> {
     v
 }
 
+/// An empty vector with room for `n` values whose pages are already touched, by all threads
+/// in parallel: for a buffer that is then filled by sequential code, first touch would
+/// otherwise run on one core.
+pub fn prefaulted<T: Copy + Send + Sync>(n: usize, fill: T) -> Vec<T> {
+    let mut v = with_capacity_huge(n);
+    v.par_extend(rayon::iter::repeat_n(fill, n));
+    v.clear();
+    v
+}
+
 #[cfg(target_os = "linux")]
 #[allow(unsafe_code)]
 fn advise_huge_pages(start: usize, bytes: usize) {

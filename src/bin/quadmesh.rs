@@ -118,13 +118,14 @@ struct QualityArgs {
     /// Delaunay refinement instead of warping, every angle at least A degrees (0 to 45).
     /// Termination is proven up to 20.7°; above that refinement usually finishes up to about
     /// 34° and stops at the vertex budget otherwise.
-    #[arg(long, value_name = "A")]
+    #[arg(long, value_name = "A", allow_negative_numbers = true)]
     min_angle: Option<f64>,
     /// Delaunay refinement with every triangle's area at most X (with no `--min-angle`, no
     /// angle bound).
-    #[arg(long, value_name = "X")]
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
     max_area: Option<f64>,
-    /// Refinement stops with an error past N vertices [default: 100 per point + 10000].
+    /// Refinement stops with an error past N vertices, input points included [default: 100 per
+    /// point + 10000].
     #[arg(long, value_name = "N")]
     max_vertices: Option<usize>,
 }
@@ -143,6 +144,28 @@ impl QualityArgs {
         })
     }
 
+    /// Refuses bounds out of range before any work, and warns about an angle bound beyond the
+    /// proven one.
+    fn check(&self) -> Result<()> {
+        let Some(options) = self.refinement() else {
+            anyhow::ensure!(
+                self.max_vertices.is_none(),
+                "--max-vertices: applies to refinement only (--min-angle or --max-area)"
+            );
+            return Ok(());
+        };
+        options.check()?;
+        if options.min_angle_deg > GUARANTEED_MIN_ANGLE_DEG {
+            let _ = writeln!(
+                io::stderr(),
+                "warning: termination is proven up to {GUARANTEED_MIN_ANGLE_DEG:.1}°; at {}° \
+                 refinement may stop with an error",
+                options.min_angle_deg
+            );
+        }
+        Ok(())
+    }
+
     /// The angles the mesh guarantees.
     fn bounds(&self) -> AngleBounds {
         match self.refinement() {
@@ -157,21 +180,10 @@ impl QualityArgs {
         }
     }
 
-    /// Meshes `points` the way these arguments ask, warning on standard error about an angle
-    /// bound beyond the proven one.
+    /// Meshes `points` the way these arguments ask.
     fn mesh(&self, points: &[quadmesh::DVec2]) -> Result<(Mesh, MeshReport), quadmesh::Error> {
         match self.refinement() {
-            Some(options) => {
-                if options.min_angle_deg > GUARANTEED_MIN_ANGLE_DEG {
-                    let _ = writeln!(
-                        io::stderr(),
-                        "warning: termination is proven up to {GUARANTEED_MIN_ANGLE_DEG:.1}°; \
-                         at {}° refinement may stop at its vertex budget",
-                        options.min_angle_deg
-                    );
-                }
-                refine_points(points, &options)
-            }
+            Some(options) => refine_points(points, &options),
             None => mesh_points(points, &MeshOptions::default()),
         }
     }
@@ -296,6 +308,7 @@ fn mesh(
     (check, svg_max_triangles): (bool, usize),
     quality: QualityArgs,
 ) -> Result<()> {
+    quality.check()?;
     pool(threads)?.install(|| {
         let (points, read_time) = timed(|| with_spinner("reading", || read_points(input)));
         let points = points?;
@@ -419,6 +432,7 @@ fn bench(
         dist,
         seed,
     } = points;
+    quality.check()?;
     let pool = pool(threads)?;
     let points = pool.install(|| generate::points(dist, n, seed));
     let (meshed, wall) = timed(|| pool.install(|| quality.mesh(&points)));

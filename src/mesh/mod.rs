@@ -1,11 +1,14 @@
-//! The triangle mesh every meshing mode produces, its validity check and its quality report.
+//! The triangle mesh every meshing mode produces, its validity and Delaunay checks and its
+//! quality report.
 
+mod delaunay_check;
 mod validate;
 
 use std::time::Duration;
 
 use glam::DVec2;
 
+pub use delaunay_check::check_delaunay;
 pub use validate::{AngleBounds, validate};
 
 /// Marks "no triangle" in [`Mesh::neighbours`] and "no input point" in [`Mesh::vertex_input`].

@@ -55,7 +55,7 @@ impl Mesh {
 }
 
 /// The message of the lowest `i < n` for which `fault` gives one.
-fn first_fault<F>(n: usize, fault: F) -> Result<(), String>
+pub(super) fn first_fault<F>(n: usize, fault: F) -> Result<(), String>
 where
     F: Fn(usize) -> Option<String> + Sync + Send,
 {
@@ -66,7 +66,7 @@ where
 }
 
 /// A point with every digit needed to tell it apart from its neighbours in f64.
-fn pt(p: DVec2) -> String {
+pub(super) fn pt(p: DVec2) -> String {
     format!("({}, {})", p.x, p.y)
 }
 

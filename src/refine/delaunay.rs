@@ -100,11 +100,19 @@ impl Triangulation {
         }
     }
 
-    /// Reserves room for `vertices` more vertices and their triangles.
+    /// Makes room for about `vertices` vertices in all and their triangles, touching the
+    /// memory in parallel.
     pub fn reserve(&mut self, vertices: usize) {
-        self.vertices.reserve(vertices);
-        self.corners.reserve(2 * vertices);
-        self.across.reserve(2 * vertices);
+        fn grow<T: Copy + Send + Sync>(v: &mut Vec<T>, n: usize, fill: T) {
+            if n > v.capacity() {
+                let mut bigger = crate::par::prefaulted(n, fill);
+                bigger.extend_from_slice(v);
+                *v = bigger;
+            }
+        }
+        grow(&mut self.vertices, vertices, DVec2::ZERO);
+        grow(&mut self.corners, 2 * vertices, [0; 3]);
+        grow(&mut self.across, 2 * vertices, [NONE; 3]);
     }
 
     /// Triangles so far.
@@ -283,17 +291,26 @@ impl Triangulation {
     /// vertex; [`Self::created`] lists the new triangles.
     pub fn commit(&mut self, p: DVec2) -> u32 {
         self.clear_left_out();
+        let cavity = std::mem::take(&mut self.cavity);
+        let rim = std::mem::take(&mut self.rim);
+        let v = self.fan(p, &cavity, rim);
+        self.cavity = cavity;
+        v
+    }
+
+    /// Replaces the `cavity` triangles, bounded by `rim`, by a fan from the new vertex `p`.
+    fn fan(&mut self, p: DVec2, cavity: &[u32], mut rim: Vec<RimEdge>) -> u32 {
         let v = self.vertices.len() as u32;
         self.vertices.push(p);
         let vertices = &self.vertices;
-        self.rim.retain(|e| {
+        rim.retain(|e| {
             e.outer != NONE || orient(vertices[e.a as usize], vertices[e.b as usize], p) != 0.0
         });
         // A fan has one triangle more than an interior cavity (one less for a boundary edge
         // split), so every cavity slot is reused, which also clears its mark.
         self.created.clear();
-        for k in 0..self.rim.len() {
-            let id = match self.cavity.get(k) {
+        for k in 0..rim.len() {
+            let id = match cavity.get(k) {
                 Some(&id) => id,
                 None => {
                     self.corners.push([0; 3]);
@@ -303,12 +320,12 @@ impl Triangulation {
             };
             self.created.push(id);
         }
-        for (k, e) in self.rim.iter().enumerate() {
+        for (k, e) in rim.iter().enumerate() {
             let id = self.created[k];
             // Triangle (a, b, p): across b → p is the fan triangle starting at b, across p → a
             // the one ending at a.
-            let after = self.rim.iter().position(|f| f.a == e.b);
-            let before = self.rim.iter().position(|f| f.b == e.a);
+            let after = rim.iter().position(|f| f.a == e.b);
+            let before = rim.iter().position(|f| f.b == e.a);
             self.corners[id as usize] = [e.a, e.b, v];
             self.across[id as usize] = [
                 after.map_or(NONE, |m| self.created[m]),
@@ -323,6 +340,7 @@ impl Triangulation {
                 self.across[e.outer as usize][j] = id;
             }
         }
+        self.rim = rim;
         v
     }
 

@@ -17,18 +17,18 @@
 
 mod delaunay;
 mod queue;
+mod refiner;
 
 use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::error::Error;
 use crate::mesh::{BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE, angles_deg};
-use crate::morton::interleave::interleave32;
 use crate::morton::{Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order};
 use crate::pipeline::StageTimes;
 use crate::warp::AngleQuality;
 use delaunay::{Location, MAX_VERTICES, NEXT, PREV, Triangulation};
-use queue::{Queued, SizeQueue};
+use refiner::Refiner;
 
 /// The largest angle bound for which off-center refinement is proven to terminate,
 /// arcsin(1/(2√2)), in degrees.
@@ -65,7 +65,11 @@ impl Default for RefineOptions {
 }
 
 impl RefineOptions {
-    fn check(&self) -> Result<(), Error> {
+    /// Refuses bounds out of range.
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] naming the option.
+    pub fn check(&self) -> Result<(), Error> {
         let a = self.min_angle_deg;
         if !(0.0..=MAX_MIN_ANGLE_DEG).contains(&a) {
             return Err(Error::InvalidOption {
@@ -82,6 +86,13 @@ impl RefineOptions {
             });
         }
         Ok(())
+    }
+
+    /// About how many vertices refinement of `points` uniform points makes (measured: 2.7 per
+    /// point at 30°, 1.6 at 20°).
+    fn expected_vertices(&self, points: usize) -> usize {
+        let per_point = 1.2 + 0.055 * self.min_angle_deg;
+        ((points as f64 * per_point) as usize + 64).min(self.budget(points))
     }
 
     fn budget(&self, points: usize) -> usize {
@@ -125,7 +136,7 @@ fn refine_order<K: MortonKey>(
     };
     let mut triangulation = times.time("delaunay", || {
         let mut t = Triangulation::rectangle(domain.lo, domain.hi);
-        t.reserve(3 * morton.order.len());
+        t.reserve(options.expected_vertices(morton.order.len()));
         insert_in_order(&mut t, points, &morton.order)?;
         Ok::<_, Error>(t)
     })?;
@@ -162,254 +173,6 @@ fn insert_in_order(t: &mut Triangulation, points: &[DVec2], order: &[u32]) -> Re
         hint = t.created()[0];
     }
     Ok(())
-}
-
-/// An encroached boundary edge as it was when queued: the edge opposite `corner` of `triangle`,
-/// live while that slot still has these ends there.
-#[derive(Clone, Copy, Debug)]
-struct Encroached {
-    triangle: u32,
-    corner: u8,
-    ends: (u32, u32),
-}
-
-/// The refinement loop's state.
-struct Refiner<'a> {
-    t: &'a mut Triangulation,
-    /// sin² of the angle bound.
-    sin2: f64,
-    /// Twice the area bound (cross products give twice the area).
-    max_area2: f64,
-    /// Off-centers lie this many shortest-edge lengths from the edge's midpoint.
-    offset: f64,
-    bad: SizeQueue,
-    encroached: Vec<Encroached>,
-    budget: usize,
-    /// The domain's lower-left corner and the scale that maps it onto 32-bit grid coordinates.
-    origin: DVec2,
-    scale: f64,
-}
-
-impl<'a> Refiner<'a> {
-    fn new(t: &'a mut Triangulation, options: &RefineOptions, budget: usize) -> Self {
-        let angle = options.min_angle_deg.to_radians();
-        // The off-center's triangle on the shortest edge is isosceles with apex angle equal to
-        // the bound at height cot(A/2)/2 edge lengths; 95% of that leaves it strictly better.
-        let offset = if angle > 0.0 {
-            0.95 * 0.5 / (angle / 2.0).tan()
-        } else {
-            f64::INFINITY
-        };
-        // Vertices 0 and 2 are the domain's corners.
-        let origin = t.vertices[0];
-        let scale = 2f64.powi(32) / (t.vertices[2].x - origin.x) * (1.0 - f64::EPSILON);
-        Refiner {
-            t,
-            sin2: angle.sin().powi(2),
-            max_area2: options.max_area.map_or(f64::INFINITY, |a| 2.0 * a),
-            offset,
-            bad: SizeQueue::new(),
-            encroached: Vec::new(),
-            budget,
-            origin,
-            scale,
-        }
-    }
-
-    /// Refines a fresh triangulation: every triangle is looked at.
-    fn refine_all(mut self) -> Result<(), Error> {
-        for id in 0..self.t.len() as u32 {
-            self.inspect(id);
-        }
-        self.run()
-    }
-
-    /// Fixes bad triangles and encroached boundary edges until none is left.
-    fn run(mut self) -> Result<(), Error> {
-        loop {
-            if self.t.vertices.len() > self.budget {
-                return Err(self.out_of_budget());
-            }
-            if let Some(e) = self.encroached.pop() {
-                if self.is_live(&e) {
-                    self.split_boundary_edge(e)?;
-                }
-                continue;
-            }
-            let Some(q) = self.bad.pop() else {
-                return Ok(());
-            };
-            if self.t.corners[q.triangle as usize] == q.corners {
-                self.fix(q)?;
-            }
-        }
-    }
-
-    fn out_of_budget(&self) -> Error {
-        let remaining = (0..self.t.len() as u32)
-            .filter(|&id| self.badness(id).is_some())
-            .count();
-        Error::VertexBudget {
-            limit: self.budget,
-            remaining,
-        }
-    }
-
-    fn is_live(&self, e: &Encroached) -> bool {
-        let tri = self.t.triangle(e.triangle);
-        tri.n[e.corner as usize] == NONE && tri.edge(e.corner as usize) == e.ends
-    }
-
-    /// Queues triangle `id` if it is bad, and its boundary edges if its apex encroaches on them.
-    fn inspect(&mut self, id: u32) {
-        let tri = self.t.triangle(id);
-        if let Some((_, shortest2)) = self.badness(id) {
-            let entry = Queued {
-                triangle: id,
-                corners: tri.v,
-                place: self.place(tri.v[0]),
-            };
-            self.bad.push(SizeQueue::class_of(shortest2), entry);
-        }
-        for i in 0..3 {
-            if tri.n[i] != NONE {
-                continue;
-            }
-            let (a, b) = tri.edge(i);
-            let v = &self.t.vertices;
-            let apex = v[tri.v[i] as usize];
-            // In the closed diametral circle: the apex sees the edge at 90° or more.
-            if (v[a as usize] - apex).dot(v[b as usize] - apex) <= 0.0 {
-                self.encroached.push(Encroached {
-                    triangle: id,
-                    corner: i as u8,
-                    ends: (a, b),
-                });
-            }
-        }
-    }
-
-    /// The Morton key of vertex `v` on a 2^32 grid over the domain.
-    fn place(&self, v: u32) -> u64 {
-        let p = (self.t.vertices[v as usize] - self.origin) * self.scale;
-        interleave32(p.x as u32, p.y as u32)
-    }
-
-    /// For a bad triangle, the corner opposite its shortest edge and that edge's squared length.
-    fn badness(&self, id: u32) -> Option<(usize, f64)> {
-        let v = self.t.corners[id as usize].map(|k| self.t.vertices[k as usize]);
-        let len2 = [0, 1, 2].map(|i| v[NEXT[i]].distance_squared(v[PREV[i]]));
-        let shortest = (0..3)
-            .min_by(|&i, &j| len2[i].total_cmp(&len2[j]))
-            .expect("three edges");
-        let area2 = (v[1] - v[0]).perp_dot(v[2] - v[0]);
-        // The smallest angle faces the shortest edge, and its sine is twice the area over the
-        // product of the two other sides.
-        let others = len2[NEXT[shortest]] * len2[PREV[shortest]];
-        let skinny = area2 * area2 < self.sin2 * others;
-        (skinny || area2 > self.max_area2).then_some((shortest, len2[shortest]))
-    }
-
-    /// Inserts the off-center (or circumcenter) of a bad triangle, unless it would encroach on
-    /// boundary edges: then those are queued for splitting and the triangle waits again.
-    fn fix(&mut self, q: Queued) -> Result<(), Error> {
-        let Some((corner, shortest2)) = self.badness(q.triangle) else {
-            return Ok(());
-        };
-        let p = self.steiner_point(q.triangle, corner);
-        let requeue = |s: &mut Self| s.bad.push(SizeQueue::class_of(shortest2), q);
-        match self.t.locate(p, q.triangle) {
-            Location::Outside { triangle, edge } => {
-                // Rounding put a circumcenter just past the boundary: split the edge it crossed.
-                let ends = self.t.triangle(triangle).edge(edge);
-                self.encroached.push(Encroached {
-                    triangle,
-                    corner: edge as u8,
-                    ends,
-                });
-                requeue(self);
-                Ok(())
-            }
-            Location::Vertex(_) => Err(Error::RefinementResolution { x: p.x, y: p.y }),
-            Location::Inside(t) => {
-                let before = self.encroached.len();
-                self.t.dig(p, t);
-                let v = &self.t.vertices;
-                for e in self.t.rim().iter().filter(|e| e.outer == NONE) {
-                    if (v[e.a as usize] - p).dot(v[e.b as usize] - p) <= 0.0 {
-                        self.encroached.push(Encroached {
-                            triangle: e.inner,
-                            corner: e.corner,
-                            ends: (e.a, e.b),
-                        });
-                    }
-                }
-                if self.encroached.len() > before {
-                    self.t.abandon();
-                    requeue(self);
-                    return Ok(());
-                }
-                self.t.commit(p);
-                self.inspect_created();
-                Ok(())
-            }
-        }
-    }
-
-    fn inspect_created(&mut self) {
-        for k in 0..self.t.created().len() {
-            let id = self.t.created()[k];
-            self.inspect(id);
-        }
-    }
-
-    /// Üngör's off-center of triangle `id` whose shortest edge is opposite `corner`, or its
-    /// circumcenter when that is nearer the edge.
-    fn steiner_point(&self, id: u32, corner: usize) -> DVec2 {
-        let tri = self.t.corners[id as usize];
-        let [p, q, r] =
-            [NEXT[corner], PREV[corner], corner].map(|i| self.t.vertices[tri[i] as usize]);
-        let d = q - p;
-        let midpoint = p * 0.5 + q * 0.5;
-        let centre = circumcenter(p, q, r);
-        // Both lie on the edge's bisector, the apex's side: compare their heights over the edge.
-        let height = (centre - midpoint).dot(d.perp()) / d.length_squared();
-        if height > self.offset {
-            midpoint + d.perp() * self.offset
-        } else {
-            centre
-        }
-    }
-
-    /// Splits a boundary edge at its midpoint, which keeps the side's constant coordinate bit
-    /// for bit.
-    fn split_boundary_edge(&mut self, e: Encroached) -> Result<(), Error> {
-        let (a, b) = (
-            self.t.vertices[e.ends.0 as usize],
-            self.t.vertices[e.ends.1 as usize],
-        );
-        let mut m = a * 0.5 + b * 0.5;
-        if a.x == b.x {
-            m.x = a.x;
-        } else {
-            m.y = a.y;
-        }
-        if m == a || m == b {
-            return Err(Error::RefinementResolution { x: m.x, y: m.y });
-        }
-        self.t.dig(m, e.triangle);
-        self.t.commit(m);
-        self.inspect_created();
-        Ok(())
-    }
-}
-
-/// The circumcenter of `p, q, r`, computed relative to `p` for accuracy.
-fn circumcenter(p: DVec2, q: DVec2, r: DVec2) -> DVec2 {
-    let (b, c) = (q - p, r - p);
-    let d = 2.0 * b.perp_dot(c);
-    let (b2, c2) = (b.length_squared(), c.length_squared());
-    p + DVec2::new(c.y * b2 - b.y * c2, b.x * c2 - c.x * b2) / d
 }
 
 /// The mesh of a finished triangulation: vertex `k` of the triangulation is vertex `k` of the

@@ -17,8 +17,9 @@ pub(crate) struct Queued {
 pub(crate) struct SizeQueue {
     classes: Vec<Vec<Queued>>,
     lowest: usize,
-    /// The class last put in Morton order.
-    sorted: usize,
+    /// Per class, how many of its first entries are already in runs of descending Morton
+    /// order; later entries were queued since and are not.
+    sorted: Vec<usize>,
 }
 
 impl SizeQueue {
@@ -26,7 +27,7 @@ impl SizeQueue {
         SizeQueue {
             classes: vec![Vec::new(); 8192],
             lowest: 8192,
-            sorted: usize::MAX,
+            sorted: vec![0; 8192],
         }
     }
 
@@ -44,21 +45,26 @@ impl SizeQueue {
         self.lowest = self.lowest.min(class);
     }
 
-    /// An entry of the smallest non-empty class: on reaching a class, its entries are put in
-    /// Morton order and taken from the low end; entries queued while it is worked on come
-    /// first, last in first out.
+    /// The next entry: from the smallest non-empty class, in Morton order. Entries queued since
+    /// the class was last taken from are put in order first and come first, so every entry is
+    /// sorted once, and new bad triangles next to the last insertion are fixed while their
+    /// memory is still in cache.
     pub fn pop(&mut self) -> Option<Queued> {
         while self.lowest < self.classes.len() {
-            let class = &mut self.classes[self.lowest];
+            let (class, sorted) = (
+                &mut self.classes[self.lowest],
+                &mut self.sorted[self.lowest],
+            );
             if class.is_empty() {
                 self.lowest += 1;
                 continue;
             }
-            if self.sorted != self.lowest {
-                class.sort_unstable_by_key(|e| std::cmp::Reverse(e.place));
-                self.sorted = self.lowest;
+            if class.len() > *sorted {
+                class[*sorted..].sort_unstable_by_key(|e| std::cmp::Reverse(e.place));
             }
-            return class.pop();
+            let entry = class.pop();
+            *sorted = class.len();
+            return entry;
         }
         None
     }
@@ -86,6 +92,19 @@ mod tests {
         let order: Vec<u32> = std::iter::from_fn(|| q.pop()).map(|e| e.triangle).collect();
         assert_eq!(order, vec![2, 3, 1, 4]);
         assert_eq!(q.pop(), None);
+    }
+
+    #[test]
+    fn entries_queued_meanwhile_come_first_in_their_own_order() {
+        let mut q = SizeQueue::new();
+        for t in [3, 1, 2] {
+            q.push(SizeQueue::class_of(1.0), entry(t));
+        }
+        assert_eq!(q.pop().map(|e| e.triangle), Some(1));
+        q.push(SizeQueue::class_of(1.0), entry(9));
+        q.push(SizeQueue::class_of(1.0), entry(8));
+        let order: Vec<u32> = std::iter::from_fn(|| q.pop()).map(|e| e.triangle).collect();
+        assert_eq!(order, vec![8, 9, 2, 3]);
     }
 
     #[test]

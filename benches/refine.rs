@@ -1,0 +1,49 @@
+//! Off-center Delaunay refinement end to end (`refine_points`: Morton order, Delaunay
+//! triangulation of the points and the square's corners, refinement, angle report), on
+//! generated points.
+//!
+//! Group `refine/<dist>/t<threads>`, ids `a<angle>/<n>` (throughput: input points). Sizes
+//! default to 1e4 and 1e5 (`QUADMESH_BENCH_REFINE_SIZES`), angles to 20 and 30
+//! (`QUADMESH_BENCH_REFINE_ANGLES`); threads come from `QUADMESH_BENCH_THREADS` like the other
+//! benches. Triangle counts are printed to stderr.
+
+mod common;
+
+use common::{DISTRIBUTIONS, SEED, configure, env_counts, pools};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use quadmesh::generate::points;
+use quadmesh::refine::{RefineOptions, refine_points};
+
+fn refine_benches(c: &mut Criterion) {
+    let angles = env_counts("QUADMESH_BENCH_REFINE_ANGLES", "20,30");
+    for n in env_counts("QUADMESH_BENCH_REFINE_SIZES", "10000,100000") {
+        for (dist_name, dist) in DISTRIBUTIONS {
+            let pts = points(dist, n, SEED);
+            for (threads, pool) in pools() {
+                let group_name = format!("refine/{dist_name}/t{threads}");
+                let mut group = c.benchmark_group(&group_name);
+                configure(&mut group, n);
+                for &angle in &angles {
+                    let options = RefineOptions {
+                        min_angle_deg: angle as f64,
+                        ..RefineOptions::default()
+                    };
+                    let refine = || pool.install(|| refine_points(&pts, &options).expect("a mesh"));
+                    let (_, report) = refine();
+                    eprintln!(
+                        "{group_name} {angle}°: {n} points, {} triangles ({:.2} per point)",
+                        report.triangles,
+                        report.triangles as f64 / n as f64
+                    );
+                    group.bench_function(BenchmarkId::new(format!("a{angle}"), n), |b| {
+                        b.iter_with_large_drop(refine)
+                    });
+                }
+                group.finish();
+            }
+        }
+    }
+}
+
+criterion_group!(benches, refine_benches);
+criterion_main!(benches);
