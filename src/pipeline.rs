@@ -206,8 +206,26 @@ pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, Mes
         Tree::Narrow(build) => warp_build(build, points, &mut times)?,
         Tree::Wide(build) => warp_build(build, points, &mut times)?,
     };
-    let report = MeshReport {
-        points: points.len() - duplicates,
+    let report = report_of(
+        &mesh,
+        points.len() - duplicates,
+        duplicates,
+        &quality,
+        times,
+    );
+    Ok((mesh, report))
+}
+
+/// The report of a finished mesh of `points` distinct points.
+pub(crate) fn report_of(
+    mesh: &Mesh,
+    points: usize,
+    duplicates: usize,
+    quality: &AngleQuality,
+    times: StageTimes,
+) -> MeshReport {
+    MeshReport {
+        points,
         duplicates,
         vertices: mesh.vertices.len(),
         triangles: mesh.triangles.len(),
@@ -215,8 +233,7 @@ pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, Mes
         max_angle: quality.max,
         histogram: quality.histogram,
         stages: times.0,
-    };
-    Ok((mesh, report))
+    }
 }
 
 type Warped = (Mesh, AngleQuality, usize);

@@ -8,7 +8,7 @@ mod common;
 use std::sync::mpsc;
 use std::time::Duration;
 
-use common::{FAMILIES, on_threads};
+use common::{FAMILIES, distinct_count, mixed_point_sets, on_threads};
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::mesh::{AngleBounds, NONE, angles_deg};
@@ -361,32 +361,14 @@ fn unreachable_angles_say_so() {
     }
 }
 
-/// Small point sets mixing free coordinates, coordinates on a coarse grid (points on the
-/// dyadic lines and corners of the quadtree), collinear runs, points very close together and
-/// exact duplicates.
-fn point_sets() -> impl Strategy<Value = Vec<DVec2>> {
-    let free = (-1e3f64..1e3, -1e3f64..1e3).prop_map(|(x, y)| DVec2::new(x, y));
-    let on_grid =
-        (0u8..=16, 0u8..=16).prop_map(|(i, j)| DVec2::new(i as f64 / 16.0, j as f64 / 16.0));
-    let on_line = (0.0f64..1.0).prop_map(|t| DVec2::new(t, 0.25));
-    let near = (0.0f64..1e-6).prop_map(|v| DVec2::new(0.25 + v, 0.5));
-    let point = prop_oneof![free, on_grid, on_line, near];
-    (prop::collection::vec(point, 1..60), 0usize..10).prop_map(|(mut pts, copies)| {
-        let copies = copies.min(pts.len());
-        pts.extend_from_within(..copies);
-        pts
-    })
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(64))]
 
     #[test]
-    fn random_point_sets_refine_validly(points in point_sets()) {
+    fn random_point_sets_refine_validly(points in mixed_point_sets()) {
         let (_, report) = refine_checked(&points, &angle(30.0));
-        let distinct: std::collections::HashSet<(u64, u64)> =
-            points.iter().map(|p| ((p.x + 0.0).to_bits(), (p.y + 0.0).to_bits())).collect();
-        prop_assert_eq!(report.points, distinct.len());
-        prop_assert_eq!(report.duplicates, points.len() - distinct.len());
+        let distinct = distinct_count(&points);
+        prop_assert_eq!(report.points, distinct);
+        prop_assert_eq!(report.duplicates, points.len() - distinct);
     }
 }

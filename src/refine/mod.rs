@@ -14,6 +14,20 @@
 //!
 //! Termination is proven for bounds up to arcsin(1/(2√2)) ≈ 20.7°; in practice it reaches 33°
 //! and more. A vertex budget stops it with an error rather than let it run without end.
+//!
+//! ```
+//! use quadmesh::DVec2;
+//! use quadmesh::mesh::AngleBounds;
+//! use quadmesh::refine::{RefineOptions, refine_points};
+//!
+//! let points = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.5), DVec2::new(0.25, 0.75)];
+//! let options = RefineOptions { min_angle_deg: 30.0, ..RefineOptions::default() };
+//! let (mesh, report) = refine_points(&points, &options)?;
+//! mesh.validate(&points, AngleBounds { min_deg: 30.0, max_deg: 120.0 }).expect("a valid mesh");
+//! mesh.check_delaunay().expect("a Delaunay mesh");
+//! assert!(report.min_angle >= 30.0);
+//! # Ok::<(), quadmesh::Error>(())
+//! ```
 
 mod delaunay;
 mod queue;
@@ -25,7 +39,7 @@ use rayon::prelude::*;
 use crate::error::Error;
 use crate::mesh::{BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE, angles_deg};
 use crate::morton::{Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order};
-use crate::pipeline::StageTimes;
+use crate::pipeline::{StageTimes, report_of};
 use crate::warp::AngleQuality;
 use delaunay::{Location, MAX_VERTICES, NEXT, PREV, Triangulation};
 use refiner::Refiner;
@@ -146,16 +160,8 @@ fn refine_order<K: MortonKey>(
     })?;
     let mesh = times.time("mesh", || into_mesh(triangulation, &morton.order, domain));
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
-    let report = MeshReport {
-        points: morton.order.len(),
-        duplicates: morton.duplicates.count,
-        vertices: mesh.vertices.len(),
-        triangles: mesh.triangles.len(),
-        min_angle: quality.min,
-        max_angle: quality.max,
-        histogram: quality.histogram,
-        stages: times.0,
-    };
+    let (points, duplicates) = (morton.order.len(), morton.duplicates.count);
+    let report = report_of(&mesh, points, duplicates, &quality, times);
     Ok((mesh, report))
 }
 
