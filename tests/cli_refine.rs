@@ -5,7 +5,7 @@
 
 mod cli_support;
 
-use cli_support::{TempDir, generate, quadmesh, read_triangle_files, s, stderr};
+use cli_support::{TempDir, bench_json, generate, quadmesh, read_triangle_files, s, stderr};
 use quadmesh::mesh::{AngleBounds, NONE, angles_deg};
 
 /// The angle bounds `--min-angle a` promises.
@@ -173,8 +173,7 @@ fn an_exhausted_vertex_budget_is_an_error_and_writes_nothing() {
 
 #[test]
 fn bench_min_angle_prints_one_json_object_last() {
-    let out = quadmesh(&[
-        "bench",
+    let last = bench_json(&[
         "--points",
         "2000",
         "--min-angle",
@@ -183,10 +182,6 @@ fn bench_min_angle_prints_one_json_object_last() {
         "2",
         "--json",
     ]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let stdout = String::from_utf8(out.stdout).unwrap();
-    let last = stdout.trim_end().lines().last().unwrap();
-    assert!(last.starts_with('{') && last.ends_with('}'), "{last}");
     for key in [
         "\"points\":2000",
         "\"threads\":2",

@@ -149,3 +149,14 @@ pub fn generate(dir: &TempDir, n: usize, dist: &str) -> (PathBuf, Vec<DVec2>) {
     let points = quadmesh::io::read_points(&input).unwrap();
     (input, points)
 }
+
+/// Runs `quadmesh bench` with `args` and returns the last line of its output, checked to be one
+/// JSON object.
+pub fn bench_json(args: &[&str]) -> String {
+    let out = quadmesh(&[&["bench"], args].concat());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    let last = stdout.trim_end().lines().last().unwrap().to_owned();
+    assert!(last.starts_with('{') && last.ends_with('}'), "{last}");
+    last
+}
