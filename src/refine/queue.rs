@@ -2,11 +2,14 @@
 //! cells from the smallest up: a Steiner point then never lands where a smaller one would).
 
 /// A bad triangle as it was when queued: refinement replaces triangles and reuses their slots,
-/// so an entry is live only while its slot still holds the same corners.
+/// so an entry is live only while its slot still holds the same triangle. Every triangle an
+/// insertion makes has the new vertex, numbered above all others, as a corner, so a slot's
+/// largest corner grows with each reuse and tells the triangles in it apart.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Queued {
     pub triangle: u32,
-    pub corners: [u32; 3],
+    /// The largest vertex number of the triangle.
+    pub newest: u32,
     /// Morton key of the triangle's position: a class is worked through in this order, so
     /// that consecutive insertions touch nearby memory.
     pub place: u64,
@@ -77,7 +80,7 @@ mod tests {
     fn entry(t: u32) -> Queued {
         Queued {
             triangle: t,
-            corners: [t; 3],
+            newest: t,
             place: u64::from(t),
         }
     }

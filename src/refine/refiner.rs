@@ -97,7 +97,7 @@ impl<'a> Refiner<'a> {
             let Some(q) = self.bad.pop() else {
                 return Ok(());
             };
-            if self.t.corners[q.triangle as usize] == q.corners {
+            if self.is_current(&q) {
                 self.fix(q)?;
             }
         }
@@ -165,6 +165,11 @@ impl<'a> Refiner<'a> {
             .extend(found.encroached.into_iter().flatten());
     }
 
+    /// Whether the entry's triangle is still in its slot.
+    fn is_current(&self, q: &Queued) -> bool {
+        newest(self.t.corners[q.triangle as usize]) == q.newest
+    }
+
     fn out_of_budget(&self) -> Error {
         let remaining = (0..self.t.len() as u32)
             .into_par_iter()
@@ -201,7 +206,7 @@ impl<'a> Refiner<'a> {
         let bad = self.badness(id).map(|(_, shortest2)| {
             let entry = Queued {
                 triangle: id,
-                corners: tri.v,
+                newest: newest(tri.v),
                 place: self.place(tri.v[0]),
             };
             (SizeQueue::class_of(shortest2), entry)
@@ -283,6 +288,11 @@ impl<'a> Refiner<'a> {
         self.inspect_created();
         Ok(())
     }
+}
+
+/// The largest vertex number among a triangle's corners.
+fn newest(corners: [u32; 3]) -> u32 {
+    corners[0].max(corners[1]).max(corners[2])
 }
 
 /// The circumcenter of `p, q, r`, computed relative to `p` for accuracy.
