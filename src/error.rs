@@ -70,6 +70,16 @@ pub enum Error {
         /// How many there would be.
         count: usize,
     },
+    /// A point lies outside the domain asked for.
+    #[error("point {index} ({x}, {y}) lies outside the domain")]
+    OutsideDomain {
+        /// Input index of the point.
+        index: usize,
+        /// Its x coordinate.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+    },
     /// An option's value is out of range.
     #[error("--{option}: {message}")]
     InvalidOption {

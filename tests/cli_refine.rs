@@ -210,3 +210,68 @@ fn bench_min_angle_prints_one_json_object_last() {
     assert!(field("max_angle") <= 130.0 + 1e-9, "{last}");
     assert!(field("total_s") >= field("refine_s"), "{last}");
 }
+
+#[test]
+fn a_domain_through_the_points_reads_back_as_that_rectangle() {
+    let dir = TempDir::new("domain");
+    let (input, points) = generate(&dir, 400, "uniform");
+    let lo = points
+        .iter()
+        .fold(quadmesh::DVec2::INFINITY, |a, &b| a.min(b));
+    let hi = points
+        .iter()
+        .fold(quadmesh::DVec2::NEG_INFINITY, |a, &b| a.max(b));
+    let rectangle = format!("{:?},{:?},{:?},{:?}", lo.x, lo.y, hi.x, hi.y);
+    let prefix = dir.file("out");
+    let out = quadmesh(&[
+        "mesh",
+        s(&input),
+        "-o",
+        s(&prefix),
+        "--min-angle",
+        "30",
+        "--domain",
+        &rectangle,
+        "--check",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let mesh = read_triangle_files(&prefix);
+    // The reader takes the domain from the vertices' extent: it is the bounding box itself.
+    assert_eq!((mesh.domain.lo, mesh.domain.hi), (lo, hi));
+    if let Err(fault) = mesh.validate(&points, bounds(30.0)) {
+        panic!("mesh read back from files is invalid: {fault}");
+    }
+}
+
+#[test]
+fn bad_domains_are_one_line_errors() {
+    let dir = TempDir::new("bad-domain");
+    let (input, _) = generate(&dir, 100, "uniform");
+    let prefix = dir.file("out");
+    for (args, says) in [
+        (&["--min-angle", "30", "--domain", "0,0,1"][..], "--domain"),
+        (
+            &["--min-angle", "30", "--domain", "0,0,1,x"][..],
+            "--domain",
+        ),
+        (
+            &["--min-angle", "30", "--domain", "0,0,1,0"][..],
+            "--domain",
+        ),
+        (
+            &["--min-angle", "30", "--domain", "0.1,0.1,0.2,0.2"][..],
+            "outside the domain",
+        ),
+        (&["--domain", "-1,-1,2,2"][..], "--domain"),
+    ] {
+        let out = quadmesh(&[&["mesh", s(&input), "-o", s(&prefix)][..], args].concat());
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(
+            err.lines()
+                .any(|l| l.starts_with("error: ") && l.contains(says)),
+            "{args:?}: {err}"
+        );
+        assert_eq!(dir.names(), ["points.txt"], "{args:?} wrote files");
+    }
+}

@@ -11,7 +11,7 @@ use std::time::Duration;
 use common::{FAMILIES, distinct_count, mixed_point_sets, on_threads};
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
-use quadmesh::mesh::{AngleBounds, NONE, angles_deg};
+use quadmesh::mesh::{AngleBounds, Domain, NONE, angles_deg};
 use quadmesh::refine::{GUARANTEED_MIN_ANGLE_DEG, MAX_MIN_ANGLE_DEG, RefineOptions, refine_points};
 use quadmesh::{DVec2, Error, Mesh, MeshReport};
 
@@ -370,5 +370,121 @@ proptest! {
         let distinct = distinct_count(&points);
         prop_assert_eq!(report.points, distinct);
         prop_assert_eq!(report.duplicates, points.len() - distinct);
+    }
+}
+
+/// The bounding box of `points` as a domain.
+fn bounding_box(points: &[DVec2]) -> Domain {
+    let lo = points.iter().fold(DVec2::INFINITY, |a, &b| a.min(b));
+    let hi = points.iter().fold(DVec2::NEG_INFINITY, |a, &b| a.max(b));
+    Domain { lo, hi }
+}
+
+#[test]
+fn a_domain_through_the_points_is_meshed_exactly() {
+    // The bounding box touches the extreme points (and, for the grid, whole rows of points):
+    // they become boundary vertices and the mesh covers the box exactly.
+    for dist in FAMILIES {
+        for n in [300, 3000] {
+            let points = generate::points(dist, n, 6);
+            let domain = bounding_box(&points);
+            for a in [0.0, 20.0, 30.0] {
+                let options = RefineOptions {
+                    domain: Some(domain),
+                    ..angle(a)
+                };
+                let (mesh, report) = refine_checked(&points, &options);
+                assert_eq!(mesh.domain, domain);
+                assert_eq!(report.points, n);
+            }
+        }
+    }
+}
+
+#[test]
+fn points_on_domain_corners_are_those_corners() {
+    let points = [
+        DVec2::new(0.0, 0.0),
+        DVec2::new(2.0, 1.0),
+        DVec2::new(0.5, 0.25),
+        DVec2::new(2.0, 0.5),
+    ];
+    let domain = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::new(2.0, 1.0),
+    };
+    for a in [0.0, 30.0] {
+        let options = RefineOptions {
+            domain: Some(domain),
+            ..angle(a)
+        };
+        let (mesh, report) = refine_checked(&points, &options);
+        assert_eq!(report.points, 4);
+        let inputs = mesh.vertex_input.iter().filter(|&&i| i != NONE).count();
+        assert_eq!(inputs, 4, "every input point is exactly one vertex");
+        // Two of the points are domain corners, so the plain triangulation has 6 vertices.
+        if a == 0.0 {
+            assert_eq!(mesh.vertices.len(), 6);
+            assert_eq!(mesh.triangles.len(), 5);
+        }
+    }
+}
+
+#[test]
+fn a_wide_domain_far_from_the_points() {
+    let points = generate::points(Distribution2d::Cluster, 500, 3);
+    let domain = Domain {
+        lo: DVec2::new(-40.0, -3.0),
+        hi: DVec2::new(60.0, 4.0),
+    };
+    let options = RefineOptions {
+        domain: Some(domain),
+        ..angle(30.0)
+    };
+    let (mesh, _) = refine_checked(&points, &options);
+    assert_eq!(mesh.domain, domain);
+}
+
+#[test]
+fn bad_domains_are_typed_errors() {
+    let points = [DVec2::new(0.5, 0.5), DVec2::new(0.25, 1.5)];
+    let unit = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::ONE,
+    };
+    let options = RefineOptions {
+        domain: Some(unit),
+        ..angle(30.0)
+    };
+    assert_eq!(
+        refine_points(&points, &options).unwrap_err(),
+        Error::OutsideDomain {
+            index: 1,
+            x: 0.25,
+            y: 1.5
+        }
+    );
+    for bad in [
+        Domain {
+            lo: DVec2::ZERO,
+            hi: DVec2::new(0.0, 1.0),
+        },
+        Domain {
+            lo: DVec2::ONE,
+            hi: DVec2::ZERO,
+        },
+        Domain {
+            lo: DVec2::ZERO,
+            hi: DVec2::new(f64::NAN, 1.0),
+        },
+    ] {
+        let options = RefineOptions {
+            domain: Some(bad),
+            ..angle(30.0)
+        };
+        match refine_points(&points, &options) {
+            Err(Error::InvalidOption { option, .. }) => assert_eq!(option, "domain"),
+            other => panic!("{bad:?}: expected an invalid domain, got {other:?}"),
+        }
     }
 }

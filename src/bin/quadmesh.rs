@@ -22,13 +22,13 @@ use quadmesh::io::{
     read_points, with_extension_appended, write_leaves_csv, write_msh, write_points, write_svg,
     write_triangle_files, write_vtu,
 };
-use quadmesh::mesh::AngleBounds;
+use quadmesh::mesh::{AngleBounds, Domain};
 use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::StageTimes;
 use quadmesh::refine::{GUARANTEED_MIN_ANGLE_DEG, RefineOptions, refine_points};
 use quadmesh::warp::ANGLE_BOUNDS;
 use quadmesh::{
-    Mesh, MeshOptions, MeshReport, Refinement, Tree, TreeBuild, TreeOptions, build_tree,
+    DVec2, Mesh, MeshOptions, MeshReport, Refinement, Tree, TreeBuild, TreeOptions, build_tree,
     mesh_points,
 };
 
@@ -113,7 +113,7 @@ enum Command {
 }
 
 /// Which mesh: warped (the default) or Delaunay refinement with bounds.
-#[derive(clap::Args, Clone, Copy)]
+#[derive(clap::Args, Clone)]
 struct QualityArgs {
     /// Delaunay refinement instead of warping, every angle at least A degrees (0 to 45).
     /// Termination is proven up to 20.7°; above that refinement usually finishes up to about
@@ -124,10 +124,26 @@ struct QualityArgs {
     /// angle bound).
     #[arg(long, value_name = "X", allow_negative_numbers = true)]
     max_area: Option<f64>,
+    /// Refinement meshes this rectangle instead of the square around the points; it must hold
+    /// every point (points on its sides become boundary vertices), e.g. their bounding box.
+    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_rectangle, allow_hyphen_values = true)]
+    domain: Option<[f64; 4]>,
     /// Refinement stops with an error past N vertices, input points included [default: 100 per
     /// point + 10000].
     #[arg(long, value_name = "N")]
     max_vertices: Option<usize>,
+}
+
+/// `x0,y0,x1,y1` as four numbers.
+fn parse_rectangle(text: &str) -> Result<[f64; 4], String> {
+    let numbers: Vec<f64> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("{text:?}: {e}"))?;
+    numbers
+        .try_into()
+        .map_err(|_| format!("{text:?}: four numbers x0,y0,x1,y1 expected"))
 }
 
 impl QualityArgs {
@@ -140,6 +156,10 @@ impl QualityArgs {
             min_angle_deg: self.min_angle.unwrap_or(0.0),
             max_area: self.max_area,
             max_vertices: self.max_vertices,
+            domain: self.domain.map(|d| Domain {
+                lo: DVec2::new(d[0], d[1]),
+                hi: DVec2::new(d[2], d[3]),
+            }),
             ..RefineOptions::default()
         })
     }
@@ -149,8 +169,8 @@ impl QualityArgs {
     fn check(&self) -> Result<()> {
         let Some(options) = self.refinement() else {
             anyhow::ensure!(
-                self.max_vertices.is_none(),
-                "--max-vertices: applies to refinement only (--min-angle or --max-area)"
+                self.max_vertices.is_none() && self.domain.is_none(),
+                "--max-vertices and --domain apply to refinement only (--min-angle or --max-area)"
             );
             return Ok(());
         };
@@ -181,7 +201,7 @@ impl QualityArgs {
     }
 
     /// Meshes `points` the way these arguments ask.
-    fn mesh(&self, points: &[quadmesh::DVec2]) -> Result<(Mesh, MeshReport), quadmesh::Error> {
+    fn mesh(&self, points: &[DVec2]) -> Result<(Mesh, MeshReport), quadmesh::Error> {
         match self.refinement() {
             Some(options) => refine_points(points, &options),
             None => mesh_points(points, &MeshOptions::default()),

@@ -63,6 +63,9 @@ pub struct RefineOptions {
     /// Refinement stops with [`Error::VertexBudget`] past this many vertices; by default
     /// 100 per distinct point plus 10 000.
     pub max_vertices: Option<usize>,
+    /// The rectangle to mesh, holding every point (on its sides too); by default the quadtree's
+    /// root square, the points' bounding box centred in a square twice its larger side.
+    pub domain: Option<Domain>,
     /// The sort used for Morton order.
     pub sort: SortAlgorithm,
 }
@@ -73,6 +76,7 @@ impl Default for RefineOptions {
             min_angle_deg: 30.0,
             max_area: None,
             max_vertices: None,
+            domain: None,
             sort: SortAlgorithm::default(),
         }
     }
@@ -89,6 +93,17 @@ impl RefineOptions {
             return Err(Error::InvalidOption {
                 option: "min-angle",
                 message: format!("{a} is not an angle in [0, {MAX_MIN_ANGLE_DEG}] degrees"),
+            });
+        }
+        if let Some(d) = self.domain
+            && !(d.lo.is_finite() && d.hi.is_finite() && d.lo.x < d.hi.x && d.lo.y < d.hi.y)
+        {
+            return Err(Error::InvalidOption {
+                option: "domain",
+                message: format!(
+                    "[{}, {}] x [{}, {}] is not a rectangle of positive area",
+                    d.lo.x, d.hi.x, d.lo.y, d.hi.y
+                ),
             });
         }
         if let Some(area) = self.max_area
@@ -117,10 +132,11 @@ impl RefineOptions {
 }
 
 /// The refined Delaunay mesh of `points` on the current rayon pool, with its report. The domain
-/// is the quadtree's root square, as for [`crate::mesh_points`].
+/// is the quadtree's root square, as for [`crate::mesh_points`], unless the options give one.
 ///
 /// # Errors
 /// Whatever [`morton_order`] refuses, [`Error::InvalidOption`] for a bound out of range,
+/// [`Error::OutsideDomain`] for a point outside the given domain,
 /// [`Error::VertexBudget`] when refinement needs more vertices than allowed, and
 /// [`Error::RefinementResolution`] when it needs a vertex f64 cannot place.
 pub fn refine_points(
@@ -130,6 +146,9 @@ pub fn refine_points(
     options.check()?;
     let mut times = StageTimes::default();
     let morton = times.time("morton", || morton_order(points, options.sort))?;
+    if let Some(domain) = options.domain {
+        check_inside(points, domain)?;
+    }
     match morton {
         Morton::Narrow(m) => refine_order(m, points, options, times),
         Morton::Wide(m) => refine_order(m, points, options, times),
@@ -144,55 +163,83 @@ fn refine_order<K: MortonKey>(
 ) -> Result<(Mesh, MeshReport), Error> {
     let grid = &morton.grid;
     let side = 1u128 << grid.axis_bits();
-    let domain = Domain {
+    let domain = options.domain.unwrap_or(Domain {
         lo: grid.vertex(0, 0),
         hi: grid.vertex(side, side),
-    };
-    let mut triangulation = times.time("delaunay", || {
+    });
+    let (mut triangulation, vertex_input) = times.time("delaunay", || {
         let mut t = Triangulation::rectangle(domain.lo, domain.hi);
         t.reserve(options.expected_vertices(morton.order.len()));
-        insert_in_order(&mut t, points, &morton.order)?;
-        Ok::<_, Error>(t)
+        let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
+        Ok::<_, Error>((t, vertex_input))
     })?;
     let budget = options.budget(morton.order.len());
     times.time("refine", || {
         Refiner::new(&mut triangulation, options, budget).refine_all()
     })?;
-    let mesh = times.time("mesh", || into_mesh(triangulation, &morton.order, domain));
+    let mesh = times.time("mesh", || into_mesh(triangulation, vertex_input, domain));
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
     let (points, duplicates) = (morton.order.len(), morton.duplicates.count);
     let report = report_of(&mesh, points, duplicates, &quality, times);
     Ok((mesh, report))
 }
 
-/// Inserts the distinct points in Morton order, each walk starting from the last new triangle.
-fn insert_in_order(t: &mut Triangulation, points: &[DVec2], order: &[u32]) -> Result<(), Error> {
+/// Refuses the first point outside `domain`.
+fn check_inside(points: &[DVec2], domain: Domain) -> Result<(), Error> {
+    let outside = |p: &DVec2| {
+        !(domain.lo.x <= p.x && p.x <= domain.hi.x && domain.lo.y <= p.y && p.y <= domain.hi.y)
+    };
+    match points.par_iter().position_first(outside) {
+        Some(index) => Err(Error::OutsideDomain {
+            index,
+            x: points[index].x,
+            y: points[index].y,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Inserts the distinct points in Morton order, each walk starting from the last new triangle,
+/// and returns the input index of each vertex so far (a point on a domain corner is that
+/// corner).
+fn insert_in_order(
+    t: &mut Triangulation,
+    points: &[DVec2],
+    order: &[u32],
+) -> Result<Vec<u32>, Error> {
+    let mut vertex_input = vec![NONE; t.vertices.len()];
+    vertex_input.reserve(order.len());
     let mut hint = 0;
     for &index in order {
         let p = points[index as usize];
-        let Location::Inside(tri) = t.locate(p, hint) else {
-            // Distinct points inside the square are always inserted; this guards the invariant.
-            return Err(Error::RefinementResolution { x: p.x, y: p.y });
-        };
-        t.dig(p, tri);
-        t.commit(p);
-        hint = t.created()[0];
+        match t.locate(p, hint) {
+            Location::Inside(tri) => {
+                t.dig(p, tri);
+                t.commit(p);
+                vertex_input.push(index);
+                hint = t.created()[0];
+            }
+            Location::Vertex(v) if vertex_input[v as usize] == NONE => {
+                vertex_input[v as usize] = index;
+            }
+            // Distinct points inside the domain are always inserted; this guards the invariant.
+            _ => return Err(Error::RefinementResolution { x: p.x, y: p.y }),
+        }
     }
-    Ok(())
+    Ok(vertex_input)
 }
 
 /// The mesh of a finished triangulation: vertex `k` of the triangulation is vertex `k` of the
-/// mesh (the square's corners, the points in Morton order, then the Steiner points in order of
-/// insertion), and triangles keep their numbers.
-fn into_mesh(t: Triangulation, order: &[u32], domain: Domain) -> Mesh {
+/// mesh (the domain's corners, the points in Morton order, then the Steiner points in order of
+/// insertion), and triangles keep their numbers. `vertex_input` covers the corners and points.
+fn into_mesh(t: Triangulation, mut vertex_input: Vec<u32>, domain: Domain) -> Mesh {
     let Triangulation {
         vertices,
         corners,
         across,
         ..
     } = t;
-    let mut vertex_input = vec![NONE; vertices.len()];
-    vertex_input[4..4 + order.len()].copy_from_slice(order);
+    vertex_input.resize(vertices.len(), NONE);
     let boundary = boundary_edges(&corners, &across, &vertices, domain);
     Mesh {
         vertices,

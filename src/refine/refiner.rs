@@ -56,7 +56,8 @@ impl<'a> Refiner<'a> {
         };
         // Vertices 0 and 2 are the domain's corners.
         let origin = t.vertices[0];
-        let scale = 2f64.powi(32) / (t.vertices[2].x - origin.x) * (1.0 - f64::EPSILON);
+        let side = (t.vertices[2] - origin).max_element();
+        let scale = 2f64.powi(32) / side * (1.0 - f64::EPSILON);
         Refiner {
             t,
             sin2: angle.sin().powi(2),
