@@ -29,6 +29,11 @@ impl Domain {
         let d = self.hi - self.lo;
         d.x * d.y
     }
+
+    /// Whether `p` lies in the closed rectangle.
+    pub fn contains(&self, p: DVec2) -> bool {
+        self.lo.x <= p.x && p.x <= self.hi.x && self.lo.y <= p.y && p.y <= self.hi.y
+    }
 }
 
 /// Which side of the domain a boundary edge lies on; the value is the edge's marker in the

@@ -367,8 +367,7 @@ fn check_boundary(mesh: &Mesh, single: &[(u64, usize)]) -> Result<(), String> {
     let d = mesh.domain;
     first_fault(mesh.vertices.len(), |v| {
         let p = mesh.vertices[v];
-        let inside = d.lo.x <= p.x && p.x <= d.hi.x && d.lo.y <= p.y && p.y <= d.hi.y;
-        (!inside).then(|| {
+        (!d.contains(p)).then(|| {
             format!(
                 "vertex {v} at {} is outside the domain {} to {}",
                 pt(p),

@@ -186,10 +186,7 @@ fn refine_order<K: MortonKey>(
 
 /// Refuses the first point outside `domain`.
 fn check_inside(points: &[DVec2], domain: Domain) -> Result<(), Error> {
-    let outside = |p: &DVec2| {
-        !(domain.lo.x <= p.x && p.x <= domain.hi.x && domain.lo.y <= p.y && p.y <= domain.hi.y)
-    };
-    match points.par_iter().position_first(outside) {
+    match points.par_iter().position_first(|&p| !domain.contains(p)) {
         Some(index) => Err(Error::OutsideDomain {
             index,
             x: points[index].x,

@@ -77,9 +77,7 @@ impl<'a> Refiner<'a> {
             // No bound asked for: the Delaunay triangulation is the mesh.
             return Ok(());
         }
-        let all: Vec<u32> = (0..self.t.len() as u32).collect();
-        self.inspect_all(&all);
-        drop(all);
+        self.inspect_all();
         self.run()
     }
 
@@ -128,9 +126,8 @@ impl<'a> Refiner<'a> {
             Location::Inside(t) => {
                 let before = self.encroached.len();
                 self.t.dig(p, t);
-                let v = &self.t.vertices;
                 for e in self.t.rim().iter().filter(|e| e.outer == NONE) {
-                    if (v[e.a as usize] - p).dot(v[e.b as usize] - p) <= 0.0 {
+                    if self.encroaches(p, (e.a, e.b)) {
                         self.encroached.push(Encroached {
                             triangle: e.inner,
                             corner: e.corner,
@@ -187,14 +184,19 @@ impl<'a> Refiner<'a> {
         tri.n[e.corner as usize] == NONE && tri.edge(e.corner as usize) == e.ends
     }
 
-    /// Queues the bad ones among triangles `ids`, and their boundary edges that their apex
-    /// encroaches on; the looking is done in parallel, the queueing in order.
-    fn inspect_all(&mut self, ids: &[u32]) {
+    /// Queues every bad triangle, and every boundary edge its triangle's apex encroaches on;
+    /// the looking is done in parallel, the queueing in order.
+    fn inspect_all(&mut self) {
+        const CHUNK: u32 = 1 << 16;
+        let len = self.t.len() as u32;
         // In chunks, so that the findings never take more memory than a slice of the mesh.
-        for chunk in ids.chunks(1 << 16) {
+        for start in (0..len).step_by(CHUNK as usize) {
             let found: Vec<Inspection> = {
                 let this = &*self;
-                chunk.par_iter().map(|&id| this.inspection(id)).collect()
+                (start..len.min(start + CHUNK))
+                    .into_par_iter()
+                    .map(|id| this.inspection(id))
+                    .collect()
             };
             for f in found {
                 self.queue(f);
@@ -212,21 +214,23 @@ impl<'a> Refiner<'a> {
             };
             (SizeQueue::class_of(shortest2), entry)
         });
-        let v = &self.t.vertices;
         let encroached = [0, 1, 2].map(|i| {
-            if tri.n[i] != NONE {
-                return None;
-            }
-            let (a, b) = tri.edge(i);
-            let apex = v[tri.v[i] as usize];
-            // In the closed diametral circle: the apex sees the edge at 90° or more.
-            ((v[a as usize] - apex).dot(v[b as usize] - apex) <= 0.0).then_some(Encroached {
+            let ends = tri.edge(i);
+            let apex = self.t.vertices[tri.v[i] as usize];
+            (tri.n[i] == NONE && self.encroaches(apex, ends)).then_some(Encroached {
                 triangle: id,
                 corner: i as u8,
-                ends: (a, b),
+                ends,
             })
         });
         Inspection { bad, encroached }
+    }
+
+    /// Whether `p` lies in the closed diametral circle of the edge between vertices `ends`: it
+    /// sees the edge at 90° or more.
+    fn encroaches(&self, p: DVec2, (a, b): (u32, u32)) -> bool {
+        let v = &self.t.vertices;
+        (v[a as usize] - p).dot(v[b as usize] - p) <= 0.0
     }
 
     /// The Morton key of vertex `v` on a 2^32 grid over the domain.
