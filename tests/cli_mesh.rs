@@ -3,7 +3,9 @@
 
 mod cli_support;
 
-use cli_support::{TempDir, bench_json, generate, quadmesh, read_triangle_files, s, stderr};
+use cli_support::{
+    TempDir, bench_json, generate, json_number, quadmesh, read_triangle_files, s, stderr,
+};
 use quadmesh::mesh::AngleBounds;
 use quadmesh::warp::ANGLE_BOUNDS;
 
@@ -105,11 +107,8 @@ fn bench_prints_one_json_object_last() {
     ] {
         assert!(last.contains(key), "{key} missing from {last}");
     }
-    let field = |key: &str| -> f64 {
-        let rest = &last[last.find(key).unwrap() + key.len()..];
-        rest[..rest.find([',', '}']).unwrap()].parse().unwrap()
-    };
-    assert!(field("\"min_angle\":") >= ANGLE_BOUNDS.0 - 1e-9);
-    assert!(field("\"max_angle\":") <= ANGLE_BOUNDS.1 + 1e-9);
-    assert!(field("\"triangles\":") > 3000.0);
+    let field = |key: &str| json_number(&last, key);
+    assert!(field("min_angle") >= ANGLE_BOUNDS.0 - 1e-9);
+    assert!(field("max_angle") <= ANGLE_BOUNDS.1 + 1e-9);
+    assert!(field("triangles") > 3000.0);
 }

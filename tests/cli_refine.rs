@@ -5,7 +5,9 @@
 
 mod cli_support;
 
-use cli_support::{TempDir, bench_json, generate, quadmesh, read_triangle_files, s, stderr};
+use cli_support::{
+    TempDir, bench_json, generate, json_number, quadmesh, read_triangle_files, s, stderr,
+};
 use quadmesh::mesh::{AngleBounds, NONE, angles_deg};
 
 /// The angle bounds `--min-angle a` promises.
@@ -199,11 +201,7 @@ fn bench_min_angle_prints_one_json_object_last() {
     ] {
         assert!(last.contains(key), "{key} missing from {last}");
     }
-    let field = |key: &str| -> f64 {
-        let key = format!("\"{key}\":");
-        let rest = &last[last.find(&key).unwrap() + key.len()..];
-        rest[..rest.find([',', '}']).unwrap()].parse().unwrap()
-    };
+    let field = |key: &str| json_number(&last, key);
     assert!(field("triangles") > 0.0, "{last}");
     assert!(field("vertices") >= 2000.0 + 4.0, "{last}");
     assert!(field("min_angle") >= 25.0 - 1e-9, "{last}");
@@ -215,12 +213,7 @@ fn bench_min_angle_prints_one_json_object_last() {
 fn a_domain_through_the_points_reads_back_as_that_rectangle() {
     let dir = TempDir::new("domain");
     let (input, points) = generate(&dir, 400, "uniform");
-    let lo = points
-        .iter()
-        .fold(quadmesh::DVec2::INFINITY, |a, &b| a.min(b));
-    let hi = points
-        .iter()
-        .fold(quadmesh::DVec2::NEG_INFINITY, |a, &b| a.max(b));
+    let (lo, hi) = quadmesh::morton::bounding_box(&points);
     let rectangle = format!("{:?},{:?},{:?},{:?}", lo.x, lo.y, hi.x, hi.y);
     let prefix = dir.file("out");
     let out = quadmesh(&[

@@ -375,8 +375,7 @@ proptest! {
 
 /// The bounding box of `points` as a domain.
 fn bounding_box(points: &[DVec2]) -> Domain {
-    let lo = points.iter().fold(DVec2::INFINITY, |a, &b| a.min(b));
-    let hi = points.iter().fold(DVec2::NEG_INFINITY, |a, &b| a.max(b));
+    let (lo, hi) = quadmesh::morton::bounding_box(points);
     Domain { lo, hi }
 }
 

@@ -102,8 +102,7 @@ pub fn read_triangle_files(prefix: &Path) -> Mesh {
         .collect();
     let triangles = corners(&ele);
     let neighbours = corners(&neigh);
-    let lo = vertices.iter().fold(DVec2::INFINITY, |a, &b| a.min(b));
-    let hi = vertices.iter().fold(DVec2::NEG_INFINITY, |a, &b| a.max(b));
+    let (lo, hi) = quadmesh::morton::bounding_box(&vertices);
     let boundary = edge[1..]
         .iter()
         .filter(|r| r[3] != "0")
@@ -148,6 +147,13 @@ pub fn generate(dir: &TempDir, n: usize, dist: &str) -> (PathBuf, Vec<DVec2>) {
     assert!(out.status.success(), "{}", stderr(&out));
     let points = quadmesh::io::read_points(&input).unwrap();
     (input, points)
+}
+
+/// The number after `"key":` in a one-line JSON object.
+pub fn json_number(line: &str, key: &str) -> f64 {
+    let key = format!("\"{key}\":");
+    let rest = &line[line.find(&key).unwrap() + key.len()..];
+    rest[..rest.find([',', '}']).unwrap()].parse().unwrap()
 }
 
 /// Runs `quadmesh bench` with `args` and returns the last line of its output, checked to be one
