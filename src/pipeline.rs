@@ -8,13 +8,13 @@ use glam::DVec2;
 use crate::balance::{BalancedTree, balance, separate};
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
-use crate::mesh::{Mesh, MeshReport};
+use crate::mesh::{AngleQuality, Mesh, MeshReport};
 use crate::morton::{
     Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order,
     morton_order_wide,
 };
 use crate::quadtree::{Quadtree, expand};
-use crate::warp::{AngleQuality, point_finer_than_grid, unresolvable, warp};
+use crate::warp::{point_finer_than_grid, unresolvable, warp};
 
 /// Wall-clock time of each stage, in the order they ran.
 #[derive(Clone, Debug, Default)]

@@ -92,6 +92,48 @@ pub fn angles_deg(a: DVec2, b: DVec2, c: DVec2) -> [f64; 3] {
     [angle(a, b, c), angle(b, c, a), angle(c, a, b)]
 }
 
+/// Smallest and largest angle (degrees) and the count of angles per 10° bin.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AngleQuality {
+    /// Smallest angle.
+    pub min: f64,
+    /// Largest angle.
+    pub max: f64,
+    /// `histogram[i]` counts angles in `[10 i, 10 (i + 1))` degrees.
+    pub histogram: [u64; 18],
+}
+
+impl AngleQuality {
+    pub(crate) fn empty() -> Self {
+        AngleQuality {
+            min: f64::INFINITY,
+            max: f64::NEG_INFINITY,
+            histogram: [0; 18],
+        }
+    }
+
+    pub(crate) fn add(&mut self, angle: f64, count: u64) {
+        self.min = self.min.min(angle);
+        self.max = self.max.max(angle);
+        self.histogram[((angle / 10.0) as usize).min(17)] += count;
+    }
+
+    /// The same angles `count` times over.
+    pub(crate) fn repeated(mut self, count: u64) -> Self {
+        self.histogram.iter_mut().for_each(|h| *h *= count);
+        self
+    }
+
+    pub(crate) fn merge(mut self, other: Self) -> Self {
+        self.min = self.min.min(other.min);
+        self.max = self.max.max(other.max);
+        for (h, o) in self.histogram.iter_mut().zip(other.histogram) {
+            *h += o;
+        }
+        self
+    }
+}
+
 /// Counts, angles and timings of a mesh run.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MeshReport {

@@ -37,10 +37,11 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::error::Error;
-use crate::mesh::{BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE, angles_deg};
+use crate::mesh::{
+    AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE, angles_deg,
+};
 use crate::morton::{Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order};
 use crate::pipeline::{StageTimes, report_of};
-use crate::warp::AngleQuality;
 use delaunay::{Location, MAX_VERTICES, NEXT, PREV, Triangulation};
 use refiner::Refiner;
 

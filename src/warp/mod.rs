@@ -16,7 +16,7 @@ use robust::{Coord, orient2d};
 
 use crate::balance::BalancedTree;
 use crate::error::Error;
-use crate::mesh::{BoundaryEdge, BoundarySide, Domain, Mesh, NONE, angles_deg};
+use crate::mesh::{AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, angles_deg};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
 use crate::par::{collect_segments, exclusive_scan_by};
 use crate::pipeline::StageTimes;
@@ -142,48 +142,6 @@ pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>) -> Option<usi
     tree.point_leaf
         .par_iter()
         .position_first(|&leaf| tree.tree.leaves[leaf as usize].cell.level > finest)
-}
-
-/// Smallest and largest angle (degrees) and the count of angles per 10° bin.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AngleQuality {
-    /// Smallest angle.
-    pub min: f64,
-    /// Largest angle.
-    pub max: f64,
-    /// `histogram[i]` counts angles in `[10 i, 10 (i + 1))` degrees.
-    pub histogram: [u64; 18],
-}
-
-impl AngleQuality {
-    pub(crate) fn empty() -> Self {
-        AngleQuality {
-            min: f64::INFINITY,
-            max: f64::NEG_INFINITY,
-            histogram: [0; 18],
-        }
-    }
-
-    fn add(&mut self, angle: f64, count: u64) {
-        self.min = self.min.min(angle);
-        self.max = self.max.max(angle);
-        self.histogram[((angle / 10.0) as usize).min(17)] += count;
-    }
-
-    /// The same angles `count` times over.
-    fn repeated(mut self, count: u64) -> Self {
-        self.histogram.iter_mut().for_each(|h| *h *= count);
-        self
-    }
-
-    fn merge(mut self, other: Self) -> Self {
-        self.min = self.min.min(other.min);
-        self.max = self.max.max(other.max);
-        for (h, o) in self.histogram.iter_mut().zip(other.histogram) {
-            *h += o;
-        }
-        self
-    }
 }
 
 /// The angles of the mesh: measured on the triangles of leaves with a moved corner, taken from
