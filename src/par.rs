@@ -188,12 +188,16 @@ pub fn with_capacity_huge<T>(n: usize) -> Vec<T> {
     v
 }
 
-/// An empty vector with room for `n` values whose pages are already touched, by all threads
-/// in parallel: for a buffer that is then filled by sequential code, first touch would
-/// otherwise run on one core.
-pub fn prefaulted<T: Copy + Send + Sync>(n: usize, fill: T) -> Vec<T> {
-    let mut v = with_capacity_huge(n);
-    v.par_extend(rayon::iter::repeat_n(fill, n));
+/// An empty vector with room for `capacity` values, the pages of the first `touched` of them
+/// already touched by all threads in parallel: for a buffer that is then filled by sequential
+/// code, first touch would otherwise run on one core.
+pub fn prefaulted_within<T: Copy + Send + Sync>(
+    capacity: usize,
+    touched: usize,
+    fill: T,
+) -> Vec<T> {
+    let mut v = with_capacity_huge(capacity);
+    v.par_extend(rayon::iter::repeat_n(fill, touched.min(capacity)));
     v.clear();
     v
 }

@@ -487,3 +487,82 @@ fn bad_domains_are_typed_errors() {
         }
     }
 }
+
+/// Enough points that refinement runs by tiles in parallel before the sequential loop.
+const TILED: usize = 40_000;
+
+#[test]
+fn tiled_refinement_is_valid_on_every_family() {
+    for dist in FAMILIES {
+        let points = generate::points(dist, TILED, 21);
+        for a in [20.0, 30.0, 33.0] {
+            let (_, report) = refine_checked(&points, &angle(a));
+            assert_eq!(report.points, distinct_count(&points), "{dist:?} at {a}°");
+        }
+    }
+}
+
+/// The same mesh, byte for byte, whatever the number of threads, for every kind of work the
+/// tiles share: angle and area bounds, and boundary edges of a domain through the points.
+#[test]
+fn tiled_refinement_does_not_depend_on_the_thread_count() {
+    for dist in FAMILIES {
+        let points = generate::points(dist, TILED, 22);
+        let box_area = {
+            let d = bounding_box(&points);
+            (d.hi - d.lo).x * (d.hi - d.lo).y
+        };
+        let variants = [
+            angle(30.0),
+            RefineOptions {
+                max_area: Some(box_area / 100_000.0),
+                ..angle(25.0)
+            },
+            RefineOptions {
+                domain: Some(bounding_box(&points)),
+                ..angle(30.0)
+            },
+        ];
+        for options in variants {
+            let run = |threads| on_threads(threads, || refine_points(&points, &options).unwrap());
+            let (one, report) = run(1);
+            check(&points, &options, &one, &report);
+            for threads in [2, 3] {
+                let (other, _) = run(threads);
+                assert!(one == other, "{dist:?}, {options:?}, {threads} threads");
+            }
+        }
+    }
+}
+
+#[test]
+fn tiled_refinement_with_an_area_bound_meets_it() {
+    let points = generate::points(Distribution2d::Kuzmin, TILED, 23);
+    let domain = bounding_box(&points);
+    let options = RefineOptions {
+        max_area: Some((domain.hi - domain.lo).x * (domain.hi - domain.lo).y / 200_000.0),
+        domain: Some(domain),
+        ..angle(28.0)
+    };
+    refine_checked(&points, &options);
+}
+
+#[test]
+fn tiled_refinement_stops_at_the_vertex_budget() {
+    let points = generate::points(Distribution2d::Uniform, TILED, 24);
+    let limit = points.len() + 5_000;
+    let options = RefineOptions {
+        max_vertices: Some(limit),
+        ..angle(30.0)
+    };
+    match within(120, move || refine_points(&points, &options)) {
+        Err(Error::VertexBudget {
+            limit: l,
+            remaining,
+        }) => {
+            assert_eq!(l, limit);
+            assert!(remaining > 0);
+        }
+        other => panic!("expected a vertex budget error, got {other:?}"),
+    }
+}

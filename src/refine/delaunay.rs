@@ -39,6 +39,8 @@ pub(crate) enum Location {
     Vertex(u32),
     /// Outside the rectangle, beyond the boundary edge opposite corner `edge` of `triangle`.
     Outside { triangle: u32, edge: usize },
+    /// Beyond the triangles the store may change.
+    Foreign,
 }
 
 /// An edge of a cavity's boundary, the cavity on its left: `a → b`, the triangle `outer` beyond
@@ -56,22 +58,56 @@ pub(crate) struct RimEdge {
 /// that of its second corner, one the current cavity search tested and left out. Keeping the
 /// marks in the corners the search reads anyway saves an array and its cache misses; it limits
 /// vertex numbers to 31 bits.
-const MARK: u32 = 1 << 31;
+pub(crate) const MARK: u32 = 1 << 31;
 
 /// The most vertices a triangulation may have.
 pub(crate) const MAX_VERTICES: usize = MARK as usize - 1;
 
-/// The triangulation with the scratch space of its insertions. Corners and neighbours live in
-/// separate arrays, the layout [`crate::mesh::Mesh`] takes over without a copy.
+/// Where an insertion reads and writes vertices and triangles, and which triangles it may
+/// change: all of them in a whole triangulation, those of its own region in a tile that is
+/// refined alongside others.
+pub(crate) trait Store {
+    /// Whether every triangle may be changed; a walk that gets lost may then scan them all.
+    const WHOLE: bool;
+
+    /// Vertex `v`'s position; `v` may carry [`MARK`].
+    fn point(&self, v: u32) -> DVec2;
+    fn corners(&self, t: u32) -> [u32; 3];
+    fn corners_mut(&mut self, t: u32) -> &mut [u32; 3];
+    fn across(&self, t: u32) -> [u32; 3];
+    fn across_mut(&mut self, t: u32) -> &mut [u32; 3];
+    /// Adds a vertex at `p` and returns its number, above every vertex of the triangles this
+    /// store may change.
+    fn push_vertex(&mut self, p: DVec2) -> u32;
+    /// A fresh triangle slot.
+    fn push_triangle(&mut self) -> u32;
+    /// Whether an insertion may replace or relink the triangle with these corners (marks
+    /// allowed). Only asked of triangles next to ones it may change.
+    fn may_change(&self, corners: [u32; 3]) -> bool;
+    /// Triangles so far: a bound on the length of any walk.
+    fn triangle_count(&self) -> usize;
+    /// Vertices so far, for the vertex budget of a whole triangulation.
+    fn vertex_count(&self) -> usize;
+    /// Whether one more insertion fits in the room this store was given.
+    fn room(&self) -> bool;
+
+    /// Triangle `t` (outside a cavity search).
+    #[inline]
+    fn triangle(&self, t: u32) -> Triangle {
+        Triangle {
+            v: self.corners(t),
+            n: self.across(t),
+        }
+    }
+}
+
+/// The triangulation: corners and neighbours in separate arrays, the layout
+/// [`crate::mesh::Mesh`] takes over without a copy.
 #[derive(Clone, Debug)]
 pub(crate) struct Triangulation {
     pub vertices: Vec<DVec2>,
     pub corners: Vec<[u32; 3]>,
     pub across: Vec<[u32; 3]>,
-    cavity: Vec<u32>,
-    left_out: Vec<u32>,
-    rim: Vec<RimEdge>,
-    created: Vec<u32>,
 }
 
 #[inline]
@@ -93,146 +129,250 @@ impl Triangulation {
             vertices: vec![lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)],
             corners: vec![[0, 1, 2], [0, 2, 3]],
             across: vec![[NONE, 1, NONE], [NONE, NONE, 0]],
-            cavity: Vec::new(),
-            left_out: Vec::new(),
-            rim: Vec::new(),
-            created: Vec::new(),
         }
     }
 
-    /// Makes room for about `vertices` vertices in all and their triangles, touching the
-    /// memory in parallel.
-    pub fn reserve(&mut self, vertices: usize) {
-        fn grow<T: Copy + Send + Sync>(v: &mut Vec<T>, n: usize, fill: T) {
+    /// Makes room for `vertices` vertices in all and their triangles, touching the memory of
+    /// the first `touched` of them in parallel.
+    pub fn reserve(&mut self, vertices: usize, touched: usize) {
+        fn grow<T: Copy + Send + Sync>(v: &mut Vec<T>, n: usize, touched: usize, fill: T) {
             if n > v.capacity() {
-                let mut bigger = crate::par::prefaulted(n, fill);
+                let mut bigger = crate::par::prefaulted_within(n, touched.min(n), fill);
                 bigger.extend_from_slice(v);
                 *v = bigger;
             }
         }
-        grow(&mut self.vertices, vertices, DVec2::ZERO);
-        grow(&mut self.corners, 2 * vertices, [0; 3]);
-        grow(&mut self.across, 2 * vertices, [NONE; 3]);
+        grow(&mut self.vertices, vertices, touched, DVec2::ZERO);
+        grow(&mut self.corners, 2 * vertices, 2 * touched, [0; 3]);
+        grow(&mut self.across, 2 * vertices, 2 * touched, [NONE; 3]);
     }
 
     /// Triangles so far.
     pub fn len(&self) -> usize {
         self.corners.len()
     }
+}
 
-    /// Triangle `t` (outside a cavity search).
-    #[inline]
-    pub fn triangle(&self, t: u32) -> Triangle {
-        Triangle {
-            v: self.corners[t as usize],
-            n: self.across[t as usize],
-        }
-    }
+impl Store for Triangulation {
+    const WHOLE: bool = true;
 
     #[inline]
     fn point(&self, v: u32) -> DVec2 {
         self.vertices[(v & !MARK) as usize]
     }
+    #[inline]
+    fn corners(&self, t: u32) -> [u32; 3] {
+        self.corners[t as usize]
+    }
+    #[inline]
+    fn corners_mut(&mut self, t: u32) -> &mut [u32; 3] {
+        &mut self.corners[t as usize]
+    }
+    #[inline]
+    fn across(&self, t: u32) -> [u32; 3] {
+        self.across[t as usize]
+    }
+    #[inline]
+    fn across_mut(&mut self, t: u32) -> &mut [u32; 3] {
+        &mut self.across[t as usize]
+    }
+    #[inline]
+    fn push_vertex(&mut self, p: DVec2) -> u32 {
+        self.vertices.push(p);
+        (self.vertices.len() - 1) as u32
+    }
+    #[inline]
+    fn push_triangle(&mut self) -> u32 {
+        self.corners.push([0; 3]);
+        self.across.push([NONE; 3]);
+        (self.corners.len() - 1) as u32
+    }
+    #[inline]
+    fn may_change(&self, _corners: [u32; 3]) -> bool {
+        true
+    }
+    #[inline]
+    fn triangle_count(&self) -> usize {
+        self.corners.len()
+    }
+    fn vertex_count(&self) -> usize {
+        self.vertices.len()
+    }
+    fn room(&self) -> bool {
+        true
+    }
+}
 
-    /// Locates `p` by a visibility walk from triangle `start`. The walk ends on a Delaunay
-    /// triangulation whatever edge it takes; a step count guards against a bug turning that
-    /// into a hang, falling back to a scan of every triangle.
-    pub fn locate(&self, p: DVec2, start: u32) -> Location {
-        let mut t = start;
-        let mut came_from = NONE;
-        for _ in 0..=self.len() {
-            match self.step(p, t, came_from) {
-                Step::Found => return self.found(p, t),
-                Step::Leave(i) => {
-                    let next = self.across[t as usize][i];
-                    if next == NONE {
-                        return Location::Outside {
-                            triangle: t,
-                            edge: i,
-                        };
-                    }
-                    came_from = t;
-                    t = next;
+impl<S: Store> Store for &mut S {
+    const WHOLE: bool = S::WHOLE;
+
+    #[inline]
+    fn point(&self, v: u32) -> DVec2 {
+        (**self).point(v)
+    }
+    #[inline]
+    fn corners(&self, t: u32) -> [u32; 3] {
+        (**self).corners(t)
+    }
+    #[inline]
+    fn corners_mut(&mut self, t: u32) -> &mut [u32; 3] {
+        (**self).corners_mut(t)
+    }
+    #[inline]
+    fn across(&self, t: u32) -> [u32; 3] {
+        (**self).across(t)
+    }
+    #[inline]
+    fn across_mut(&mut self, t: u32) -> &mut [u32; 3] {
+        (**self).across_mut(t)
+    }
+    #[inline]
+    fn push_vertex(&mut self, p: DVec2) -> u32 {
+        (**self).push_vertex(p)
+    }
+    #[inline]
+    fn push_triangle(&mut self) -> u32 {
+        (**self).push_triangle()
+    }
+    #[inline]
+    fn may_change(&self, corners: [u32; 3]) -> bool {
+        (**self).may_change(corners)
+    }
+    #[inline]
+    fn triangle_count(&self) -> usize {
+        (**self).triangle_count()
+    }
+    fn vertex_count(&self) -> usize {
+        (**self).vertex_count()
+    }
+    fn room(&self) -> bool {
+        (**self).room()
+    }
+}
+
+/// Locates `p` by a visibility walk from triangle `start`. The walk ends on a Delaunay
+/// triangulation whatever edge it takes; a step count guards against a bug turning that into
+/// a hang, falling back to a scan of every triangle where the store holds them all. In a
+/// store that may change only some triangles, the walk stops where it would leave them.
+pub(crate) fn locate<S: Store>(s: &S, p: DVec2, start: u32) -> Location {
+    let mut t = start;
+    let mut came_from = NONE;
+    for _ in 0..=s.triangle_count() {
+        match step(s, p, t, came_from) {
+            Step::Found => return found(s, p, t),
+            Step::Leave(i) => {
+                let next = s.across(t)[i];
+                if next == NONE {
+                    return Location::Outside {
+                        triangle: t,
+                        edge: i,
+                    };
                 }
+                if !S::WHOLE && !s.may_change(s.corners(next)) {
+                    return Location::Foreign;
+                }
+                came_from = t;
+                t = next;
             }
         }
-        self.locate_by_scan(p)
     }
+    if S::WHOLE {
+        locate_by_scan(s, p)
+    } else {
+        Location::Foreign
+    }
+}
 
-    /// The first edge of `t` that has `p` strictly on its far side, skipping the edge the walk
-    /// came in by.
-    #[inline]
-    fn step(&self, p: DVec2, t: u32, came_from: u32) -> Step {
-        let tri = self.triangle(t);
-        for i in 0..3 {
-            if tri.n[i] == came_from && came_from != NONE {
-                continue;
-            }
+/// The first edge of `t` that has `p` strictly on its far side, skipping the edge the walk came
+/// in by.
+#[inline]
+fn step<S: Store>(s: &S, p: DVec2, t: u32, came_from: u32) -> Step {
+    let tri = s.triangle(t);
+    for i in 0..3 {
+        if tri.n[i] == came_from && came_from != NONE {
+            continue;
+        }
+        let (a, b) = tri.edge(i);
+        if orient(s.point(a), s.point(b), p) < 0.0 {
+            return Step::Leave(i);
+        }
+    }
+    Step::Found
+}
+
+fn found<S: Store>(s: &S, p: DVec2, t: u32) -> Location {
+    match s.corners(t).iter().find(|&&v| s.point(v) == p) {
+        Some(&v) => Location::Vertex(v),
+        None => Location::Inside(t),
+    }
+}
+
+fn locate_by_scan<S: Store>(s: &S, p: DVec2) -> Location {
+    let triangles = 0..s.triangle_count() as u32;
+    if let Some(t) = triangles
+        .clone()
+        .find(|&t| matches!(step(s, p, t, NONE), Step::Found))
+    {
+        return found(s, p, t);
+    }
+    let (t, i) = triangles
+        .flat_map(|t| (0..3).map(move |i| (t, i)))
+        .find(|&(t, i)| {
+            let tri = s.triangle(t);
             let (a, b) = tri.edge(i);
-            if orient(self.point(a), self.point(b), p) < 0.0 {
-                return Step::Leave(i);
-            }
-        }
-        Step::Found
+            tri.n[i] == NONE && orient(s.point(a), s.point(b), p) < 0.0
+        })
+        .expect("a point in no triangle lies beyond some boundary edge");
+    Location::Outside {
+        triangle: t,
+        edge: i,
     }
+}
 
-    fn found(&self, p: DVec2, t: u32) -> Location {
-        match self.corners[t as usize]
-            .iter()
-            .find(|&&v| self.point(v) == p)
-        {
-            Some(&v) => Location::Vertex(v),
-            None => Location::Inside(t),
-        }
-    }
+/// Whether `p` lies strictly inside the circumcircle of triangle `t`; exact.
+#[inline]
+fn in_circumcircle<S: Store>(s: &S, t: u32, p: DVec2) -> bool {
+    let [a, b, c] = s.corners(t).map(|v| coord(s.point(v)));
+    incircle(a, b, c, coord(p)) > 0.0
+}
 
-    fn locate_by_scan(&self, p: DVec2) -> Location {
-        let triangles = 0..self.len() as u32;
-        if let Some(t) = triangles
-            .clone()
-            .find(|&t| matches!(self.step(p, t, NONE), Step::Found))
-        {
-            return self.found(p, t);
-        }
-        let (t, i) = triangles
-            .flat_map(|t| (0..3).map(move |i| (t, i)))
-            .find(|&(t, i)| {
-                let tri = self.triangle(t);
-                let (a, b) = tri.edge(i);
-                tri.n[i] == NONE && orient(self.point(a), self.point(b), p) < 0.0
-            })
-            .expect("a point in no triangle lies beyond some boundary edge");
-        Location::Outside {
-            triangle: t,
-            edge: i,
-        }
-    }
+/// The scratch space of insertions: the cavity of the point being inserted, its rim, and the
+/// triangles the last insertion made.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Cavity {
+    triangles: Vec<u32>,
+    left_out: Vec<u32>,
+    rim: Vec<RimEdge>,
+    created: Vec<u32>,
+}
 
-    /// Whether `p` lies strictly inside the circumcircle of triangle `t`; exact.
-    #[inline]
-    fn in_circumcircle(&self, t: u32, p: DVec2) -> bool {
-        let [a, b, c] = self.corners[t as usize].map(|v| coord(self.point(v)));
-        incircle(a, b, c, coord(p)) > 0.0
-    }
-
-    /// Finds the cavity of `p`, which lies in triangle `t` (from [`Self::locate`]): the
-    /// triangles whose circumcircle strictly contains `p`, a connected set around `t`. Nothing
-    /// changes until [`Self::commit`]; [`Self::abandon`] drops the cavity instead.
-    pub fn dig(&mut self, p: DVec2, t: u32) {
-        self.cavity.clear();
+impl Cavity {
+    /// Finds the cavity of `p`, which lies in triangle `t` (from [`locate`]): the triangles
+    /// whose circumcircle strictly contains `p`, a connected set around `t`. Nothing changes
+    /// until [`Self::commit`]; [`Self::abandon`] drops the cavity instead. Returns false, with
+    /// nothing changed, when the cavity reaches a triangle the store may not change.
+    pub fn dig<S: Store>(&mut self, s: &mut S, p: DVec2, t: u32) -> bool {
+        self.triangles.clear();
         self.left_out.clear();
         self.rim.clear();
-        self.corners[t as usize][0] |= MARK;
-        self.cavity.push(t);
+        s.corners_mut(t)[0] |= MARK;
+        self.triangles.push(t);
         let mut k = 0;
-        while k < self.cavity.len() {
-            let c = self.cavity[k];
+        while k < self.triangles.len() {
+            let c = self.triangles[k];
             k += 1;
-            let tri = self.triangle(c);
+            let tri = s.triangle(c);
             for i in 0..3 {
                 let o = tri.n[i];
-                if o != NONE && self.joins_cavity(o, p) {
-                    continue;
+                if o != NONE {
+                    match self.joins(s, o, p) {
+                        Joins::Yes => continue,
+                        Joins::No => {}
+                        Joins::Foreign => {
+                            self.abandon(s);
+                            return false;
+                        }
+                    }
                 }
                 let (a, b) = tri.edge(i);
                 self.rim.push(RimEdge {
@@ -244,26 +384,30 @@ impl Triangulation {
                 });
             }
         }
+        true
     }
 
     /// Whether triangle `o`, next to the cavity, is (now) in it; marks it either way.
     #[inline]
-    fn joins_cavity(&mut self, o: u32, p: DVec2) -> bool {
-        let [first, second, _] = self.corners[o as usize];
-        if first & MARK != 0 {
-            return true;
+    fn joins<S: Store>(&mut self, s: &mut S, o: u32, p: DVec2) -> Joins {
+        let corners = s.corners(o);
+        if corners[0] & MARK != 0 {
+            return Joins::Yes;
         }
-        if second & MARK != 0 {
-            return false;
+        if corners[1] & MARK != 0 {
+            return Joins::No;
         }
-        if self.in_circumcircle(o, p) {
-            self.corners[o as usize][0] |= MARK;
-            self.cavity.push(o);
-            true
+        if in_circumcircle(s, o, p) {
+            if !s.may_change(corners) {
+                return Joins::Foreign;
+            }
+            s.corners_mut(o)[0] |= MARK;
+            self.triangles.push(o);
+            Joins::Yes
         } else {
-            self.corners[o as usize][1] |= MARK;
+            s.corners_mut(o)[1] |= MARK;
             self.left_out.push(o);
-            false
+            Joins::No
         }
     }
 
@@ -273,74 +417,57 @@ impl Triangulation {
     }
 
     /// Drops the cavity [`Self::dig`] last found, leaving the triangulation as it was.
-    pub fn abandon(&mut self) {
-        for &t in &self.cavity {
-            self.corners[t as usize][0] &= !MARK;
+    pub fn abandon<S: Store>(&mut self, s: &mut S) {
+        for &t in &self.triangles {
+            s.corners_mut(t)[0] &= !MARK;
         }
-        self.clear_left_out();
+        self.clear_left_out(s);
     }
 
-    fn clear_left_out(&mut self) {
+    fn clear_left_out<S: Store>(&mut self, s: &mut S) {
         for &t in &self.left_out {
-            self.corners[t as usize][1] &= !MARK;
+            s.corners_mut(t)[1] &= !MARK;
         }
     }
 
     /// Inserts `p` into the cavity [`Self::dig`] last found for it: the cavity's triangles are
     /// replaced by a fan from `p`. A boundary edge that `p` lies on is split. Returns the new
     /// vertex; [`Self::created`] lists the new triangles.
-    pub fn commit(&mut self, p: DVec2) -> u32 {
-        self.clear_left_out();
-        let cavity = std::mem::take(&mut self.cavity);
-        let rim = std::mem::take(&mut self.rim);
-        let v = self.fan(p, &cavity, rim);
-        self.cavity = cavity;
-        v
-    }
-
-    /// Replaces the `cavity` triangles, bounded by `rim`, by a fan from the new vertex `p`.
-    fn fan(&mut self, p: DVec2, cavity: &[u32], mut rim: Vec<RimEdge>) -> u32 {
-        let v = self.vertices.len() as u32;
-        self.vertices.push(p);
-        let vertices = &self.vertices;
-        rim.retain(|e| {
-            e.outer != NONE || orient(vertices[e.a as usize], vertices[e.b as usize], p) != 0.0
-        });
+    pub fn commit<S: Store>(&mut self, s: &mut S, p: DVec2) -> u32 {
+        self.clear_left_out(s);
+        let v = s.push_vertex(p);
+        self.rim
+            .retain(|e| e.outer != NONE || orient(s.point(e.a), s.point(e.b), p) != 0.0);
         // A fan has one triangle more than an interior cavity (one less for a boundary edge
         // split), so every cavity slot is reused, which also clears its mark.
         self.created.clear();
-        for k in 0..rim.len() {
-            let id = match cavity.get(k) {
+        for k in 0..self.rim.len() {
+            let id = match self.triangles.get(k) {
                 Some(&id) => id,
-                None => {
-                    self.corners.push([0; 3]);
-                    self.across.push([NONE; 3]);
-                    (self.corners.len() - 1) as u32
-                }
+                None => s.push_triangle(),
             };
             self.created.push(id);
         }
-        for (k, e) in rim.iter().enumerate() {
+        for (k, e) in self.rim.iter().enumerate() {
             let id = self.created[k];
             // Triangle (a, b, p): across b → p is the fan triangle starting at b, across p → a
             // the one ending at a.
-            let after = rim.iter().position(|f| f.a == e.b);
-            let before = rim.iter().position(|f| f.b == e.a);
-            self.corners[id as usize] = [e.a, e.b, v];
-            self.across[id as usize] = [
+            let after = self.rim.iter().position(|f| f.a == e.b);
+            let before = self.rim.iter().position(|f| f.b == e.a);
+            *s.corners_mut(id) = [e.a, e.b, v];
+            *s.across_mut(id) = [
                 after.map_or(NONE, |m| self.created[m]),
                 before.map_or(NONE, |m| self.created[m]),
                 e.outer,
             ];
             if e.outer != NONE {
-                let outer = self.triangle(e.outer);
+                let outer = s.triangle(e.outer);
                 let j = (0..3)
                     .find(|&j| outer.edge(j) == (e.b, e.a))
                     .expect("the triangle beyond a rim edge shares it");
-                self.across[e.outer as usize][j] = id;
+                s.across_mut(e.outer)[j] = id;
             }
         }
-        self.rim = rim;
         v
     }
 
@@ -350,17 +477,23 @@ impl Triangulation {
     }
 
     /// Inserts `p`, a point inside the rectangle and on no vertex, walking from `hint`.
-    #[cfg(test)]
     /// Returns the new vertex, or where the point was found instead.
-    pub fn insert(&mut self, p: DVec2, hint: u32) -> Result<u32, Location> {
-        match self.locate(p, hint) {
-            Location::Inside(t) => {
-                self.dig(p, t);
-                Ok(self.commit(p))
+    #[cfg(test)]
+    pub fn insert(&mut self, t: &mut Triangulation, p: DVec2, hint: u32) -> Result<u32, Location> {
+        match locate(t, p, hint) {
+            Location::Inside(tri) => {
+                assert!(self.dig(t, p, tri));
+                Ok(self.commit(t, p))
             }
             other => Err(other),
         }
     }
+}
+
+enum Joins {
+    Yes,
+    No,
+    Foreign,
 }
 
 enum Step {
@@ -384,7 +517,7 @@ mod tests {
                 let back = (0..3).find(|&j| other.n[j] == id);
                 let Some(j) = back else { return false };
                 other.edge(j) == (tri.edge(i).1, tri.edge(i).0)
-                    && !t.in_circumcircle(id, t.vertices[other.v[j] as usize])
+                    && !in_circumcircle(t, id, t.vertices[other.v[j] as usize])
             })
         })
     }
@@ -408,11 +541,14 @@ mod tests {
         // Cocircular quadruples everywhere: the strict in-circle test must still give a valid,
         // Delaunay result.
         let mut t = Triangulation::rectangle(DVec2::ZERO, DVec2::splat(8.0));
+        let mut cavity = Cavity::default();
         let mut hint = 0;
         for y in 1..8 {
             for x in 1..8 {
-                let v = t.insert(DVec2::new(x as f64, y as f64), hint).unwrap();
-                hint = t.created()[0];
+                let v = cavity
+                    .insert(&mut t, DVec2::new(x as f64, y as f64), hint)
+                    .unwrap();
+                hint = cavity.created()[0];
                 assert_eq!(v as usize, t.vertices.len() - 1);
             }
         }
@@ -424,8 +560,9 @@ mod tests {
     #[test]
     fn a_point_on_the_boundary_splits_its_edge() {
         let mut t = Triangulation::rectangle(DVec2::ZERO, DVec2::splat(4.0));
-        t.insert(DVec2::new(2.0, 0.0), 1).unwrap();
-        t.insert(DVec2::new(4.0, 1.0), 1).unwrap();
+        let mut cavity = Cavity::default();
+        cavity.insert(&mut t, DVec2::new(2.0, 0.0), 1).unwrap();
+        cavity.insert(&mut t, DVec2::new(4.0, 1.0), 1).unwrap();
         assert_eq!(t.len(), 4);
         let boundary = t
             .across
@@ -440,10 +577,12 @@ mod tests {
     #[test]
     fn locate_reports_vertices_and_the_outside() {
         let mut t = Triangulation::rectangle(DVec2::ZERO, DVec2::splat(4.0));
-        let v = t.insert(DVec2::new(1.0, 1.0), 0).unwrap();
-        assert_eq!(t.locate(DVec2::new(1.0, 1.0), 0), Location::Vertex(v));
-        assert_eq!(t.locate(DVec2::new(4.0, 4.0), 0), Location::Vertex(2));
-        match t.locate(DVec2::new(5.0, 1.0), 0) {
+        let v = Cavity::default()
+            .insert(&mut t, DVec2::new(1.0, 1.0), 0)
+            .unwrap();
+        assert_eq!(locate(&t, DVec2::new(1.0, 1.0), 0), Location::Vertex(v));
+        assert_eq!(locate(&t, DVec2::new(4.0, 4.0), 0), Location::Vertex(2));
+        match locate(&t, DVec2::new(5.0, 1.0), 0) {
             Location::Outside { triangle, edge } => {
                 let (a, b) = t.triangle(triangle).edge(edge);
                 assert_eq!(t.vertices[a as usize].x, 4.0);
@@ -458,11 +597,12 @@ mod tests {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(7);
         let mut t = Triangulation::rectangle(DVec2::ZERO, DVec2::ONE);
+        let mut cavity = Cavity::default();
         let mut hint = 0;
         for _ in 0..2000 {
             let p = DVec2::new(rng.random_range(0.01..0.99), rng.random_range(0.01..0.99));
-            t.insert(p, hint).unwrap();
-            hint = t.created()[0];
+            cavity.insert(&mut t, p, hint).unwrap();
+            hint = cavity.created()[0];
         }
         assert_eq!(t.len(), 2 * 2000 + 2);
         assert!(is_delaunay(&t));

@@ -32,6 +32,7 @@
 mod delaunay;
 mod queue;
 mod refiner;
+mod tiles;
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -42,8 +43,8 @@ use crate::mesh::{
 };
 use crate::morton::{Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order};
 use crate::pipeline::{StageTimes, report_of};
-use delaunay::{Location, MAX_VERTICES, NEXT, PREV, Triangulation};
-use refiner::Refiner;
+use delaunay::{Cavity, Location, MAX_VERTICES, NEXT, PREV, Triangulation, locate};
+use refiner::{Bounds, Refiner, Work};
 
 /// The largest angle bound for which off-center refinement is proven to terminate,
 /// arcsin(1/(2√2)), in degrees.
@@ -168,15 +169,23 @@ fn refine_order<K: MortonKey>(
         lo: grid.vertex(0, 0),
         hi: grid.vertex(side, side),
     });
+    let all_points = points;
     let (mut triangulation, vertex_input) = times.time("delaunay", || {
         let mut t = Triangulation::rectangle(domain.lo, domain.hi);
-        t.reserve(options.expected_vertices(morton.order.len()));
-        let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
+        let points = morton.order.len();
+        t.reserve(options.expected_vertices(points), points + 4);
+        let vertex_input = insert_in_order(&mut t, all_points, &morton.order)?;
         Ok::<_, Error>((t, vertex_input))
     })?;
     let budget = options.budget(morton.order.len());
     times.time("refine", || {
-        Refiner::new(&mut triangulation, options, budget).refine_all()
+        refine(
+            &mut triangulation,
+            options,
+            domain,
+            morton.order.len(),
+            budget,
+        )
     })?;
     let mesh = times.time("mesh", || into_mesh(triangulation, vertex_input, domain));
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
@@ -186,6 +195,30 @@ fn refine_order<K: MortonKey>(
 }
 
 /// Refuses the first point outside `domain`.
+/// Refines the Delaunay triangulation of `points` points: by tiles in parallel where there
+/// are enough points, then by the sequential loop for what the tiles left.
+fn refine(
+    t: &mut Triangulation,
+    options: &RefineOptions,
+    domain: Domain,
+    points: usize,
+    budget: usize,
+) -> Result<(), Error> {
+    let bounds = Bounds::new(options, domain.lo, domain.hi);
+    if bounds.unbounded() {
+        // No bound asked for: the Delaunay triangulation is the mesh.
+        return Ok(());
+    }
+    let (mut bad, mut edges) = refiner::inspect_all(t, &bounds);
+    if points >= tiles::MIN_POINTS {
+        let side = (domain.hi - domain.lo).max_element();
+        (bad, edges) = tiles::refine_tiles(t, domain.lo, side, &bounds, bad, edges, budget)?;
+    }
+    let mut work = Work::new();
+    work.queue_all(&bad, &edges);
+    Refiner::new(t, &mut work, bounds, budget).run()
+}
+
 fn check_inside(points: &[DVec2], domain: Domain) -> Result<(), Error> {
     match points.par_iter().position_first(|&p| !domain.contains(p)) {
         Some(index) => Err(Error::OutsideDomain {
@@ -207,15 +240,16 @@ fn insert_in_order(
 ) -> Result<Vec<u32>, Error> {
     let mut vertex_input = vec![NONE; t.vertices.len()];
     vertex_input.reserve(order.len());
+    let mut cavity = Cavity::default();
     let mut hint = 0;
     for &index in order {
         let p = points[index as usize];
-        match t.locate(p, hint) {
+        match locate(t, p, hint) {
             Location::Inside(tri) => {
-                t.dig(p, tri);
-                t.commit(p);
+                cavity.dig(t, p, tri);
+                cavity.commit(t, p);
                 vertex_input.push(index);
-                hint = t.created()[0];
+                hint = cavity.created()[0];
             }
             Location::Vertex(v) if vertex_input[v as usize] == NONE => {
                 vertex_input[v as usize] = index;

@@ -23,6 +23,8 @@ pub(crate) struct SizeQueue {
     /// Per class, how many of its first entries are already in runs of descending Morton
     /// order; later entries were queued since and are not.
     sorted: Vec<usize>,
+    /// Entries in all classes.
+    len: usize,
 }
 
 impl SizeQueue {
@@ -31,6 +33,7 @@ impl SizeQueue {
             classes: vec![Vec::new(); 8192],
             lowest: 8192,
             sorted: vec![0; 8192],
+            len: 0,
         }
     }
 
@@ -46,14 +49,20 @@ impl SizeQueue {
     pub fn push(&mut self, class: usize, entry: Queued) {
         self.classes[class].push(entry);
         self.lowest = self.lowest.min(class);
+        self.len += 1;
     }
 
     /// The next entry: from the smallest non-empty class, in Morton order. Entries queued since
     /// the class was last taken from are put in order first and come first, so every entry is
     /// sorted once, and new bad triangles next to the last insertion are fixed while their
     /// memory is still in cache.
-    pub fn pop(&mut self) -> Option<Queued> {
-        while self.lowest < self.classes.len() {
+    pub fn pop(&mut self) -> Option<(usize, Queued)> {
+        if self.len == 0 {
+            self.lowest = self.classes.len();
+            return None;
+        }
+        self.len -= 1;
+        loop {
             let (class, sorted) = (
                 &mut self.classes[self.lowest],
                 &mut self.sorted[self.lowest],
@@ -67,9 +76,8 @@ impl SizeQueue {
             }
             let entry = class.pop();
             *sorted = class.len();
-            return entry;
+            return entry.map(|e| (self.lowest, e));
         }
-        None
     }
 }
 
@@ -92,7 +100,9 @@ mod tests {
         q.push(SizeQueue::class_of(0.3), entry(3));
         q.push(SizeQueue::class_of(0.25), entry(2));
         q.push(SizeQueue::class_of(100.0), entry(4));
-        let order: Vec<u32> = std::iter::from_fn(|| q.pop()).map(|e| e.triangle).collect();
+        let order: Vec<u32> = std::iter::from_fn(|| q.pop())
+            .map(|(_, e)| e.triangle)
+            .collect();
         assert_eq!(order, vec![2, 3, 1, 4]);
         assert_eq!(q.pop(), None);
     }
@@ -103,10 +113,12 @@ mod tests {
         for t in [3, 1, 2] {
             q.push(SizeQueue::class_of(1.0), entry(t));
         }
-        assert_eq!(q.pop().map(|e| e.triangle), Some(1));
+        assert_eq!(q.pop().map(|(_, e)| e.triangle), Some(1));
         q.push(SizeQueue::class_of(1.0), entry(9));
         q.push(SizeQueue::class_of(1.0), entry(8));
-        let order: Vec<u32> = std::iter::from_fn(|| q.pop()).map(|e| e.triangle).collect();
+        let order: Vec<u32> = std::iter::from_fn(|| q.pop())
+            .map(|(_, e)| e.triangle)
+            .collect();
         assert_eq!(order, vec![8, 9, 2, 3]);
     }
 

@@ -1,12 +1,15 @@
 //! The refinement loop: bad triangles are fixed one at a time, smallest size class first, each
 //! class in Morton order, and the bad triangles an insertion makes right after it, while their
-//! memory is in cache. The first look at all triangles runs in parallel.
+//! memory is in cache.
+//!
+//! The loop runs on a [`Store`]: a whole triangulation, or one tile of it that is refined
+//! alongside others. A tile sets aside, as deferred, the work that would reach beyond it.
 
 use glam::DVec2;
 use rayon::prelude::*;
 
 use super::RefineOptions;
-use super::delaunay::{Location, NEXT, PREV, Triangulation};
+use super::delaunay::{Cavity, Location, NEXT, PREV, Store, Triangulation, locate};
 use super::queue::{Queued, SizeQueue};
 use crate::error::Error;
 use crate::mesh::NONE;
@@ -15,37 +18,42 @@ use crate::morton::interleave::interleave32;
 /// An encroached boundary edge as it was when queued: the edge opposite `corner` of `triangle`,
 /// live while that slot still has these ends there.
 #[derive(Clone, Copy, Debug)]
-struct Encroached {
-    triangle: u32,
-    corner: u8,
-    ends: (u32, u32),
+pub(super) struct Encroached {
+    pub triangle: u32,
+    pub corner: u8,
+    pub ends: (u32, u32),
 }
 
-/// What inspecting a new triangle found.
-struct Inspection {
-    bad: Option<(usize, Queued)>,
+/// A bad triangle waiting outside any queue, with its size class.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Pending {
+    pub class: u32,
+    pub entry: Queued,
+}
+
+/// What inspecting a triangle found.
+pub(super) struct Inspection {
+    bad: Option<Pending>,
     encroached: [Option<Encroached>; 3],
 }
 
-/// The refinement loop's state.
-pub(super) struct Refiner<'a> {
-    t: &'a mut Triangulation,
+/// The quality bounds and the frame of the Morton keys, fixed for a whole refinement.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Bounds {
     /// sin² of the angle bound.
     sin2: f64,
     /// Twice the area bound (cross products give twice the area).
     max_area2: f64,
     /// Off-centers lie this many shortest-edge lengths from the edge's midpoint.
     offset: f64,
-    bad: SizeQueue,
-    encroached: Vec<Encroached>,
-    budget: usize,
     /// The domain's lower-left corner and the scale that maps it onto 32-bit grid coordinates.
     origin: DVec2,
     scale: f64,
 }
 
-impl<'a> Refiner<'a> {
-    pub fn new(t: &'a mut Triangulation, options: &RefineOptions, budget: usize) -> Self {
+impl Bounds {
+    /// The bounds of `options` on the triangulation of `domain` = `[lo, hi]`.
+    pub fn new(options: &RefineOptions, lo: DVec2, hi: DVec2) -> Self {
         let angle = options.min_angle_deg.to_radians();
         // The off-center's triangle on the shortest edge is isosceles with apex angle equal to
         // the bound at height cot(A/2)/2 edge lengths; 95% of that leaves it strictly better.
@@ -54,67 +62,149 @@ impl<'a> Refiner<'a> {
         } else {
             f64::INFINITY
         };
-        // Vertices 0 and 2 are the domain's corners.
-        let origin = t.vertices[0];
-        let side = (t.vertices[2] - origin).max_element();
-        let scale = 2f64.powi(32) / side * (1.0 - f64::EPSILON);
-        Refiner {
-            t,
+        let side = (hi - lo).max_element();
+        Bounds {
             sin2: angle.sin().powi(2),
             max_area2: options.max_area.map_or(f64::INFINITY, |a| 2.0 * a),
             offset,
+            origin: lo,
+            scale: 2f64.powi(32) / side * (1.0 - f64::EPSILON),
+        }
+    }
+
+    /// Whether no triangle can be bad: the Delaunay triangulation is the mesh.
+    pub fn unbounded(&self) -> bool {
+        self.sin2 == 0.0 && self.max_area2 == f64::INFINITY
+    }
+}
+
+/// The queues and scratch space of a refinement loop, kept between the tiles one thread works
+/// through.
+#[derive(Debug)]
+pub(super) struct Work {
+    bad: SizeQueue,
+    encroached: Vec<Encroached>,
+    cavity: Cavity,
+    /// Bad triangles and boundary edges set aside for a later pass.
+    pub deferred: Vec<Pending>,
+    pub deferred_edges: Vec<Encroached>,
+    /// Points inserted.
+    pub inserted: usize,
+}
+
+impl Work {
+    pub fn new() -> Self {
+        Work {
             bad: SizeQueue::new(),
             encroached: Vec::new(),
+            cavity: Cavity::default(),
+            deferred: Vec::new(),
+            deferred_edges: Vec::new(),
+            inserted: 0,
+        }
+    }
+
+    /// Queues bad triangles and encroached edges found elsewhere, in this order.
+    pub fn queue_all(&mut self, bad: &[Pending], edges: &[Encroached]) {
+        for p in bad {
+            self.bad.push(p.class as usize, p.entry);
+        }
+        self.encroached.extend_from_slice(edges);
+    }
+}
+
+/// The refinement loop's state.
+pub(super) struct Refiner<'w, S: Store> {
+    s: S,
+    work: &'w mut Work,
+    bounds: Bounds,
+    budget: usize,
+    /// Bad triangles of larger size classes are set aside, not fixed.
+    class_limit: usize,
+}
+
+impl<'w, S: Store> Refiner<'w, S> {
+    pub fn new(s: S, work: &'w mut Work, bounds: Bounds, budget: usize) -> Self {
+        Refiner {
+            s,
+            work,
+            bounds,
             budget,
-            origin,
-            scale,
+            class_limit: usize::MAX,
         }
     }
 
-    /// Refines a fresh triangulation: every triangle is looked at.
-    pub fn refine_all(mut self) -> Result<(), Error> {
-        if self.sin2 == 0.0 && self.max_area2 == f64::INFINITY {
-            // No bound asked for: the Delaunay triangulation is the mesh.
-            return Ok(());
-        }
-        self.inspect_all();
-        self.run()
+    /// Sets aside bad triangles whose size class is above `limit`.
+    pub fn up_to_class(mut self, limit: usize) -> Self {
+        self.class_limit = limit;
+        self
     }
 
-    /// Fixes bad triangles and encroached boundary edges until none is left.
-    fn run(mut self) -> Result<(), Error> {
+    /// Fixes bad triangles and encroached boundary edges until none is left, or, in a store
+    /// without room for more, sets the rest aside.
+    pub fn run(mut self) -> Result<(), Error> {
         loop {
-            if self.t.vertices.len() > self.budget {
+            if S::WHOLE && self.s.vertex_count() > self.budget {
                 return Err(self.out_of_budget());
             }
-            if let Some(e) = self.encroached.pop() {
+            if !self.s.room() {
+                self.defer_all();
+                return Ok(());
+            }
+            if let Some(e) = self.work.encroached.pop() {
                 if self.is_live(&e) {
                     self.split_boundary_edge(e)?;
                 }
                 continue;
             }
-            let Some(q) = self.bad.pop() else {
+            let Some((class, q)) = self.work.bad.pop() else {
                 return Ok(());
             };
+            if class > self.class_limit {
+                // The queue gives the smallest class first: all that is left is too large.
+                self.defer(class, q);
+                self.defer_all();
+                return Ok(());
+            }
             if self.is_current(&q) {
-                self.fix(q)?;
+                self.fix(class, q)?;
             }
         }
     }
 
+    fn defer_all(&mut self) {
+        while let Some((class, entry)) = self.work.bad.pop() {
+            self.work.deferred.push(Pending {
+                class: class as u32,
+                entry,
+            });
+        }
+        self.work.deferred_edges.append(&mut self.work.encroached);
+    }
+
     /// Inserts the off-center (or circumcenter) of a bad triangle, unless it would encroach on
     /// boundary edges: then those are queued for splitting and the triangle waits again.
-    fn fix(&mut self, q: Queued) -> Result<(), Error> {
-        let Some((corner, shortest2)) = self.badness(q.triangle) else {
+    fn fix(&mut self, class: usize, q: Queued) -> Result<(), Error> {
+        let Some((corner, shortest2)) = badness(&self.s, &self.bounds, q.triangle) else {
             return Ok(());
         };
+        debug_assert_eq!(class, SizeQueue::class_of(shortest2));
         let p = self.steiner_point(q.triangle, corner);
-        let requeue = |s: &mut Self| s.bad.push(SizeQueue::class_of(shortest2), q);
-        match self.t.locate(p, q.triangle) {
+        // The triangle waits for the boundary edges it encroaches on to be split. A tile may
+        // have to set those splits aside; the triangle then waits for a later pass too, rather
+        // than find them unsplit again and again.
+        let requeue = |r: &mut Self| {
+            if S::WHOLE {
+                r.work.bad.push(class, q);
+            } else {
+                r.defer(class, q);
+            }
+        };
+        match locate(&self.s, p, q.triangle) {
             Location::Outside { triangle, edge } => {
                 // Rounding put a circumcenter just past the boundary: split the edge it crossed.
-                let ends = self.t.triangle(triangle).edge(edge);
-                self.encroached.push(Encroached {
+                let ends = self.s.triangle(triangle).edge(edge);
+                self.work.encroached.push(Encroached {
                     triangle,
                     corner: edge as u8,
                     ends,
@@ -123,55 +213,70 @@ impl<'a> Refiner<'a> {
                 Ok(())
             }
             Location::Vertex(_) => Err(Error::RefinementResolution { x: p.x, y: p.y }),
+            Location::Foreign => {
+                self.defer(class, q);
+                Ok(())
+            }
             Location::Inside(t) => {
-                let before = self.encroached.len();
-                self.t.dig(p, t);
-                for e in self.t.rim().iter().filter(|e| e.outer == NONE) {
-                    if self.encroaches(p, (e.a, e.b)) {
-                        self.encroached.push(Encroached {
+                if !self.work.cavity.dig(&mut self.s, p, t) {
+                    self.defer(class, q);
+                    return Ok(());
+                }
+                let before = self.work.encroached.len();
+                for e in self.work.cavity.rim().iter().filter(|e| e.outer == NONE) {
+                    if encroaches(&self.s, p, (e.a, e.b)) {
+                        self.work.encroached.push(Encroached {
                             triangle: e.inner,
                             corner: e.corner,
                             ends: (e.a, e.b),
                         });
                     }
                 }
-                if self.encroached.len() > before {
-                    self.t.abandon();
+                if self.work.encroached.len() > before {
+                    self.work.cavity.abandon(&mut self.s);
                     requeue(self);
                     return Ok(());
                 }
-                self.t.commit(p);
+                self.work.cavity.commit(&mut self.s, p);
                 self.inspect_created();
                 Ok(())
             }
         }
     }
 
+    fn defer(&mut self, class: usize, entry: Queued) {
+        self.work.deferred.push(Pending {
+            class: class as u32,
+            entry,
+        });
+    }
+
     /// Queues what the last insertion made: its bad triangles, its encroached boundary edges.
     fn inspect_created(&mut self) {
-        for k in 0..self.t.created().len() {
-            let found = self.inspection(self.t.created()[k]);
+        self.work.inserted += 1;
+        for k in 0..self.work.cavity.created().len() {
+            let found = inspection(&self.s, &self.bounds, self.work.cavity.created()[k]);
             self.queue(found);
         }
     }
 
     fn queue(&mut self, found: Inspection) {
-        if let Some((class, entry)) = found.bad {
-            self.bad.push(class, entry);
+        if let Some(p) = found.bad {
+            self.work.bad.push(p.class as usize, p.entry);
         }
-        self.encroached
+        self.work
+            .encroached
             .extend(found.encroached.into_iter().flatten());
     }
 
     /// Whether the entry's triangle is still in its slot.
     fn is_current(&self, q: &Queued) -> bool {
-        newest(self.t.corners[q.triangle as usize]) == q.newest
+        is_current(&self.s, q)
     }
 
     fn out_of_budget(&self) -> Error {
-        let remaining = (0..self.t.len() as u32)
-            .into_par_iter()
-            .filter(|&id| self.badness(id).is_some())
+        let remaining = (0..self.s.triangle_count() as u32)
+            .filter(|&id| badness(&self.s, &self.bounds, id).is_some())
             .count();
         Error::VertexBudget {
             limit: self.budget,
@@ -180,93 +285,21 @@ impl<'a> Refiner<'a> {
     }
 
     fn is_live(&self, e: &Encroached) -> bool {
-        let tri = self.t.triangle(e.triangle);
-        tri.n[e.corner as usize] == NONE && tri.edge(e.corner as usize) == e.ends
-    }
-
-    /// Queues every bad triangle, and every boundary edge its triangle's apex encroaches on;
-    /// the looking is done in parallel, the queueing in order.
-    fn inspect_all(&mut self) {
-        const CHUNK: u32 = 1 << 16;
-        let len = self.t.len() as u32;
-        // In chunks, so that the findings never take more memory than a slice of the mesh.
-        for start in (0..len).step_by(CHUNK as usize) {
-            let found: Vec<Inspection> = {
-                let this = &*self;
-                (start..len.min(start + CHUNK))
-                    .into_par_iter()
-                    .map(|id| this.inspection(id))
-                    .collect()
-            };
-            for f in found {
-                self.queue(f);
-            }
-        }
-    }
-
-    fn inspection(&self, id: u32) -> Inspection {
-        let tri = self.t.triangle(id);
-        let bad = self.badness(id).map(|(_, shortest2)| {
-            let entry = Queued {
-                triangle: id,
-                newest: newest(tri.v),
-                place: self.place(tri.v[0]),
-            };
-            (SizeQueue::class_of(shortest2), entry)
-        });
-        let encroached = [0, 1, 2].map(|i| {
-            let ends = tri.edge(i);
-            let apex = self.t.vertices[tri.v[i] as usize];
-            (tri.n[i] == NONE && self.encroaches(apex, ends)).then_some(Encroached {
-                triangle: id,
-                corner: i as u8,
-                ends,
-            })
-        });
-        Inspection { bad, encroached }
-    }
-
-    /// Whether `p` lies in the closed diametral circle of the edge between vertices `ends`: it
-    /// sees the edge at 90° or more.
-    fn encroaches(&self, p: DVec2, (a, b): (u32, u32)) -> bool {
-        let v = &self.t.vertices;
-        (v[a as usize] - p).dot(v[b as usize] - p) <= 0.0
-    }
-
-    /// The Morton key of vertex `v` on a 2^32 grid over the domain.
-    fn place(&self, v: u32) -> u64 {
-        let p = (self.t.vertices[v as usize] - self.origin) * self.scale;
-        interleave32(p.x as u32, p.y as u32)
-    }
-
-    /// For a bad triangle, the corner opposite its shortest edge and that edge's squared length.
-    fn badness(&self, id: u32) -> Option<(usize, f64)> {
-        let v = self.t.corners[id as usize].map(|k| self.t.vertices[k as usize]);
-        let len2 = [0, 1, 2].map(|i| v[NEXT[i]].distance_squared(v[PREV[i]]));
-        let shortest = (0..3)
-            .min_by(|&i, &j| len2[i].total_cmp(&len2[j]))
-            .expect("three edges");
-        let area2 = (v[1] - v[0]).perp_dot(v[2] - v[0]);
-        // The smallest angle faces the shortest edge, and its sine is twice the area over the
-        // product of the two other sides.
-        let others = len2[NEXT[shortest]] * len2[PREV[shortest]];
-        let skinny = area2 * area2 < self.sin2 * others;
-        (skinny || area2 > self.max_area2).then_some((shortest, len2[shortest]))
+        is_live(&self.s, e)
     }
 
     /// Üngör's off-center of triangle `id` whose shortest edge is opposite `corner`, or its
     /// circumcenter when that is nearer the edge.
     fn steiner_point(&self, id: u32, corner: usize) -> DVec2 {
-        let tri = self.t.corners[id as usize];
-        let [p, q, r] =
-            [NEXT[corner], PREV[corner], corner].map(|i| self.t.vertices[tri[i] as usize]);
+        let tri = self.s.corners(id);
+        let [p, q, r] = [NEXT[corner], PREV[corner], corner].map(|i| self.s.point(tri[i]));
         let d = q - p;
         let midpoint = p * 0.5 + q * 0.5;
         let centre = circumcenter(p, q, r);
         // Both lie on the edge's bisector, the apex's side: compare their heights over the edge.
         let height = (centre - midpoint).dot(d.perp()) / d.length_squared();
-        if height > self.offset {
-            midpoint + d.perp() * self.offset
+        if height > self.bounds.offset {
+            midpoint + d.perp() * self.bounds.offset
         } else {
             centre
         }
@@ -275,10 +308,7 @@ impl<'a> Refiner<'a> {
     /// Splits a boundary edge at its midpoint, which keeps the side's constant coordinate bit
     /// for bit.
     fn split_boundary_edge(&mut self, e: Encroached) -> Result<(), Error> {
-        let (a, b) = (
-            self.t.vertices[e.ends.0 as usize],
-            self.t.vertices[e.ends.1 as usize],
-        );
+        let (a, b) = (self.s.point(e.ends.0), self.s.point(e.ends.1));
         let mut m = a * 0.5 + b * 0.5;
         if a.x == b.x {
             m.x = a.x;
@@ -288,15 +318,95 @@ impl<'a> Refiner<'a> {
         if m == a || m == b {
             return Err(Error::RefinementResolution { x: m.x, y: m.y });
         }
-        self.t.dig(m, e.triangle);
-        self.t.commit(m);
+        if !self.work.cavity.dig(&mut self.s, m, e.triangle) {
+            self.work.deferred_edges.push(e);
+            return Ok(());
+        }
+        self.work.cavity.commit(&mut self.s, m);
         self.inspect_created();
         Ok(())
     }
 }
 
+/// Whether the entry's triangle is still in its slot.
+pub(super) fn is_current<S: Store>(s: &S, q: &Queued) -> bool {
+    newest(s.corners(q.triangle)) == q.newest
+}
+
+/// Whether the queued boundary edge is still there.
+pub(super) fn is_live<S: Store>(s: &S, e: &Encroached) -> bool {
+    let tri = s.triangle(e.triangle);
+    tri.n[e.corner as usize] == NONE && tri.edge(e.corner as usize) == e.ends
+}
+
+/// Every bad triangle of a fresh triangulation, and every boundary edge its triangle's apex
+/// encroaches on, found in parallel and listed in triangle order.
+pub(super) fn inspect_all(t: &Triangulation, bounds: &Bounds) -> (Vec<Pending>, Vec<Encroached>) {
+    let triangles = 0..t.len() as u32;
+    let bad = triangles
+        .clone()
+        .into_par_iter()
+        .filter_map(|id| inspection(t, bounds, id).bad)
+        .collect();
+    let edges = triangles
+        .into_par_iter()
+        .filter(|&id| t.across[id as usize].contains(&NONE))
+        .flat_map_iter(|id| inspection(t, bounds, id).encroached.into_iter().flatten())
+        .collect();
+    (bad, edges)
+}
+
+fn inspection<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Inspection {
+    let tri = s.triangle(id);
+    let bad = badness(s, bounds, id).map(|(_, shortest2)| Pending {
+        class: SizeQueue::class_of(shortest2) as u32,
+        entry: Queued {
+            triangle: id,
+            newest: newest(tri.v),
+            place: place(bounds, s.point(tri.v[0])),
+        },
+    });
+    let encroached = [0, 1, 2].map(|i| {
+        let ends = tri.edge(i);
+        let apex = s.point(tri.v[i]);
+        (tri.n[i] == NONE && encroaches(s, apex, ends)).then_some(Encroached {
+            triangle: id,
+            corner: i as u8,
+            ends,
+        })
+    });
+    Inspection { bad, encroached }
+}
+
+/// Whether `p` lies in the closed diametral circle of the edge between vertices `ends`: it
+/// sees the edge at 90° or more.
+fn encroaches<S: Store>(s: &S, p: DVec2, (a, b): (u32, u32)) -> bool {
+    (s.point(a) - p).dot(s.point(b) - p) <= 0.0
+}
+
+/// The Morton key of point `p` on a 2^32 grid over the domain.
+fn place(bounds: &Bounds, p: DVec2) -> u64 {
+    let g = (p - bounds.origin) * bounds.scale;
+    interleave32(g.x as u32, g.y as u32)
+}
+
+/// For a bad triangle, the corner opposite its shortest edge and that edge's squared length.
+fn badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usize, f64)> {
+    let v = s.corners(id).map(|k| s.point(k));
+    let len2 = [0, 1, 2].map(|i| v[NEXT[i]].distance_squared(v[PREV[i]]));
+    let shortest = (0..3)
+        .min_by(|&i, &j| len2[i].total_cmp(&len2[j]))
+        .expect("three edges");
+    let area2 = (v[1] - v[0]).perp_dot(v[2] - v[0]);
+    // The smallest angle faces the shortest edge, and its sine is twice the area over the
+    // product of the two other sides.
+    let others = len2[NEXT[shortest]] * len2[PREV[shortest]];
+    let skinny = area2 * area2 < bounds.sin2 * others;
+    (skinny || area2 > bounds.max_area2).then_some((shortest, len2[shortest]))
+}
+
 /// The largest vertex number among a triangle's corners.
-fn newest(corners: [u32; 3]) -> u32 {
+pub(super) fn newest(corners: [u32; 3]) -> u32 {
     corners[0].max(corners[1]).max(corners[2])
 }
 

@@ -1,0 +1,878 @@
+//! Refinement in parallel: the domain is cut into tiles, and the tiles of one colour are refined
+//! at the same time, each by the sequential loop, in the one shared triangulation.
+//!
+//! A grid of cells covers the domain's bounding square. A tile is a 2×2 block of cells; the
+//! four colours are the four ways of aligning the blocks, so a tile of one colour is centred on
+//! a corner where tiles of another colour meet. Tiles of one colour are half-open squares that
+//! do not overlap, and a tile works only on triangles with every corner inside it: work that
+//! would reach further (a walk, a cavity) is set aside for the next colour, which has the spot
+//! well inside one of its tiles. What no colour can take ends in the sequential loop.
+//!
+//! Nothing here depends on the number of threads: the grid depends on the number of points,
+//! the work of a tile only on the triangulation inside it and the order of its queue, and the
+//! numbers of new vertices and triangles, handed out in chunks as threads happen to ask for
+//! them, are renumbered at the end in the order of colour, tile and chunk.
+
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use super::delaunay::{MARK, Store, Triangulation};
+use super::queue::SizeQueue;
+use super::refiner::{Bounds, Encroached, Pending, Refiner, Work, is_current, is_live, newest};
+use crate::error::Error;
+use crate::mesh::NONE;
+
+/// Below this many points, tiles do not pay.
+pub(super) const MIN_POINTS: usize = 1 << 14;
+/// The coarsest grid has `2^COARSEST` cells a side: coarser ones leave too few tiles to share.
+const COARSEST: usize = 3;
+/// The finest has `2^FINEST`, which keeps tile columns and rows within 32 bits.
+const FINEST: usize = 32;
+/// The first grid's cells are this many times the median shortest edge of the bad triangles.
+const CELL_PER_EDGE: f64 = 64.0;
+/// Each grid takes this many octaves of edge lengths: fewer passes over the mesh than one
+/// octave each, and nearly the same order.
+const OCTAVES_PER_GRID: usize = 2;
+/// Rounds of the four colours at most per grid.
+const MAX_ROUNDS: usize = 4;
+/// Vertex numbers and triangle slots are handed to tiles in chunks that double from the first
+/// size up to the largest, so that a tile with little work leaves little unused.
+const FIRST_CHUNK: u32 = 4;
+const VERTEX_CHUNK: u32 = 64;
+const TRIANGLE_CHUNK: u32 = 128;
+/// A tile in a pass may insert this many points per entry it was given, plus a few, before it
+/// sets the rest aside.
+const ALLOWANCE_PER_ENTRY: usize = 4;
+const ALLOWANCE_PER_TILE: usize = 32;
+
+/// The grid the tiles are made of: `cells` cells a side over the square from `origin`.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Tiling {
+    origin: DVec2,
+    /// Cells per unit length.
+    density: f64,
+    cells: i64,
+}
+
+impl Tiling {
+    /// The grid of `2^level` cells a side over the square of side `side` from `origin`.
+    fn at_level(origin: DVec2, side: f64, level: usize) -> Self {
+        let cells = 1i64 << level;
+        Tiling {
+            origin,
+            density: cells as f64 / side,
+            cells,
+        }
+    }
+
+    /// The cell of `p`, clamped to the grid. Monotone in each coordinate, so a tile (a range
+    /// of cells) holds every point between two of its points.
+    #[inline]
+    fn cell(&self, p: DVec2) -> (i64, i64) {
+        let c = (p - self.origin) * self.density;
+        // Truncation rounds up only below zero, where the clamp takes over: still monotone.
+        let clamp = |x: f64| (x as i64).clamp(0, self.cells - 1);
+        (clamp(c.x), clamp(c.y))
+    }
+
+    /// The tile of colour `colour` that holds point `p`: its column and row, packed.
+    #[inline]
+    fn tile(&self, colour: u8, p: DVec2) -> u64 {
+        let (cx, cy) = self.cell(p);
+        let tx = (cx + i64::from(colour & 1)) >> 1;
+        let ty = (cy + i64::from(colour >> 1)) >> 1;
+        ((ty as u64) << 32) | tx as u64
+    }
+
+    /// The tile of colour `colour` that holds all of a triangle, if one does.
+    #[inline]
+    fn owner(&self, colour: u8, corners: [DVec2; 3]) -> Option<u64> {
+        let [a, b, c] = corners.map(|p| self.tile(colour, p));
+        (a == b && b == c).then_some(a)
+    }
+}
+
+/// A run of vertex numbers or triangle slots a tile used: `len` from `start`.
+#[derive(Clone, Copy, Debug)]
+struct Chunk {
+    start: u32,
+    len: u32,
+    /// The numbers it holds, used or not.
+    size: u32,
+}
+
+impl Chunk {
+    /// No chunk yet.
+    const NONE: Chunk = Chunk {
+        start: NONE,
+        len: 0,
+        size: FIRST_CHUNK / 2,
+    };
+}
+
+/// The triangulation's arrays as the tiles share them. Data past a vector's length lives in its
+/// spare capacity, written by tiles, until [`Shared::settle`] moves it into place.
+struct Arrays {
+    vertices: *mut DVec2,
+    corners: *mut [u32; 3],
+    across: *mut [u32; 3],
+    vertex_capacity: u32,
+    triangle_capacity: u32,
+}
+
+// SAFETY: the pointers are only dereferenced under the rules stated on `TileStore`: a tile
+// reads and writes only triangles with at least two corners inside it and vertices it made or
+// that existed before its pass, and tiles passed at once do not overlap.
+#[allow(unsafe_code)]
+unsafe impl Sync for Arrays {}
+
+/// The state of a parallel refinement: the triangulation, how far its arrays are used, and the
+/// chunks handed out since it was last settled.
+struct Shared<'t> {
+    t: &'t mut Triangulation,
+    arrays: Arrays,
+    /// Vertex numbers and triangle slots below these are handed out.
+    vertex_end: u32,
+    triangle_end: u32,
+    /// Chunks in the order of pass, tile and request, which is the order they are renumbered in.
+    vertex_chunks: Vec<Chunk>,
+    triangle_chunks: Vec<Chunk>,
+}
+
+impl<'t> Shared<'t> {
+    fn new(t: &'t mut Triangulation) -> Self {
+        let arrays = arrays_of(t);
+        Shared {
+            vertex_end: t.vertices.len() as u32,
+            triangle_end: t.corners.len() as u32,
+            t,
+            arrays,
+            vertex_chunks: Vec::new(),
+            triangle_chunks: Vec::new(),
+        }
+    }
+
+    /// Corners of triangle `t` outside a pass.
+    fn corners(&self, t: u32) -> [u32; 3] {
+        assert!(t < self.triangle_end);
+        // SAFETY: below `triangle_end` every slot is initialized (in the vector, or written by
+        // a tile into spare capacity), and no tile runs while `self` is borrowed.
+        #[allow(unsafe_code)]
+        unsafe {
+            *self.arrays.corners.add(t as usize)
+        }
+    }
+
+    fn point(&self, v: u32) -> DVec2 {
+        let v = v & !MARK;
+        assert!(v < self.vertex_end);
+        // SAFETY: as for `corners`.
+        #[allow(unsafe_code)]
+        unsafe {
+            *self.arrays.vertices.add(v as usize)
+        }
+    }
+
+    fn owner(&self, tiling: &Tiling, colour: u8, t: u32) -> Option<u64> {
+        tiling.owner(colour, self.corners(t).map(|v| self.point(v)))
+    }
+
+    /// Whether `vertices` and `triangles` more fit in the arrays' capacity.
+    fn has_room(&self, vertices: usize, triangles: usize) -> bool {
+        let fits =
+            |used: u32, more: usize, capacity: u32| used as usize + more <= capacity as usize;
+        fits(self.vertex_end, vertices, self.arrays.vertex_capacity)
+            && fits(self.triangle_end, triangles, self.arrays.triangle_capacity)
+    }
+
+    /// Makes room for `vertices` and `triangles` more: settles, then grows the arrays.
+    fn make_room(&mut self, vertices: usize, triangles: usize, lists: &mut Lists) {
+        self.settle(lists);
+        let t = &mut *self.t;
+        let grow = |len: usize, more: usize| (len + more).max(len + len / 2);
+        t.vertices
+            .reserve_exact(grow(t.vertices.len(), vertices) - t.vertices.len());
+        let n = grow(t.corners.len(), triangles) - t.corners.len();
+        t.corners.reserve_exact(n);
+        t.across.reserve_exact(n);
+        self.arrays = arrays_of(t);
+        assert!(
+            self.arrays.vertex_capacity as usize <= MARK as usize,
+            "vertex numbers stay below the mark bit"
+        );
+    }
+
+    /// Moves the chunks' vertices and triangles into place after the vectors' contents, in the
+    /// order of the chunk lists, renumbering every reference, so that the result does not
+    /// depend on which thread got which chunk.
+    fn settle(&mut self, lists: &mut Lists) {
+        let (v0, t0) = (self.t.vertices.len() as u32, self.t.corners.len() as u32);
+        let vertex_map = renumbering(&self.vertex_chunks, v0, self.vertex_end);
+        let triangle_map = renumbering(&self.triangle_chunks, t0, self.triangle_end);
+        // Keep only the entries that still hold, and give them their new numbers.
+        let new_vertex = |v: u32| {
+            if v < v0 {
+                v
+            } else {
+                vertex_map[(v - v0) as usize]
+            }
+        };
+        let new_triangle = |t: u32| {
+            if t < t0 || t == NONE {
+                t
+            } else {
+                triangle_map[(t - t0) as usize]
+            }
+        };
+        for bad in std::iter::once(&mut lists.bad).chain(lists.later.iter_mut()) {
+            bad.retain(|p| is_current(&Frozen(self), &p.entry));
+            for p in bad.iter_mut() {
+                let corners = self.corners(p.entry.triangle).map(new_vertex);
+                p.entry.triangle = new_triangle(p.entry.triangle);
+                p.entry.newest = newest(corners);
+            }
+        }
+        lists.edges.retain(|e| is_live(&Frozen(self), e));
+        for e in &mut lists.edges {
+            e.triangle = new_triangle(e.triangle);
+            e.ends = (new_vertex(e.ends.0), new_vertex(e.ends.1));
+        }
+        // Copy the chunks out of spare capacity, then append them.
+        let vertices = gather(self.arrays.vertices, &self.vertex_chunks);
+        let corners = gather(self.arrays.corners, &self.triangle_chunks);
+        let across = gather(self.arrays.across, &self.triangle_chunks);
+        let t = &mut *self.t;
+        t.vertices.extend_from_slice(&vertices);
+        t.corners.extend_from_slice(&corners);
+        t.across.extend_from_slice(&across);
+        t.corners
+            .par_iter_mut()
+            .for_each(|c| *c = c.map(new_vertex));
+        t.across
+            .par_iter_mut()
+            .for_each(|n| *n = n.map(new_triangle));
+        self.vertex_end = t.vertices.len() as u32;
+        self.triangle_end = t.corners.len() as u32;
+        self.vertex_chunks.clear();
+        self.triangle_chunks.clear();
+        self.arrays = arrays_of(t);
+    }
+}
+
+/// The elements of `chunks`, in chunk order, copied out of the buffer at `base`.
+fn gather<T: Copy>(base: *const T, chunks: &[Chunk]) -> Vec<T> {
+    let mut out = Vec::with_capacity(chunks.iter().map(|c| c.len as usize).sum());
+    for c in chunks {
+        // SAFETY: a chunk's first `len` elements lie in the buffer's capacity and were written
+        // by the tile that took it; no tile runs while the chunks are gathered.
+        #[allow(unsafe_code)]
+        let elements =
+            unsafe { std::slice::from_raw_parts(base.add(c.start as usize), c.len as usize) };
+        out.extend_from_slice(elements);
+    }
+    out
+}
+
+fn arrays_of(t: &mut Triangulation) -> Arrays {
+    Arrays {
+        vertices: t.vertices.as_mut_ptr(),
+        corners: t.corners.as_mut_ptr(),
+        across: t.across.as_mut_ptr(),
+        vertex_capacity: t.vertices.capacity().min(u32::MAX as usize) as u32,
+        triangle_capacity: t
+            .corners
+            .capacity()
+            .min(t.across.capacity())
+            .min(u32::MAX as usize) as u32,
+    }
+}
+
+/// New numbers for the numbers in `chunks` (which lie in `[first, end)`), in chunk order from
+/// `first`; numbers in no chunk map to [`NONE`].
+fn renumbering(chunks: &[Chunk], first: u32, end: u32) -> Vec<u32> {
+    let mut map = vec![NONE; (end - first) as usize];
+    let mut next = first;
+    for c in chunks {
+        for k in 0..c.len {
+            map[(c.start + k - first) as usize] = next + k;
+        }
+        next += c.len;
+    }
+    map
+}
+
+/// Work waiting for a tile: bad triangles and encroached boundary edges for the current grid,
+/// and per coarser grid, the bad triangles filed under it.
+#[derive(Debug, Default)]
+struct Lists {
+    bad: Vec<Pending>,
+    edges: Vec<Encroached>,
+    later: Vec<Vec<Pending>>,
+}
+
+impl Lists {
+    fn is_empty(&self) -> bool {
+        self.bad.is_empty() && self.edges.is_empty()
+    }
+}
+
+/// A read-only view of the shared arrays between passes, for the queue checks.
+struct Frozen<'a, 't>(&'a Shared<'t>);
+
+impl Store for Frozen<'_, '_> {
+    const WHOLE: bool = false;
+    fn point(&self, v: u32) -> DVec2 {
+        self.0.point(v)
+    }
+    fn corners(&self, t: u32) -> [u32; 3] {
+        self.0.corners(t)
+    }
+    fn corners_mut(&mut self, _t: u32) -> &mut [u32; 3] {
+        unreachable!("a frozen view is only read")
+    }
+    fn across(&self, t: u32) -> [u32; 3] {
+        assert!(t < self.0.triangle_end);
+        // SAFETY: as for `Shared::corners`.
+        #[allow(unsafe_code)]
+        unsafe {
+            *self.0.arrays.across.add(t as usize)
+        }
+    }
+    fn across_mut(&mut self, _t: u32) -> &mut [u32; 3] {
+        unreachable!("a frozen view is only read")
+    }
+    fn push_vertex(&mut self, _p: DVec2) -> u32 {
+        unreachable!("a frozen view is only read")
+    }
+    fn push_triangle(&mut self) -> u32 {
+        unreachable!("a frozen view is only read")
+    }
+    fn may_change(&self, _corners: [u32; 3]) -> bool {
+        false
+    }
+    fn triangle_count(&self) -> usize {
+        self.0.triangle_end as usize
+    }
+    fn vertex_count(&self) -> usize {
+        self.0.vertex_end as usize
+    }
+    fn room(&self) -> bool {
+        false
+    }
+}
+
+/// One tile's view of the shared arrays during a pass.
+///
+/// The rules that make the sharing sound: the tiles of a pass are disjoint half-open squares,
+/// and a tile touches only
+/// - triangles whose three corners lie in it (it may change them), and the triangles next to
+///   those (it may read them, mark them and relink them), which have two corners in it;
+/// - vertices that existed before the pass or that it made itself.
+///
+/// No triangle has two corners in each of two disjoint tiles, so no triangle is touched by two
+/// tiles of a pass; the triangles a tile makes have their corners in it (the new vertex lies
+/// in a triangle of the tile, and a tile holds every point between two of its points). Vertex
+/// and triangle numbers come from chunks that belong to one tile, inside the capacity reserved
+/// before the pass.
+struct TileStore<'a> {
+    arrays: &'a Arrays,
+    tiling: Tiling,
+    colour: u8,
+    tile: u64,
+    next: &'a Counters,
+    vertex: Chunk,
+    triangle: Chunk,
+    vertex_chunks: Vec<Chunk>,
+    triangle_chunks: Vec<Chunk>,
+    /// Vertices this tile may still make.
+    allowance: usize,
+}
+
+/// The next free vertex number and triangle slot of a pass.
+struct Counters {
+    vertex: AtomicU32,
+    triangle: AtomicU32,
+}
+
+impl TileStore<'_> {
+    #[inline]
+    fn vertex_ptr(&self, v: u32) -> *mut DVec2 {
+        let v = v & !MARK;
+        debug_assert!(v < self.arrays.vertex_capacity);
+        // SAFETY: within the allocation (checked against its capacity in debug builds; numbers
+        // come only from the triangulation and this tile's chunks).
+        #[allow(unsafe_code)]
+        unsafe {
+            self.arrays.vertices.add(v as usize)
+        }
+    }
+
+    #[inline]
+    fn corners_ptr(&self, t: u32) -> *mut [u32; 3] {
+        debug_assert!(t < self.arrays.triangle_capacity);
+        // SAFETY: as for `vertex_ptr`.
+        #[allow(unsafe_code)]
+        unsafe {
+            self.arrays.corners.add(t as usize)
+        }
+    }
+
+    #[inline]
+    fn across_ptr(&self, t: u32) -> *mut [u32; 3] {
+        debug_assert!(t < self.arrays.triangle_capacity);
+        // SAFETY: as for `vertex_ptr`.
+        #[allow(unsafe_code)]
+        unsafe {
+            self.arrays.across.add(t as usize)
+        }
+    }
+
+    /// The chunks this tile used, its last one cut to what it used.
+    fn finish(mut self) -> (Vec<Chunk>, Vec<Chunk>) {
+        for (chunk, list) in [
+            (self.vertex, &mut self.vertex_chunks),
+            (self.triangle, &mut self.triangle_chunks),
+        ] {
+            if chunk.len > 0 {
+                list.push(chunk);
+            }
+        }
+        (self.vertex_chunks, self.triangle_chunks)
+    }
+}
+
+/// Takes the next number of `chunk`, starting a new chunk from `counter` when there is none
+/// yet or it is full, twice as large as the last up to `largest`; the full chunk goes to
+/// `used`.
+#[inline]
+fn take(chunk: &mut Chunk, used: &mut Vec<Chunk>, counter: &AtomicU32, largest: u32) -> u32 {
+    if chunk.start == NONE || chunk.len == chunk.size {
+        if chunk.len > 0 {
+            used.push(*chunk);
+        }
+        let size = (2 * chunk.size).min(largest);
+        *chunk = Chunk {
+            start: counter.fetch_add(size, Ordering::Relaxed),
+            len: 0,
+            size,
+        };
+    }
+    chunk.len += 1;
+    chunk.start + chunk.len - 1
+}
+
+// SAFETY (all methods): pointers come from `vertex_ptr`/`corners_ptr`/`across_ptr`, and the
+// elements reached follow the rules on `TileStore`.
+#[allow(unsafe_code)]
+impl Store for TileStore<'_> {
+    const WHOLE: bool = false;
+
+    #[inline]
+    fn point(&self, v: u32) -> DVec2 {
+        unsafe { *self.vertex_ptr(v) }
+    }
+    #[inline]
+    fn corners(&self, t: u32) -> [u32; 3] {
+        unsafe { *self.corners_ptr(t) }
+    }
+    #[inline]
+    fn corners_mut(&mut self, t: u32) -> &mut [u32; 3] {
+        unsafe { &mut *self.corners_ptr(t) }
+    }
+    #[inline]
+    fn across(&self, t: u32) -> [u32; 3] {
+        unsafe { *self.across_ptr(t) }
+    }
+    #[inline]
+    fn across_mut(&mut self, t: u32) -> &mut [u32; 3] {
+        unsafe { &mut *self.across_ptr(t) }
+    }
+    fn push_vertex(&mut self, p: DVec2) -> u32 {
+        let v = take(
+            &mut self.vertex,
+            &mut self.vertex_chunks,
+            &self.next.vertex,
+            VERTEX_CHUNK,
+        );
+        self.allowance -= 1;
+        assert!(v < self.arrays.vertex_capacity, "vertex room was reserved");
+        unsafe { self.vertex_ptr(v).write(p) };
+        v
+    }
+    fn push_triangle(&mut self) -> u32 {
+        let t = take(
+            &mut self.triangle,
+            &mut self.triangle_chunks,
+            &self.next.triangle,
+            TRIANGLE_CHUNK,
+        );
+        assert!(
+            t < self.arrays.triangle_capacity,
+            "triangle room was reserved"
+        );
+        unsafe {
+            self.corners_ptr(t).write([0; 3]);
+            self.across_ptr(t).write([NONE; 3]);
+        }
+        t
+    }
+    #[inline]
+    fn may_change(&self, corners: [u32; 3]) -> bool {
+        corners
+            .iter()
+            .all(|&v| self.tiling.tile(self.colour, self.point(v)) == self.tile)
+    }
+    fn triangle_count(&self) -> usize {
+        self.arrays.triangle_capacity as usize
+    }
+    fn vertex_count(&self) -> usize {
+        0
+    }
+    fn room(&self) -> bool {
+        self.allowance > 0
+    }
+}
+
+/// What a tile's pass left: work set aside, and the chunks it used.
+struct TileOutcome {
+    result: Result<(), Error>,
+    deferred: Lists,
+    vertex_chunks: Vec<Chunk>,
+    triangle_chunks: Vec<Chunk>,
+    inserted: usize,
+}
+
+/// The work of one tile in a pass.
+struct Job {
+    tile: u64,
+    work: Lists,
+}
+
+impl Job {
+    /// The points the tile may insert in this pass, before the budget.
+    fn allowance(&self) -> usize {
+        ALLOWANCE_PER_ENTRY * (self.work.bad.len() + self.work.edges.len()) + ALLOWANCE_PER_TILE
+    }
+}
+
+/// The points each job may insert: its allowance, all of them scaled down to share what is
+/// left of the vertex budget when they would exceed it.
+fn allowances(jobs: &[Job], remaining: usize) -> Vec<usize> {
+    let wanted: Vec<usize> = jobs.iter().map(Job::allowance).collect();
+    let total: usize = wanted.iter().sum();
+    if total <= remaining {
+        return wanted;
+    }
+    wanted
+        .iter()
+        .map(|&a| (a as u128 * remaining as u128 / total as u128) as usize)
+        .collect()
+}
+
+/// The vertices and triangle slots that tiles with these allowances may take at most, their
+/// last chunks included.
+fn room_for(allowances: &[usize]) -> (usize, usize) {
+    allowances.iter().fold((0, 0), |(v, t), &a| {
+        (
+            v + a + VERTEX_CHUNK as usize,
+            t + 2 * a + TRIANGLE_CHUNK as usize,
+        )
+    })
+}
+
+/// The grids, from fine to coarse, and the size classes each takes: one octave of shortest
+/// edge lengths per grid, the edges [`CELL_PER_EDGE`] times shorter than the cells.
+struct Levels {
+    /// `limits[level]`: the largest size class the grid of that level takes.
+    limits: Vec<usize>,
+    finest: usize,
+}
+
+impl Levels {
+    fn new(side: f64, bad: &[Pending]) -> Self {
+        let limits: Vec<usize> = (0..=FINEST)
+            .map(|level| {
+                let edge = side / 2f64.powi(level as i32) / CELL_PER_EDGE;
+                SizeQueue::class_of(edge * edge)
+            })
+            .collect();
+        let smallest = bad.par_iter().map(|p| p.class as usize).min().unwrap_or(0);
+        let finest = (COARSEST..=FINEST)
+            .rev()
+            .find(|&l| smallest <= limits[l])
+            .unwrap_or(COARSEST);
+        Levels { limits, finest }
+    }
+
+    /// The grids used, finest first.
+    fn used(&self) -> impl Iterator<Item = usize> + '_ {
+        (COARSEST..=self.finest)
+            .rev()
+            .filter(|&l| (self.finest - l).is_multiple_of(OCTAVES_PER_GRID) || l == COARSEST)
+    }
+
+    /// The finest grid that takes size class `class` (the coarsest for larger ones).
+    fn level_of(&self, class: usize) -> usize {
+        self.used()
+            .find(|&l| class <= self.limits[l])
+            .unwrap_or(COARSEST)
+    }
+
+    /// Files bad triangles under the grid that takes them.
+    fn file(&self, bad: Vec<Pending>, by_level: &mut [Vec<Pending>]) {
+        for p in bad {
+            by_level[self.level_of(p.class as usize)].push(p);
+        }
+    }
+}
+
+/// Refines by tiles, grid after grid from fine to coarse: each grid takes the bad triangles of
+/// its octave of sizes, so that, as Har-Peled and Üngör order them, the small ones are fixed
+/// first, and what did not fit its tiles; rounds of the four colours run while they make
+/// progress. Returns the work no tile could do, numbered for the settled triangulation.
+pub(super) fn refine_tiles(
+    t: &mut Triangulation,
+    origin: DVec2,
+    side: f64,
+    bounds: &Bounds,
+    bad: Vec<Pending>,
+    edges: Vec<Encroached>,
+    budget: usize,
+) -> Result<(Vec<Pending>, Vec<Encroached>), Error> {
+    let levels = Levels::new(side, &bad);
+    let mut shared = Shared::new(t);
+    let mut lists = Lists {
+        bad: Vec::new(),
+        edges,
+        later: vec![Vec::new(); levels.finest + 1],
+    };
+    levels.file(bad, &mut lists.later);
+    let used: Vec<usize> = levels.used().collect();
+    'levels: for level in used {
+        let now = std::mem::take(&mut lists.later[level]);
+        lists.bad.extend(now);
+        let tiling = Tiling::at_level(origin, side, level);
+        let limit = levels.limits[level];
+        for _ in 0..MAX_ROUNDS {
+            let mut inserted = 0;
+            for colour in 0..4 {
+                if shared.vertex_end as usize > budget {
+                    break 'levels;
+                }
+                let (n, larger) = pass(
+                    &mut shared,
+                    &tiling,
+                    bounds,
+                    colour,
+                    limit,
+                    budget,
+                    &mut lists,
+                )?;
+                levels.file(larger, &mut lists.later);
+                inserted += n;
+            }
+            if lists.is_empty() || inserted == 0 {
+                break;
+            }
+        }
+    }
+    shared.settle(&mut lists);
+    let mut bad = lists.bad;
+    for waiting in lists.later {
+        bad.extend(waiting);
+    }
+    Ok((bad, lists.edges))
+}
+
+/// One pass: the tiles of `colour` refined in parallel, each working through the entries it
+/// holds up to size class `limit`. Returns the number of points inserted and the bad triangles
+/// above the limit the tiles set aside; `lists` is left with what no tile took and what the
+/// tiles set aside otherwise, in tile order.
+fn pass(
+    shared: &mut Shared,
+    tiling: &Tiling,
+    bounds: &Bounds,
+    colour: u8,
+    limit: usize,
+    budget: usize,
+    lists: &mut Lists,
+) -> Result<(usize, Vec<Pending>), Error> {
+    if lists.is_empty() {
+        return Ok((0, Vec::new()));
+    }
+    let later = std::mem::take(&mut lists.later);
+    let (mut jobs, mut rest) = share_out(shared, tiling, colour, std::mem::take(lists));
+    // A tile makes at most a few vertices per entry before its allowance runs out. Room for
+    // all tiles is reserved first, so that none can run out, whatever the timing.
+    let remaining = budget.saturating_sub(shared.vertex_end as usize);
+    let mut allowed = allowances(&jobs, remaining);
+    let (vertices, triangles) = room_for(&allowed);
+    if !shared.has_room(vertices, triangles) {
+        // Settling renumbers: give the work back, settle, and share it out again.
+        for job in jobs {
+            rest.bad.extend(job.work.bad);
+            rest.edges.extend(job.work.edges);
+        }
+        rest.later = later;
+        shared.make_room(vertices, triangles, &mut rest);
+        let later = std::mem::take(&mut rest.later);
+        (jobs, rest) = share_out(shared, tiling, colour, rest);
+        allowed = allowances(&jobs, remaining);
+        rest.later = later;
+    } else {
+        rest.later = later;
+    }
+    *lists = rest;
+    if jobs.is_empty() {
+        return Ok((0, Vec::new()));
+    }
+    let counters = Counters {
+        vertex: AtomicU32::new(shared.vertex_end),
+        triangle: AtomicU32::new(shared.triangle_end),
+    };
+    let arrays = &shared.arrays;
+    let outcomes: Vec<TileOutcome> = jobs
+        .into_par_iter()
+        .zip(allowed)
+        .map_init(Work::new, |work, (job, allowance)| {
+            let store = TileStore {
+                arrays,
+                tiling: *tiling,
+                colour,
+                tile: job.tile,
+                next: &counters,
+                vertex: Chunk::NONE,
+                triangle: Chunk::NONE,
+                vertex_chunks: Vec::new(),
+                triangle_chunks: Vec::new(),
+                allowance,
+            };
+            run_tile(store, work, bounds, limit, job)
+        })
+        .collect();
+    shared.vertex_end = counters.vertex.into_inner();
+    shared.triangle_end = counters.triangle.into_inner();
+    let mut inserted = 0;
+    let mut larger = Vec::new();
+    let mut first_error = None;
+    for o in outcomes {
+        if first_error.is_none()
+            && let Err(e) = o.result
+        {
+            first_error = Some(e);
+        }
+        inserted += o.inserted;
+        shared.vertex_chunks.extend(o.vertex_chunks);
+        shared.triangle_chunks.extend(o.triangle_chunks);
+        for p in o.deferred.bad {
+            if p.class as usize > limit {
+                larger.push(p);
+            } else {
+                lists.bad.push(p);
+            }
+        }
+        lists.edges.extend(o.deferred.edges);
+    }
+    match first_error {
+        Some(e) => Err(e),
+        None => Ok((inserted, larger)),
+    }
+}
+
+fn run_tile(
+    store: TileStore,
+    work: &mut Work,
+    bounds: &Bounds,
+    class_limit: usize,
+    job: Job,
+) -> TileOutcome {
+    work.queue_all(&job.work.bad, &job.work.edges);
+    work.inserted = 0;
+    // The store goes into the loop by reference so that its chunks can be read back after.
+    let mut store = store;
+    let result = Refiner::new(&mut store, work, *bounds, usize::MAX)
+        .up_to_class(class_limit)
+        .run();
+    let deferred = Lists {
+        bad: std::mem::take(&mut work.deferred),
+        edges: std::mem::take(&mut work.deferred_edges),
+        later: Vec::new(),
+    };
+    let (vertex_chunks, triangle_chunks) = store.finish();
+    TileOutcome {
+        result,
+        deferred,
+        vertex_chunks,
+        triangle_chunks,
+        inserted: work.inserted,
+    }
+}
+
+/// Splits the waiting work between the tiles of `colour`: each live entry goes to the tile that
+/// holds its whole triangle, in the order it had; stale entries are dropped, and entries no
+/// tile holds stay, in order.
+fn share_out(shared: &Shared, tiling: &Tiling, colour: u8, lists: Lists) -> (Vec<Job>, Lists) {
+    const STALE: u64 = u64::MAX;
+    const UNOWNED: u64 = u64::MAX - 1;
+    let frozen = Frozen(shared);
+    let bad_owner: Vec<u64> = lists
+        .bad
+        .par_iter()
+        .map(|p| {
+            if !is_current(&frozen, &p.entry) {
+                STALE
+            } else {
+                shared
+                    .owner(tiling, colour, p.entry.triangle)
+                    .unwrap_or(UNOWNED)
+            }
+        })
+        .collect();
+    let edge_owner: Vec<u64> = lists
+        .edges
+        .par_iter()
+        .map(|e| {
+            if !is_live(&frozen, e) {
+                STALE
+            } else {
+                shared.owner(tiling, colour, e.triangle).unwrap_or(UNOWNED)
+            }
+        })
+        .collect();
+    let mut rest = Lists::default();
+    let mut owned: Vec<(u64, u32, bool)> = Vec::new();
+    for (k, (&o, p)) in bad_owner.iter().zip(&lists.bad).enumerate() {
+        match o {
+            STALE => {}
+            UNOWNED => rest.bad.push(*p),
+            _ => owned.push((o, k as u32, false)),
+        }
+    }
+    for (k, (&o, e)) in edge_owner.iter().zip(&lists.edges).enumerate() {
+        match o {
+            STALE => {}
+            UNOWNED => rest.edges.push(*e),
+            _ => owned.push((o, k as u32, true)),
+        }
+    }
+    // By tile, then bad triangles before edges, each in its old order.
+    owned.par_sort_unstable();
+    let mut jobs: Vec<Job> = Vec::new();
+    for (tile, k, is_edge) in owned {
+        if jobs.last().is_none_or(|j| j.tile != tile) {
+            jobs.push(Job {
+                tile,
+                work: Lists::default(),
+            });
+        }
+        let work = &mut jobs.last_mut().expect("just pushed").work;
+        if is_edge {
+            work.edges.push(lists.edges[k as usize]);
+        } else {
+            work.bad.push(lists.bad[k as usize]);
+        }
+    }
+    (jobs, rest)
+}
