@@ -173,7 +173,9 @@ fn refine_order<K: MortonKey>(
     let (mut triangulation, vertex_input) = times.time("delaunay", || {
         let mut t = Triangulation::rectangle(domain.lo, domain.hi);
         let points = morton.order.len();
-        t.reserve(options.expected_vertices(points), points + 4);
+        // Room for the tiles' chunks too, so that they seldom need the arrays to move; memory
+        // past what the points need is only touched as refinement uses it.
+        t.reserve(2 * options.expected_vertices(points), points + 4);
         let vertex_input = insert_in_order(&mut t, all_points, &morton.order)?;
         Ok::<_, Error>((t, vertex_input))
     })?;

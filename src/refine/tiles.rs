@@ -8,10 +8,14 @@
 //! would reach further (a walk, a cavity) is set aside for the next colour, which has the spot
 //! well inside one of its tiles. What no colour can take ends in the sequential loop.
 //!
-//! Nothing here depends on the number of threads: the grid depends on the number of points,
-//! the work of a tile only on the triangulation inside it and the order of its queue, and the
-//! numbers of new vertices and triangles, handed out in chunks as threads happen to ask for
-//! them, are renumbered at the end in the order of colour, tile and chunk.
+//! Grids go from fine to coarse; each takes the bad triangles of two octaves of shortest-edge
+//! lengths, so that small triangles are still fixed before large ones, and dense clusters get
+//! small tiles.
+//!
+//! Nothing here depends on the number of threads: the grids depend on the sizes of the bad
+//! triangles, the work of a tile only on the triangulation inside it and the order of its
+//! queue, and the numbers of new vertices and triangles, handed out in chunks as threads happen
+//! to ask for them, are renumbered at the end in the order of pass, tile and chunk.
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -30,7 +34,7 @@ pub(super) const MIN_POINTS: usize = 1 << 14;
 const COARSEST: usize = 3;
 /// The finest has `2^FINEST`, which keeps tile columns and rows within 32 bits.
 const FINEST: usize = 32;
-/// The first grid's cells are this many times the median shortest edge of the bad triangles.
+/// A grid's cells are this many times the longest shortest edge of the bad triangles it takes.
 const CELL_PER_EDGE: f64 = 64.0;
 /// Each grid takes this many octaves of edge lengths: fewer passes over the mesh than one
 /// octave each, and nearly the same order.
@@ -582,8 +586,9 @@ fn room_for(allowances: &[usize]) -> (usize, usize) {
     })
 }
 
-/// The grids, from fine to coarse, and the size classes each takes: one octave of shortest
-/// edge lengths per grid, the edges [`CELL_PER_EDGE`] times shorter than the cells.
+/// The grids, from fine to coarse, and the size classes each takes: [`OCTAVES_PER_GRID`]
+/// octaves of shortest-edge lengths per grid, the edges [`CELL_PER_EDGE`] times shorter than
+/// the cells.
 struct Levels {
     /// `limits[level]`: the largest size class the grid of that level takes.
     limits: Vec<usize>,
