@@ -56,9 +56,9 @@ impl Bounds {
     pub fn new(options: &RefineOptions, lo: DVec2, hi: DVec2) -> Self {
         let angle = options.min_angle_deg.to_radians();
         // The off-center's triangle on the shortest edge is isosceles with apex angle equal to
-        // the bound at height cot(A/2)/2 edge lengths; 95% of that leaves it strictly better.
+        // the bound at height cot(A/2)/2 edge lengths; a little less leaves it strictly better.
         let offset = if angle > 0.0 {
-            0.95 * 0.5 / (angle / 2.0).tan()
+            off_center_margin(options.min_angle_deg) * 0.5 / (angle / 2.0).tan()
         } else {
             f64::INFINITY
         };
@@ -408,6 +408,15 @@ fn badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usize, f64)> {
 /// The largest vertex number among a triangle's corners.
 pub(super) fn newest(corners: [u32; 3]) -> u32 {
     corners[0].max(corners[1]).max(corners[2])
+}
+
+/// How far, as a fraction of the height at which the new triangle would just meet the bound,
+/// the off-center is put: nearer that height the new triangles are better shaped and fewer are
+/// needed (Triangle's 95% leaves 0.5–1% more triangles at 20°–30°), but near the largest bounds
+/// that refinement reaches, the slack keeps it finishing with the fewest triangles (at 33°, 98%
+/// needs 0.3–1% more than 95%).
+fn off_center_margin(min_angle_deg: f64) -> f64 {
+    (0.98 - 0.01 * (min_angle_deg - 30.0)).clamp(0.95, 0.98)
 }
 
 /// The circumcenter of `p, q, r`, computed relative to `p` for accuracy.
