@@ -90,6 +90,53 @@ impl Tiling {
         ((ty as u64) << 32) | tx as u64
     }
 
+    /// The smallest coordinate whose cell (along an axis from `origin`) is at least `m`, so
+    /// that a range of cells is a range of coordinates: −∞ below the grid, +∞ above it. Found
+    /// by bisection over the floats in order, since near zero a cell boundary can be many
+    /// floats away from its computed value.
+    fn threshold(&self, origin: f64, m: i64) -> f64 {
+        if m <= 0 {
+            return f64::NEG_INFINITY;
+        }
+        if m >= self.cells {
+            return f64::INFINITY;
+        }
+        let cell = |x: f64| (((x - origin) * self.density) as i64).clamp(0, self.cells - 1);
+        // Floats in order as integers (the map is its own inverse); ±∞ bracket the answer.
+        let ordered = |x: f64| {
+            let i = x.to_bits() as i64;
+            i ^ ((((i >> 63) as u64) >> 1) as i64)
+        };
+        let float = |k: i64| f64::from_bits((k ^ ((((k >> 63) as u64) >> 1) as i64)) as u64);
+        let (mut below, mut at) = (ordered(f64::NEG_INFINITY), ordered(f64::INFINITY));
+        while i128::from(at) - i128::from(below) > 1 {
+            let mid = ((i128::from(below) + i128::from(at)) / 2) as i64;
+            if cell(float(mid)) >= m {
+                at = mid;
+            } else {
+                below = mid;
+            }
+        }
+        float(at)
+    }
+
+    /// The points of tile `tile` of colour `colour`: those `p` with `lo <= p < hi`, exactly
+    /// the points [`Self::tile`] puts in it.
+    fn bounds(&self, colour: u8, tile: u64) -> (DVec2, DVec2) {
+        let (tx, ty) = ((tile & 0xffff_ffff) as i64, (tile >> 32) as i64);
+        let (px, py) = (i64::from(colour & 1), i64::from(colour >> 1));
+        // Column t holds the cells c with (c + parity) >> 1 == t: from 2t - parity.
+        let lo = DVec2::new(
+            self.threshold(self.origin.x, 2 * tx - px),
+            self.threshold(self.origin.y, 2 * ty - py),
+        );
+        let hi = DVec2::new(
+            self.threshold(self.origin.x, 2 * tx + 2 - px),
+            self.threshold(self.origin.y, 2 * ty + 2 - py),
+        );
+        (lo, hi)
+    }
+
     /// The tile of colour `colour` that holds all of a triangle, if one does.
     #[inline]
     fn owner(&self, colour: u8, corners: [DVec2; 3]) -> Option<u64> {
@@ -382,9 +429,9 @@ impl Store for Frozen<'_, '_> {
 /// before the pass.
 struct TileStore<'a> {
     arrays: &'a Arrays,
-    tiling: Tiling,
-    colour: u8,
-    tile: u64,
+    /// The tile: the points `p` with `lo <= p < hi`, the same as those the grid puts in it.
+    lo: DVec2,
+    hi: DVec2,
     next: &'a Counters,
     vertex: Chunk,
     triangle: Chunk,
@@ -524,9 +571,10 @@ impl Store for TileStore<'_> {
     }
     #[inline]
     fn may_change(&self, corners: [u32; 3]) -> bool {
-        corners
-            .iter()
-            .all(|&v| self.tiling.tile(self.colour, self.point(v)) == self.tile)
+        corners.iter().all(|&v| {
+            let p = self.point(v);
+            self.lo.cmple(p).all() && p.cmplt(self.hi).all()
+        })
     }
     fn triangle_count(&self) -> usize {
         self.arrays.triangle_capacity as usize
@@ -742,11 +790,11 @@ fn pass(
         .into_par_iter()
         .zip(allowed)
         .map_init(Work::new, |work, (job, allowance)| {
+            let (lo, hi) = tiling.bounds(colour, job.tile);
             let store = TileStore {
                 arrays,
-                tiling: *tiling,
-                colour,
-                tile: job.tile,
+                lo,
+                hi,
                 next: &counters,
                 vertex: Chunk::NONE,
                 triangle: Chunk::NONE,
@@ -880,4 +928,42 @@ fn share_out(shared: &Shared, tiling: &Tiling, colour: u8, lists: Lists) -> (Vec
         }
     }
     (jobs, rest)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{Rng, SeedableRng};
+
+    /// A tile's bounds hold exactly the points the grid puts in the tile, on grids far from
+    /// the origin and with cells near the resolution of f64, and for points right at the
+    /// bounds.
+    #[test]
+    fn tile_bounds_hold_exactly_the_tiles_points() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(3);
+        for (origin, side, level) in [
+            (DVec2::ZERO, 1.0, 3),
+            (DVec2::new(-0.5, -0.25), 2.0, 9),
+            (DVec2::new(-6.5e11, -6.5e11), 1.3e12, 32),
+            (DVec2::new(1e6, -3.0), 1e-3, 20),
+        ] {
+            let tiling = Tiling::at_level(origin, side, level);
+            for _ in 0..2000 {
+                let p = origin + DVec2::new(rng.random(), rng.random()) * side;
+                for colour in 0..4 {
+                    let tile = tiling.tile(colour, p);
+                    let (lo, hi) = tiling.bounds(colour, tile);
+                    assert!(lo.cmple(p).all() && p.cmplt(hi).all(), "{p} in {lo}..{hi}");
+                    for q in [lo, hi, DVec2::new(lo.x.next_down(), lo.y.next_down())] {
+                        let inside = lo.cmple(q).all() && q.cmplt(hi).all();
+                        let finite = q.is_finite();
+                        assert!(
+                            !finite || inside == (tiling.tile(colour, q) == tile),
+                            "{q} at level {level}, colour {colour}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 }
