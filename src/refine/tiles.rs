@@ -313,17 +313,23 @@ impl<'t> Shared<'t> {
 }
 
 /// The elements of `chunks`, in chunk order, copied out of the buffer at `base`.
-fn gather<T: Copy>(base: *const T, chunks: &[Chunk]) -> Vec<T> {
-    let mut out = Vec::with_capacity(chunks.iter().map(|c| c.len as usize).sum());
-    for c in chunks {
+fn gather<T: Copy + Send + Sync>(base: *const T, chunks: &[Chunk]) -> Vec<T> {
+    // In parallel, so that the first touch of the fresh memory is shared out too.
+    let offsets = crate::par::exclusive_scan_by(chunks.len(), |c| chunks[c].len as usize);
+    let base = base as usize;
+    crate::par::collect_segments(&offsets, |c| {
+        let chunk = chunks[c];
         // SAFETY: a chunk's first `len` elements lie in the buffer's capacity and were written
         // by the tile that took it; no tile runs while the chunks are gathered.
         #[allow(unsafe_code)]
-        let elements =
-            unsafe { std::slice::from_raw_parts(base.add(c.start as usize), c.len as usize) };
-        out.extend_from_slice(elements);
-    }
-    out
+        let elements = unsafe {
+            std::slice::from_raw_parts(
+                (base as *const T).add(chunk.start as usize),
+                chunk.len as usize,
+            )
+        };
+        elements.iter().copied()
+    })
 }
 
 fn arrays_of(t: &mut Triangulation) -> Arrays {
