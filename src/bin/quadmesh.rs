@@ -80,7 +80,8 @@ enum Command {
         /// Worker threads [default: all cores].
         #[arg(long, value_name = "N")]
         threads: Option<NonZeroUsize>,
-        /// Run the full validity check on the mesh before writing it.
+        /// Run the full validity check on the mesh before writing it (and, for a refined mesh,
+        /// the exact in-circle test on every edge).
         #[arg(long)]
         check: bool,
         /// The most triangles an SVG shows (a window around the centre beyond that).
@@ -336,8 +337,16 @@ fn mesh(
         let (mesh, report) = meshed.with_context(|| format!("{}", input.display()))?;
         if check {
             let bounds = quality.bounds();
-            with_spinner("checking", || mesh.validate(&points, bounds))
-                .map_err(|fault| anyhow::anyhow!("the mesh failed its check: {fault}"))?;
+            // A refined mesh is also checked to be Delaunay, edge by edge.
+            let delaunay = quality.refinement().is_some();
+            with_spinner("checking", || {
+                mesh.validate(&points, bounds)?;
+                if delaunay {
+                    mesh.check_delaunay()?;
+                }
+                Ok::<_, String>(())
+            })
+            .map_err(|fault| anyhow::anyhow!("the mesh failed its check: {fault}"))?;
         }
         let (written, write_time) = timed(|| {
             with_spinner("writing", || {
