@@ -208,8 +208,10 @@ impl<'t> Shared<'t> {
     /// Corners of triangle `t` outside a pass.
     fn corners(&self, t: u32) -> [u32; 3] {
         assert!(t < self.triangle_end);
-        // SAFETY: below `triangle_end` every slot is initialized (in the vector, or written by
-        // a tile into spare capacity), and no tile runs while `self` is borrowed.
+        // SAFETY: the slot lies in the buffer (below `triangle_end`), and it was written: the
+        // numbers looked up here come from queue entries and triangles, which only ever name
+        // slots in the vector or slots a tile wrote, never the unused ends of chunks. No tile
+        // runs while `self` is borrowed.
         #[allow(unsafe_code)]
         unsafe {
             *self.arrays.corners.add(t as usize)
