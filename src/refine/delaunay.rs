@@ -137,7 +137,7 @@ impl Triangulation {
     pub fn reserve(&mut self, vertices: usize, touched: usize) {
         fn grow<T: Copy + Send + Sync>(v: &mut Vec<T>, n: usize, touched: usize, fill: T) {
             if n > v.capacity() {
-                let mut bigger = crate::par::prefaulted_within(n, touched.min(n), fill);
+                let mut bigger = crate::par::prefaulted_within(n, touched, fill);
                 bigger.extend_from_slice(v);
                 *v = bigger;
             }

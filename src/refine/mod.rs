@@ -169,25 +169,18 @@ fn refine_order<K: MortonKey>(
         lo: grid.vertex(0, 0),
         hi: grid.vertex(side, side),
     });
-    let all_points = points;
+    let distinct = morton.order.len();
     let (mut triangulation, vertex_input) = times.time("delaunay", || {
         let mut t = Triangulation::rectangle(domain.lo, domain.hi);
-        let points = morton.order.len();
         // Room for the tiles' chunks too, so that they seldom need the arrays to move; memory
         // past what the points need is only touched as refinement uses it.
-        t.reserve(2 * options.expected_vertices(points), points + 4);
-        let vertex_input = insert_in_order(&mut t, all_points, &morton.order)?;
+        t.reserve(2 * options.expected_vertices(distinct), distinct + 4);
+        let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
         Ok::<_, Error>((t, vertex_input))
     })?;
-    let budget = options.budget(morton.order.len());
+    let budget = options.budget(distinct);
     times.time("refine", || {
-        refine(
-            &mut triangulation,
-            options,
-            domain,
-            morton.order.len(),
-            budget,
-        )
+        refine(&mut triangulation, options, domain, distinct, budget)
     })?;
     let mesh = times.time("mesh", || into_mesh(triangulation, vertex_input, domain));
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
@@ -196,7 +189,6 @@ fn refine_order<K: MortonKey>(
     Ok((mesh, report))
 }
 
-/// Refuses the first point outside `domain`.
 /// Refines the Delaunay triangulation of `points` points: by tiles in parallel where there
 /// are enough points, then by the sequential loop for what the tiles left.
 fn refine(
@@ -221,6 +213,7 @@ fn refine(
     Refiner::new(t, &mut work, bounds, budget).run()
 }
 
+/// Refuses the first point outside `domain`.
 fn check_inside(points: &[DVec2], domain: Domain) -> Result<(), Error> {
     match points.par_iter().position_first(|&p| !domain.contains(p)) {
         Some(index) => Err(Error::OutsideDomain {

@@ -32,7 +32,7 @@ pub(super) struct Pending {
 }
 
 /// What inspecting a triangle found.
-pub(super) struct Inspection {
+struct Inspection {
     bad: Option<Pending>,
     encroached: [Option<Encroached>; 3],
 }

@@ -712,8 +712,7 @@ pub(super) fn refine_tiles(
     levels.file(bad, &mut lists.later);
     let used: Vec<usize> = levels.used().collect();
     'levels: for level in used {
-        let now = std::mem::take(&mut lists.later[level]);
-        lists.bad.extend(now);
+        lists.bad.append(&mut lists.later[level]);
         let tiling = Tiling::at_level(origin, side, level);
         let limit = levels.limits[level];
         for _ in 0..MAX_ROUNDS {
@@ -763,8 +762,7 @@ fn pass(
     if lists.is_empty() {
         return Ok((0, Vec::new()));
     }
-    let later = std::mem::take(&mut lists.later);
-    let (mut jobs, mut rest) = share_out(shared, tiling, colour, std::mem::take(lists));
+    let mut jobs = share_out(shared, tiling, colour, lists);
     // A tile makes at most a few vertices per entry before its allowance runs out. Room for
     // all tiles is reserved first, so that none can run out, whatever the timing.
     let remaining = budget.saturating_sub(shared.vertex_end as usize);
@@ -773,19 +771,13 @@ fn pass(
     if !shared.has_room(vertices, triangles) {
         // Settling renumbers: give the work back, settle, and share it out again.
         for job in jobs {
-            rest.bad.extend(job.work.bad);
-            rest.edges.extend(job.work.edges);
+            lists.bad.extend(job.work.bad);
+            lists.edges.extend(job.work.edges);
         }
-        rest.later = later;
-        shared.make_room(vertices, triangles, &mut rest);
-        let later = std::mem::take(&mut rest.later);
-        (jobs, rest) = share_out(shared, tiling, colour, rest);
+        shared.make_room(vertices, triangles, lists);
+        jobs = share_out(shared, tiling, colour, lists);
         allowed = allowances(&jobs, remaining);
-        rest.later = later;
-    } else {
-        rest.later = later;
     }
-    *lists = rest;
     if jobs.is_empty() {
         return Ok((0, Vec::new()));
     }
@@ -843,7 +835,7 @@ fn pass(
 }
 
 fn run_tile(
-    store: TileStore,
+    mut store: TileStore,
     work: &mut Work,
     bounds: &Bounds,
     class_limit: usize,
@@ -852,7 +844,6 @@ fn run_tile(
     work.queue_all(&job.work.bad, &job.work.edges);
     work.inserted = 0;
     // The store goes into the loop by reference so that its chunks can be read back after.
-    let mut store = store;
     let result = Refiner::new(&mut store, work, *bounds, usize::MAX)
         .up_to_class(class_limit)
         .run();
@@ -871,15 +862,18 @@ fn run_tile(
     }
 }
 
-/// Splits the waiting work between the tiles of `colour`: each live entry goes to the tile that
-/// holds its whole triangle, in the order it had; stale entries are dropped, and entries no
-/// tile holds stay, in order.
-fn share_out(shared: &Shared, tiling: &Tiling, colour: u8, lists: Lists) -> (Vec<Job>, Lists) {
+/// Splits the waiting bad triangles and edges of `lists` between the tiles of `colour`: each
+/// live entry goes to the tile that holds its whole triangle, in the order it had; stale
+/// entries are dropped, and entries no tile holds stay in `lists`, in order.
+fn share_out(shared: &Shared, tiling: &Tiling, colour: u8, lists: &mut Lists) -> Vec<Job> {
+    let (bad, edges) = (
+        std::mem::take(&mut lists.bad),
+        std::mem::take(&mut lists.edges),
+    );
     const STALE: u64 = u64::MAX;
     const UNOWNED: u64 = u64::MAX - 1;
     let frozen = Frozen(shared);
-    let bad_owner: Vec<u64> = lists
-        .bad
+    let bad_owner: Vec<u64> = bad
         .par_iter()
         .map(|p| {
             if !is_current(&frozen, &p.entry) {
@@ -891,8 +885,7 @@ fn share_out(shared: &Shared, tiling: &Tiling, colour: u8, lists: Lists) -> (Vec
             }
         })
         .collect();
-    let edge_owner: Vec<u64> = lists
-        .edges
+    let edge_owner: Vec<u64> = edges
         .par_iter()
         .map(|e| {
             if !is_live(&frozen, e) {
@@ -902,19 +895,18 @@ fn share_out(shared: &Shared, tiling: &Tiling, colour: u8, lists: Lists) -> (Vec
             }
         })
         .collect();
-    let mut rest = Lists::default();
     let mut owned: Vec<(u64, u32, bool)> = Vec::new();
-    for (k, (&o, p)) in bad_owner.iter().zip(&lists.bad).enumerate() {
+    for (k, (&o, p)) in bad_owner.iter().zip(&bad).enumerate() {
         match o {
             STALE => {}
-            UNOWNED => rest.bad.push(*p),
+            UNOWNED => lists.bad.push(*p),
             _ => owned.push((o, k as u32, false)),
         }
     }
-    for (k, (&o, e)) in edge_owner.iter().zip(&lists.edges).enumerate() {
+    for (k, (&o, e)) in edge_owner.iter().zip(&edges).enumerate() {
         match o {
             STALE => {}
-            UNOWNED => rest.edges.push(*e),
+            UNOWNED => lists.edges.push(*e),
             _ => owned.push((o, k as u32, true)),
         }
     }
@@ -930,12 +922,12 @@ fn share_out(shared: &Shared, tiling: &Tiling, colour: u8, lists: Lists) -> (Vec
         }
         let work = &mut jobs.last_mut().expect("just pushed").work;
         if is_edge {
-            work.edges.push(lists.edges[k as usize]);
+            work.edges.push(edges[k as usize]);
         } else {
-            work.bad.push(lists.bad[k as usize]);
+            work.bad.push(bad[k as usize]);
         }
     }
-    (jobs, rest)
+    jobs
 }
 
 #[cfg(test)]
