@@ -110,7 +110,22 @@ where
     I: Iterator<Item = T>,
     F: Fn(usize) -> I + Sync,
 {
-    collect_segments_in(offsets, false, produce)
+    collect_segments_in(offsets, false, 0, produce)
+}
+
+/// As [`collect_segments`], into a vector with room for at least `capacity` values; the room
+/// past the values is not touched.
+pub fn collect_segments_with_capacity<T, I, F>(
+    offsets: &[usize],
+    capacity: usize,
+    produce: F,
+) -> Vec<T>
+where
+    T: Send,
+    I: Iterator<Item = T>,
+    F: Fn(usize) -> I + Sync,
+{
+    collect_segments_in(offsets, false, capacity, produce)
 }
 
 /// As [`collect_segments`], but each segment is written from its end backwards, so producers
@@ -121,17 +136,22 @@ where
     I: Iterator<Item = T>,
     F: Fn(usize) -> I + Sync,
 {
-    collect_segments_in(offsets, true, produce)
+    collect_segments_in(offsets, true, 0, produce)
 }
 
-fn collect_segments_in<T, I, F>(offsets: &[usize], reversed: bool, produce: F) -> Vec<T>
+fn collect_segments_in<T, I, F>(
+    offsets: &[usize],
+    reversed: bool,
+    capacity: usize,
+    produce: F,
+) -> Vec<T>
 where
     T: Send,
     I: Iterator<Item = T>,
     F: Fn(usize) -> I + Sync,
 {
     let total = offsets[offsets.len() - 1] - offsets[0];
-    let mut out: Vec<T> = with_capacity_huge(total);
+    let mut out: Vec<T> = with_capacity_huge(total.max(capacity));
     fill_segments(
         offsets,
         &mut out.spare_capacity_mut()[..total],

@@ -493,8 +493,9 @@ fn bad_domains_are_typed_errors() {
     }
 }
 
-/// Enough points that refinement runs by tiles in parallel before the sequential loop.
-const TILED: usize = 40_000;
+/// Enough points that the Delaunay triangulation is built in strips, and refinement runs by
+/// tiles in parallel before the sequential loop.
+const TILED: usize = 70_000;
 
 #[test]
 fn tiled_refinement_is_valid_on_every_family() {

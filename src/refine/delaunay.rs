@@ -151,6 +151,64 @@ impl Triangulation {
     pub fn len(&self) -> usize {
         self.corners.len()
     }
+
+    /// Flips edges until every one is locally Delaunay, starting from the edges opposite the
+    /// given corners (`(triangle, corner)`): Lawson's flips, each of which replaces an edge whose
+    /// far apex lies strictly inside the circumcircle, checking the four edges around it again.
+    /// Returns the number of flips.
+    pub fn flip_to_delaunay(&mut self, mut edges: Vec<(u32, usize)>) -> usize {
+        let mut flips = 0;
+        while let Some((t, i)) = edges.pop() {
+            let u = self.across[t as usize][i];
+            if u == NONE {
+                continue;
+            }
+            let j = self.corner_facing(u, t);
+            let far = self.vertices[self.corners[u as usize][j] as usize];
+            if !in_circumcircle(self, t, far) {
+                continue;
+            }
+            self.flip(t, i, u, j);
+            flips += 1;
+            edges.extend([(t, 0), (t, 2), (u, 0), (u, 2)]);
+        }
+        flips
+    }
+
+    /// The corner of triangle `u` opposite its edge shared with triangle `t`.
+    fn corner_facing(&self, u: u32, t: u32) -> usize {
+        (0..3)
+            .find(|&j| self.across[u as usize][j] == t)
+            .expect("neighbours link each other")
+    }
+
+    /// Replaces the edge between triangle `t` (corners `a b c`, the edge opposite corner `i`,
+    /// `a` there) and triangle `u` (apex `w` at corner `j`) by the edge `a w`: `t` becomes
+    /// `a b w` and `u` becomes `w c a`, each with the new edge opposite corner 1.
+    fn flip(&mut self, t: u32, i: usize, u: u32, j: usize) {
+        let [a, b, c] = [i, NEXT[i], PREV[i]].map(|k| self.corners[t as usize][k]);
+        let w = self.corners[u as usize][j];
+        // Across a b (opposite c in t), c a (opposite b in t), b w (opposite c in u, whose
+        // corners run c b w from corner NEXT[j]) and w c (opposite b in u).
+        let n_ab = self.across[t as usize][PREV[i]];
+        let n_ca = self.across[t as usize][NEXT[i]];
+        let n_bw = self.across[u as usize][NEXT[j]];
+        let n_wc = self.across[u as usize][PREV[j]];
+        self.corners[t as usize] = [a, b, w];
+        self.across[t as usize] = [n_bw, u, n_ab];
+        self.corners[u as usize] = [w, c, a];
+        self.across[u as usize] = [n_ca, t, n_wc];
+        self.relink(n_bw, u, t);
+        self.relink(n_ca, t, u);
+    }
+
+    /// Points triangle `n`'s link to `from` at `to` instead.
+    fn relink(&mut self, n: u32, from: u32, to: u32) {
+        if n != NONE {
+            let k = self.corner_facing(n, from);
+            self.across[n as usize][k] = to;
+        }
+    }
 }
 
 impl Store for Triangulation {

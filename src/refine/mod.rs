@@ -3,7 +3,8 @@
 //! triangles than the warped quadtree mesh.
 //!
 //! The input points go into a Delaunay triangulation of the domain square in Morton order, so
-//! each point location walks a few steps from the last insertion. Then bad triangles (an angle
+//! each point location walks a few steps from the last insertion; many points are split into
+//! vertical strips that are triangulated in parallel and glued by edge flips. Then bad triangles (an angle
 //! below the bound or an area above it) are fixed smallest first, as in Har-Peled and Üngör:
 //! each gets Üngör's off-center, the point on the bisector of its shortest edge that makes a
 //! triangle just meeting the bound with that edge, or its circumcenter when that is closer. A
@@ -32,6 +33,7 @@
 mod delaunay;
 mod queue;
 mod refiner;
+mod strips;
 mod tiles;
 
 use glam::DVec2;
@@ -126,6 +128,11 @@ impl RefineOptions {
         ((points as f64 * per_point) as usize + 64).min(self.budget(points))
     }
 
+    /// Whether any triangle can be bad: otherwise the Delaunay triangulation is the mesh.
+    fn refines(&self) -> bool {
+        self.min_angle_deg > 0.0 || self.max_area.is_some()
+    }
+
     fn budget(&self, points: usize) -> usize {
         self.max_vertices
             .unwrap_or(points.saturating_mul(100).saturating_add(10_000))
@@ -170,11 +177,22 @@ fn refine_order<K: MortonKey>(
         hi: grid.vertex(side, side),
     });
     let distinct = morton.order.len();
+    // Room for the tiles' chunks too, so that they seldom need the arrays to move; memory past
+    // what the points need is only touched as refinement uses it.
+    let capacity = 2 * options.expected_vertices(distinct);
+    // Without bounds the mesh is the Delaunay triangulation of the points and the domain's
+    // corners alone, which the strips' seams would add vertices to.
+    let strips = if options.refines() {
+        strips::strip_count(distinct)
+    } else {
+        1
+    };
     let (mut triangulation, vertex_input) = times.time("delaunay", || {
+        if strips > 1 {
+            return strips::triangulate(points, &morton.order, domain, strips, capacity);
+        }
         let mut t = Triangulation::rectangle(domain.lo, domain.hi);
-        // Room for the tiles' chunks too, so that they seldom need the arrays to move; memory
-        // past what the points need is only touched as refinement uses it.
-        t.reserve(2 * options.expected_vertices(distinct), distinct + 4);
+        t.reserve(capacity, distinct + 4);
         let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
         Ok::<_, Error>((t, vertex_input))
     })?;
