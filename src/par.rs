@@ -300,3 +300,17 @@ mod tests {
         }
     }
 }
+
+/// Asks the processor to bring the cache line at `p` in, for a read soon; a hint only.
+#[inline]
+pub fn prefetch<T>(p: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch never faults and changes no memory, whatever the address; it only
+    // needs SSE, which every x86-64 processor has.
+    #[allow(unsafe_code)]
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast::<i8>());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}

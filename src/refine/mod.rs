@@ -329,6 +329,10 @@ fn boundary_edges(
         .collect()
 }
 
+/// How many triangles ahead the angle scan asks for the corners it will read: the vertices of
+/// consecutive triangles lie far apart in memory.
+const PREFETCH_AHEAD: usize = 16;
+
 /// `cos(10° (i + 1))` for `i` in `0..17`: an angle is in histogram bin `i` when `i` of these
 /// are at least its cosine.
 fn cos_bin_ends() -> [f64; 17] {
@@ -355,6 +359,11 @@ impl AngleScan {
     fn of(vertices: &[DVec2], corners: &[[u32; 3]], first: usize, ends: &[f64; 17]) -> Self {
         let mut scan = AngleScan::EMPTY;
         for (t, tri) in corners.iter().enumerate() {
+            if let Some(ahead) = corners.get(t + PREFETCH_AHEAD) {
+                for &k in ahead {
+                    crate::par::prefetch(vertices.as_ptr().wrapping_add(k as usize));
+                }
+            }
             let [a, b, c] = tri.map(|k| vertices[k as usize]);
             let (ab, bc, ca) = (b - a, c - b, a - c);
             let (lab, lbc, lca) = (
