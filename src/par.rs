@@ -246,6 +246,20 @@ pub fn chunk_offsets(n: usize, chunk: usize) -> Vec<usize> {
         .collect()
 }
 
+/// Asks the processor to bring the cache line at `p` in, for a read soon; a hint only.
+#[inline]
+pub fn prefetch<T>(p: *const T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch never faults and changes no memory, whatever the address; it only
+    // needs SSE, which every x86-64 processor has.
+    #[allow(unsafe_code)]
+    unsafe {
+        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast::<i8>());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -299,18 +313,4 @@ mod tests {
             assert!(out[w[0]..w[1]].iter().all(|&x| x == i));
         }
     }
-}
-
-/// Asks the processor to bring the cache line at `p` in, for a read soon; a hint only.
-#[inline]
-pub fn prefetch<T>(p: *const T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults and changes no memory, whatever the address; it only
-    // needs SSE, which every x86-64 processor has.
-    #[allow(unsafe_code)]
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast::<i8>());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
 }

@@ -28,11 +28,14 @@ pub(crate) struct SizeQueue {
 }
 
 impl SizeQueue {
+    /// Size classes: every value [`Self::class_of`] gives is below this.
+    pub const CLASSES: usize = 1 << 13;
+
     pub fn new() -> Self {
         SizeQueue {
-            classes: vec![Vec::new(); 8192],
-            lowest: 8192,
-            sorted: vec![0; 8192],
+            classes: vec![Vec::new(); Self::CLASSES],
+            lowest: Self::CLASSES,
+            sorted: vec![0; Self::CLASSES],
             len: 0,
         }
     }
@@ -42,7 +45,7 @@ impl SizeQueue {
     /// edge length. Finer classes than whole octaves leave fewer Steiner points.
     #[inline]
     pub fn class_of(shortest2: f64) -> usize {
-        ((shortest2.to_bits() >> 50) & 0x1fff) as usize
+        ((shortest2.to_bits() >> 50) as usize) & (Self::CLASSES - 1)
     }
 
     #[inline]

@@ -279,7 +279,7 @@ impl<'t> Shared<'t> {
                 triangle_map[(t - t0) as usize]
             }
         };
-        for bad in std::iter::once(&mut lists.bad).chain(lists.later.iter_mut()) {
+        for bad in std::iter::once(&mut lists.bad).chain(lists.later.iter_mut().flatten()) {
             bad.retain(|p| is_current(&Frozen(self), &p.entry));
             for p in bad.iter_mut() {
                 let corners = self.corners(p.entry.triangle).map(new_vertex);
@@ -297,9 +297,9 @@ impl<'t> Shared<'t> {
         let corners = gather(self.arrays.corners, &self.triangle_chunks);
         let across = gather(self.arrays.across, &self.triangle_chunks);
         let t = &mut *self.t;
-        t.vertices.extend_from_slice(&vertices);
-        t.corners.extend_from_slice(&corners);
-        t.across.extend_from_slice(&across);
+        t.vertices.par_extend(vertices.par_iter().copied());
+        t.corners.par_extend(corners.par_iter().copied());
+        t.across.par_extend(across.par_iter().copied());
         t.corners
             .par_iter_mut()
             .for_each(|c| *c = c.map(new_vertex));
@@ -363,12 +363,12 @@ fn renumbering(chunks: &[Chunk], first: u32, end: u32) -> Vec<u32> {
 }
 
 /// Work waiting for a tile: bad triangles and encroached boundary edges for the current grid,
-/// and per coarser grid, the bad triangles filed under it.
+/// and per coarser grid, the batches of bad triangles filed under it.
 #[derive(Debug, Default)]
 struct Lists {
     bad: Vec<Pending>,
     edges: Vec<Encroached>,
-    later: Vec<Vec<Pending>>,
+    later: Vec<Vec<Vec<Pending>>>,
 }
 
 impl Lists {
@@ -649,6 +649,8 @@ struct Levels {
     /// `limits[level]`: the largest size class the grid of that level takes.
     limits: Vec<usize>,
     finest: usize,
+    /// The grid of each size class.
+    level_of_class: Vec<u8>,
 }
 
 impl Levels {
@@ -664,7 +666,15 @@ impl Levels {
             .rev()
             .find(|&l| smallest <= limits[l])
             .unwrap_or(COARSEST);
-        Levels { limits, finest }
+        let mut levels = Levels {
+            limits,
+            finest,
+            level_of_class: Vec::new(),
+        };
+        levels.level_of_class = (0..SizeQueue::CLASSES)
+            .map(|class| levels.level_of(class) as u8)
+            .collect();
+        levels
     }
 
     /// The grids used, finest first.
@@ -681,10 +691,22 @@ impl Levels {
             .unwrap_or(COARSEST)
     }
 
-    /// Files bad triangles under the grid that takes them.
-    fn file(&self, bad: Vec<Pending>, by_level: &mut [Vec<Pending>]) {
+    /// Files bad triangles under the grid that takes them, as one new batch per grid: lists
+    /// that grew instead would be copied again and again.
+    fn file(&self, bad: Vec<Pending>, by_level: &mut [Vec<Vec<Pending>>]) {
+        let level = |p: &Pending| self.level_of_class[p.class as usize] as usize;
+        let mut counts = vec![0; by_level.len()];
+        for p in &bad {
+            counts[level(p)] += 1;
+        }
+        let mut batches: Vec<Vec<Pending>> = counts.into_iter().map(Vec::with_capacity).collect();
         for p in bad {
-            by_level[self.level_of(p.class as usize)].push(p);
+            batches[level(&p)].push(p);
+        }
+        for (waiting, batch) in by_level.iter_mut().zip(batches) {
+            if !batch.is_empty() {
+                waiting.push(batch);
+            }
         }
     }
 }
@@ -712,7 +734,11 @@ pub(super) fn refine_tiles(
     levels.file(bad, &mut lists.later);
     let used: Vec<usize> = levels.used().collect();
     'levels: for level in used {
-        lists.bad.append(&mut lists.later[level]);
+        let waiting = std::mem::take(&mut lists.later[level]);
+        lists.bad.reserve(waiting.iter().map(Vec::len).sum());
+        for batch in waiting {
+            lists.bad.extend(batch);
+        }
         let tiling = Tiling::at_level(origin, side, level);
         let limit = levels.limits[level];
         for _ in 0..MAX_ROUNDS {
@@ -740,8 +766,8 @@ pub(super) fn refine_tiles(
     }
     shared.settle(&mut lists);
     let mut bad = lists.bad;
-    for waiting in lists.later {
-        bad.extend(waiting);
+    for batch in lists.later.into_iter().flatten() {
+        bad.extend(batch);
     }
     Ok((bad, lists.edges))
 }
@@ -866,68 +892,85 @@ fn run_tile(
 /// live entry goes to the tile that holds its whole triangle, in the order it had; stale
 /// entries are dropped, and entries no tile holds stay in `lists`, in order.
 fn share_out(shared: &Shared, tiling: &Tiling, colour: u8, lists: &mut Lists) -> Vec<Job> {
-    let (bad, edges) = (
-        std::mem::take(&mut lists.bad),
-        std::mem::take(&mut lists.edges),
-    );
-    const STALE: u64 = u64::MAX;
-    const UNOWNED: u64 = u64::MAX - 1;
     let frozen = Frozen(shared);
-    let bad_owner: Vec<u64> = bad
-        .par_iter()
-        .map(|p| {
-            if !is_current(&frozen, &p.entry) {
-                STALE
-            } else {
-                shared
-                    .owner(tiling, colour, p.entry.triangle)
-                    .unwrap_or(UNOWNED)
-            }
-        })
+    let bad = std::mem::take(&mut lists.bad);
+    let edges = std::mem::take(&mut lists.edges);
+    let bad_owner = owners(&bad, |p| {
+        is_current(&frozen, &p.entry).then(|| shared.owner(tiling, colour, p.entry.triangle))
+    });
+    let edge_owner = owners(&edges, |e| {
+        is_live(&frozen, e).then(|| shared.owner(tiling, colour, e.triangle))
+    });
+    lists.bad = unowned(&bad, &bad_owner);
+    lists.edges = unowned(&edges, &edge_owner);
+    // (tile, entry) pairs, edges numbered after the bad triangles: by tile, each in its old
+    // order, bad triangles first.
+    let edge_base = bad.len() as u64;
+    let mut owned: Vec<(u64, u64)> = owned_by_tiles(&bad_owner, 0)
+        .chain(owned_by_tiles(&edge_owner, edge_base))
         .collect();
-    let edge_owner: Vec<u64> = edges
-        .par_iter()
-        .map(|e| {
-            if !is_live(&frozen, e) {
-                STALE
-            } else {
-                shared.owner(tiling, colour, e.triangle).unwrap_or(UNOWNED)
-            }
-        })
-        .collect();
-    let mut owned: Vec<(u64, u32, bool)> = Vec::new();
-    for (k, (&o, p)) in bad_owner.iter().zip(&bad).enumerate() {
-        match o {
-            STALE => {}
-            UNOWNED => lists.bad.push(*p),
-            _ => owned.push((o, k as u32, false)),
-        }
-    }
-    for (k, (&o, e)) in edge_owner.iter().zip(&edges).enumerate() {
-        match o {
-            STALE => {}
-            UNOWNED => lists.edges.push(*e),
-            _ => owned.push((o, k as u32, true)),
-        }
-    }
-    // By tile, then bad triangles before edges, each in its old order.
     owned.par_sort_unstable();
-    let mut jobs: Vec<Job> = Vec::new();
-    for (tile, k, is_edge) in owned {
-        if jobs.last().is_none_or(|j| j.tile != tile) {
-            jobs.push(Job {
-                tile,
-                work: Lists::default(),
-            });
-        }
-        let work = &mut jobs.last_mut().expect("just pushed").work;
-        if is_edge {
-            work.edges.push(edges[k as usize]);
-        } else {
-            work.bad.push(bad[k as usize]);
-        }
-    }
-    jobs
+    let starts: Vec<usize> = (0..owned.len())
+        .into_par_iter()
+        .filter(|&i| i == 0 || owned[i - 1].0 != owned[i].0)
+        .chain(rayon::iter::once(owned.len()))
+        .collect();
+    starts
+        .par_windows(2)
+        .map(|w| {
+            let group = &owned[w[0]..w[1]];
+            let split = group.partition_point(|&(_, k)| k < edge_base);
+            Job {
+                tile: group[0].0,
+                work: Lists {
+                    bad: group[..split]
+                        .iter()
+                        .map(|&(_, k)| bad[k as usize])
+                        .collect(),
+                    edges: group[split..]
+                        .iter()
+                        .map(|&(_, k)| edges[(k - edge_base) as usize])
+                        .collect(),
+                    later: Vec::new(),
+                },
+            }
+        })
+        .collect()
+}
+
+/// An entry's owner: the tile holding its triangle, [`UNOWNED`] for none, [`STALE`] for an
+/// entry no longer live.
+const STALE: u64 = u64::MAX;
+const UNOWNED: u64 = u64::MAX - 1;
+
+/// Each entry's owner, in parallel; `owner` gives `None` for a stale entry.
+fn owners<T: Sync>(entries: &[T], owner: impl Fn(&T) -> Option<Option<u64>> + Sync) -> Vec<u64> {
+    entries
+        .par_iter()
+        .map(|e| match owner(e) {
+            None => STALE,
+            Some(tile) => tile.unwrap_or(UNOWNED),
+        })
+        .collect()
+}
+
+/// The live entries no tile holds, in order.
+fn unowned<T: Copy + Send + Sync>(entries: &[T], owners: &[u64]) -> Vec<T> {
+    entries
+        .par_iter()
+        .zip(owners)
+        .filter(|&(_, &o)| o == UNOWNED)
+        .map(|(e, _)| *e)
+        .collect()
+}
+
+/// `(tile, base + k)` for every entry `k` a tile holds.
+fn owned_by_tiles(owners: &[u64], base: u64) -> impl ParallelIterator<Item = (u64, u64)> + '_ {
+    owners
+        .par_iter()
+        .enumerate()
+        .filter(|&(_, &o)| o < UNOWNED)
+        .map(move |(k, &o)| (o, base + k as u64))
 }
 
 #[cfg(test)]
