@@ -351,9 +351,12 @@ mod tests {
         assert_eq!(seams, vec![0.5, 1.5, 2.5, 3.5]);
         let (mesh, _) = mesh_in_strips(&points, domain, 16);
         assert_delaunay_mesh(&points, &mesh, "columns");
-        // One column: no seam at all.
+        // One column: no seam at all, and one strip.
         let column: Vec<DVec2> = (0..100).map(|i| DVec2::new(2.0, i as f64)).collect();
         assert!(super::seams(&column, domain, 4).is_empty());
+        let (mesh, strips) = mesh_in_strips(&column, domain, 4);
+        assert_eq!(strips, 1);
+        assert_delaunay_mesh(&column, &mesh, "one column");
     }
 
     #[test]
