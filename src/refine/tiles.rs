@@ -293,19 +293,25 @@ impl<'t> Shared<'t> {
             e.ends = (new_vertex(e.ends.0), new_vertex(e.ends.1));
         }
         // Copy the chunks out of spare capacity, then append them.
-        let vertices = gather(self.arrays.vertices, &self.vertex_chunks);
-        let corners = gather(self.arrays.corners, &self.triangle_chunks);
-        let across = gather(self.arrays.across, &self.triangle_chunks);
+        // The chunks' triangles get their new numbers as they are gathered; the ones before
+        // them, which may name new vertices and triangles too, in place.
+        let vertices = gather(self.arrays.vertices, &self.vertex_chunks, |v| v);
+        let corners = gather(self.arrays.corners, &self.triangle_chunks, |c| {
+            c.map(new_vertex)
+        });
+        let across = gather(self.arrays.across, &self.triangle_chunks, |n| {
+            n.map(new_triangle)
+        });
         let t = &mut *self.t;
-        t.vertices.par_extend(vertices.par_iter().copied());
-        t.corners.par_extend(corners.par_iter().copied());
-        t.across.par_extend(across.par_iter().copied());
         t.corners
             .par_iter_mut()
             .for_each(|c| *c = c.map(new_vertex));
         t.across
             .par_iter_mut()
             .for_each(|n| *n = n.map(new_triangle));
+        t.vertices.par_extend(vertices.par_iter().copied());
+        t.corners.par_extend(corners.par_iter().copied());
+        t.across.par_extend(across.par_iter().copied());
         self.vertex_end = t.vertices.len() as u32;
         self.triangle_end = t.corners.len() as u32;
         self.vertex_chunks.clear();
@@ -314,8 +320,12 @@ impl<'t> Shared<'t> {
     }
 }
 
-/// The elements of `chunks`, in chunk order, copied out of the buffer at `base`.
-fn gather<T: Copy + Send + Sync>(base: *const T, chunks: &[Chunk]) -> Vec<T> {
+/// The elements of `chunks`, in chunk order, copied out of the buffer at `base` through `map`.
+fn gather<T, F>(base: *const T, chunks: &[Chunk], map: F) -> Vec<T>
+where
+    T: Copy + Send + Sync,
+    F: Fn(T) -> T + Sync,
+{
     // In parallel, so that the first touch of the fresh memory is shared out too.
     let offsets = crate::par::exclusive_scan_by(chunks.len(), |c| chunks[c].len as usize);
     let base = base as usize;
@@ -330,7 +340,7 @@ fn gather<T: Copy + Send + Sync>(base: *const T, chunks: &[Chunk]) -> Vec<T> {
                 chunk.len as usize,
             )
         };
-        elements.iter().copied()
+        elements.iter().map(|&e| map(e))
     })
 }
 
