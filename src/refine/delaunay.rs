@@ -390,7 +390,12 @@ fn locate_by_scan<S: Store>(s: &S, p: DVec2) -> Location {
 /// Whether `p` lies strictly inside the circumcircle of triangle `t`; exact.
 #[inline]
 fn in_circumcircle<S: Store>(s: &S, t: u32, p: DVec2) -> bool {
-    let [a, b, c] = s.corners(t).map(|v| coord(s.point(v)));
+    let v = s.corners(t);
+    let (a, b, c) = (
+        coord(s.point(v[0])),
+        coord(s.point(v[1])),
+        coord(s.point(v[2])),
+    );
     incircle(a, b, c, coord(p)) > 0.0
 }
 

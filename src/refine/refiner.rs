@@ -292,7 +292,11 @@ impl<'w, S: Store> Refiner<'w, S> {
     /// circumcenter when that is nearer the edge.
     fn steiner_point(&self, id: u32, corner: usize) -> DVec2 {
         let tri = self.s.corners(id);
-        let [p, q, r] = [NEXT[corner], PREV[corner], corner].map(|i| self.s.point(tri[i]));
+        let (p, q, r) = (
+            self.s.point(tri[NEXT[corner]]),
+            self.s.point(tri[PREV[corner]]),
+            self.s.point(tri[corner]),
+        );
         let d = q - p;
         let midpoint = p * 0.5 + q * 0.5;
         let centre = circumcenter(p, q, r);
@@ -366,15 +370,21 @@ fn inspection<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Inspection {
             place: place(bounds, s.point(tri.v[0])),
         },
     });
-    let encroached = [0, 1, 2].map(|i| {
-        let ends = tri.edge(i);
-        let apex = s.point(tri.v[i]);
-        (tri.n[i] == NONE && encroaches(s, apex, ends)).then_some(Encroached {
-            triangle: id,
-            corner: i as u8,
-            ends,
-        })
-    });
+    // Plain loops: `array::map` with a closure returning `Option` is a call per element here,
+    // on the path every new triangle takes.
+    let mut encroached = [None; 3];
+    for i in 0..3 {
+        if tri.n[i] == NONE {
+            let ends = tri.edge(i);
+            if encroaches(s, s.point(tri.v[i]), ends) {
+                encroached[i] = Some(Encroached {
+                    triangle: id,
+                    corner: i as u8,
+                    ends,
+                });
+            }
+        }
+    }
     Inspection { bad, encroached }
 }
 
@@ -392,8 +402,13 @@ fn place(bounds: &Bounds, p: DVec2) -> u64 {
 
 /// For a bad triangle, the corner opposite its shortest edge and that edge's squared length.
 fn badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usize, f64)> {
-    let v = s.corners(id).map(|k| s.point(k));
-    let len2 = [0, 1, 2].map(|i| v[NEXT[i]].distance_squared(v[PREV[i]]));
+    let c = s.corners(id);
+    let v = [s.point(c[0]), s.point(c[1]), s.point(c[2])];
+    let len2 = [
+        v[1].distance_squared(v[2]),
+        v[2].distance_squared(v[0]),
+        v[0].distance_squared(v[1]),
+    ];
     let shortest = (0..3)
         .min_by(|&i, &j| len2[i].total_cmp(&len2[j]))
         .expect("three edges");

@@ -140,7 +140,11 @@ impl Tiling {
     /// The tile of colour `colour` that holds all of a triangle, if one does.
     #[inline]
     fn owner(&self, colour: u8, corners: [DVec2; 3]) -> Option<u64> {
-        let [a, b, c] = corners.map(|p| self.tile(colour, p));
+        let [a, b, c] = [
+            self.tile(colour, corners[0]),
+            self.tile(colour, corners[1]),
+            self.tile(colour, corners[2]),
+        ];
         (a == b && b == c).then_some(a)
     }
 }
@@ -229,7 +233,9 @@ impl<'t> Shared<'t> {
     }
 
     fn owner(&self, tiling: &Tiling, colour: u8, t: u32) -> Option<u64> {
-        tiling.owner(colour, self.corners(t).map(|v| self.point(v)))
+        let c = self.corners(t);
+        let corners = [self.point(c[0]), self.point(c[1]), self.point(c[2])];
+        tiling.owner(colour, corners)
     }
 
     /// Whether `vertices` and `triangles` more fit in the arrays' capacity.
