@@ -373,11 +373,11 @@ fn inspection<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Inspection {
     // Plain loops: `array::map` with a closure returning `Option` is a call per element here,
     // on the path every new triangle takes.
     let mut encroached = [None; 3];
-    for i in 0..3 {
+    for (i, found) in encroached.iter_mut().enumerate() {
         if tri.n[i] == NONE {
             let ends = tri.edge(i);
             if encroaches(s, s.point(tri.v[i]), ends) {
-                encroached[i] = Some(Encroached {
+                *found = Some(Encroached {
                     triangle: id,
                     corner: i as u8,
                     ends,
