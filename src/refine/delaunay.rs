@@ -407,6 +407,10 @@ pub(crate) struct Cavity {
     left_out: Vec<u32>,
     rim: Vec<RimEdge>,
     created: Vec<u32>,
+    /// Per rim edge, the rim edge that starts where it ends ([`NONE`] for none).
+    after: Vec<u32>,
+    /// Rim edges by their first vertex: an open-addressing table.
+    by_start: Vec<u32>,
 }
 
 impl Cavity {
@@ -511,18 +515,29 @@ impl Cavity {
             };
             self.created.push(id);
         }
+        self.link_rim();
         for (k, e) in self.rim.iter().enumerate() {
             let id = self.created[k];
             // Triangle (a, b, p): across b → p is the fan triangle starting at b, across p → a
             // the one ending at a.
-            let after = self.rim.iter().position(|f| f.a == e.b);
-            let before = self.rim.iter().position(|f| f.b == e.a);
+            let fan = |m: u32| {
+                if m == NONE {
+                    NONE
+                } else {
+                    self.created[m as usize]
+                }
+            };
             *s.corners_mut(id) = [e.a, e.b, v];
-            *s.across_mut(id) = [
-                after.map_or(NONE, |m| self.created[m]),
-                before.map_or(NONE, |m| self.created[m]),
-                e.outer,
-            ];
+            *s.across_mut(id) = [fan(self.after[k]), NONE, e.outer];
+        }
+        for k in 0..self.rim.len() {
+            let next = self.after[k];
+            if next != NONE {
+                s.across_mut(self.created[next as usize])[1] = self.created[k];
+            }
+        }
+        for (k, e) in self.rim.iter().enumerate() {
+            let id = self.created[k];
             if e.outer != NONE {
                 let outer = s.triangle(e.outer);
                 let j = (0..3)
@@ -532,6 +547,37 @@ impl Cavity {
             }
         }
         v
+    }
+
+    /// Finds, for each rim edge, the one that starts where it ends, through a hash table of
+    /// the edges by first vertex (the rim's first vertices are distinct): a search of the rim
+    /// per edge would cost the square of its length.
+    fn link_rim(&mut self) {
+        let n = self.rim.len();
+        let size = (2 * n).next_power_of_two().max(8);
+        let mask = size - 1;
+        let slot = |v: u32| (v.wrapping_mul(0x9E37_79B1) >> 7) as usize & mask;
+        self.by_start.clear();
+        self.by_start.resize(size, NONE);
+        for (k, e) in self.rim.iter().enumerate() {
+            let mut h = slot(e.a);
+            while self.by_start[h] != NONE {
+                h = (h + 1) & mask;
+            }
+            self.by_start[h] = k as u32;
+        }
+        self.after.clear();
+        for e in &self.rim {
+            let mut h = slot(e.b);
+            let next = loop {
+                let k = self.by_start[h];
+                if k == NONE || self.rim[k as usize].a == e.b {
+                    break k;
+                }
+                h = (h + 1) & mask;
+            };
+            self.after.push(next);
+        }
     }
 
     /// The triangles the last [`Self::commit`] made.
