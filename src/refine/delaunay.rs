@@ -155,9 +155,7 @@ impl Triangulation {
     /// Flips edges until every one is locally Delaunay, starting from the edges opposite the
     /// given corners (`(triangle, corner)`): Lawson's flips, each of which replaces an edge whose
     /// far apex lies strictly inside the circumcircle, checking the four edges around it again.
-    /// Returns the number of flips.
-    pub fn flip_to_delaunay(&mut self, mut edges: Vec<(u32, usize)>) -> usize {
-        let mut flips = 0;
+    pub fn flip_to_delaunay(&mut self, mut edges: Vec<(u32, usize)>) {
         while let Some((t, i)) = edges.pop() {
             let u = self.across[t as usize][i];
             if u == NONE {
@@ -169,10 +167,8 @@ impl Triangulation {
                 continue;
             }
             self.flip(t, i, u, j);
-            flips += 1;
             edges.extend([(t, 0), (t, 2), (u, 0), (u, 2)]);
         }
-        flips
     }
 
     /// The corner of triangle `u` opposite its edge shared with triangle `t`.
@@ -516,34 +512,30 @@ impl Cavity {
             self.created.push(id);
         }
         self.link_rim();
+        let fan = |m: u32| {
+            if m == NONE {
+                NONE
+            } else {
+                self.created[m as usize]
+            }
+        };
         for (k, e) in self.rim.iter().enumerate() {
             let id = self.created[k];
             // Triangle (a, b, p): across b → p is the fan triangle starting at b, across p → a
-            // the one ending at a.
-            let fan = |m: u32| {
-                if m == NONE {
-                    NONE
-                } else {
-                    self.created[m as usize]
-                }
-            };
+            // the one ending at a, linked below from that one's side.
             *s.corners_mut(id) = [e.a, e.b, v];
             *s.across_mut(id) = [fan(self.after[k]), NONE, e.outer];
-        }
-        for k in 0..self.rim.len() {
-            let next = self.after[k];
-            if next != NONE {
-                s.across_mut(self.created[next as usize])[1] = self.created[k];
-            }
-        }
-        for (k, e) in self.rim.iter().enumerate() {
-            let id = self.created[k];
             if e.outer != NONE {
                 let outer = s.triangle(e.outer);
                 let j = (0..3)
                     .find(|&j| outer.edge(j) == (e.b, e.a))
                     .expect("the triangle beyond a rim edge shares it");
                 s.across_mut(e.outer)[j] = id;
+            }
+        }
+        for (k, &next) in self.after.iter().enumerate() {
+            if next != NONE {
+                s.across_mut(self.created[next as usize])[1] = self.created[k];
             }
         }
         v

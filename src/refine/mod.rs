@@ -4,8 +4,9 @@
 //!
 //! The input points go into a Delaunay triangulation of the domain square in Morton order, so
 //! each point location walks a few steps from the last insertion; many points are split into
-//! vertical strips that are triangulated in parallel and glued by edge flips. Then bad triangles (an angle
-//! below the bound or an area above it) are fixed smallest first, as in Har-Peled and Üngör:
+//! vertical strips that are triangulated in parallel and glued by edge flips. Then bad
+//! triangles (an angle below the bound or an area above it) are fixed smallest first, as in
+//! Har-Peled and Üngör:
 //! each gets Üngör's off-center, the point on the bisector of its shortest edge that makes a
 //! triangle just meeting the bound with that edge, or its circumcenter when that is closer. A
 //! point that would encroach on a boundary edge (lie in its diametral circle) is not inserted;
@@ -128,11 +129,6 @@ impl RefineOptions {
         ((points as f64 * per_point) as usize + 64).min(self.budget(points))
     }
 
-    /// Whether any triangle can be bad: otherwise the Delaunay triangulation is the mesh.
-    fn refines(&self) -> bool {
-        self.min_angle_deg > 0.0 || self.max_area.is_some()
-    }
-
     fn budget(&self, points: usize) -> usize {
         self.max_vertices
             .unwrap_or(points.saturating_mul(100).saturating_add(10_000))
@@ -182,14 +178,15 @@ fn refine_order<K: MortonKey>(
     let capacity = 2 * options.expected_vertices(distinct);
     // Without bounds the mesh is the Delaunay triangulation of the points and the domain's
     // corners alone, which the strips' seams would add vertices to.
-    let strips = if options.refines() {
-        strips::strip_count(distinct)
-    } else {
+    let bounds = Bounds::new(options, domain.lo, domain.hi);
+    let strip_count = if bounds.unbounded() {
         1
+    } else {
+        strips::strip_count(distinct)
     };
     let (mut triangulation, vertex_input) = times.time("delaunay", || {
-        if strips > 1 {
-            return strips::triangulate(points, &morton.order, domain, strips, capacity);
+        if strip_count > 1 {
+            return strips::triangulate(points, &morton.order, domain, strip_count, capacity);
         }
         let mut t = Triangulation::rectangle(domain.lo, domain.hi);
         t.reserve(capacity, distinct + 4);
@@ -198,7 +195,7 @@ fn refine_order<K: MortonKey>(
     })?;
     let budget = options.budget(distinct);
     times.time("refine", || {
-        refine(&mut triangulation, options, domain, distinct, budget)
+        refine(&mut triangulation, &bounds, domain, distinct, budget)
     })?;
     let mesh = times.time("mesh", || into_mesh(triangulation, vertex_input, domain));
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
@@ -211,24 +208,23 @@ fn refine_order<K: MortonKey>(
 /// are enough points, then by the sequential loop for what the tiles left.
 fn refine(
     t: &mut Triangulation,
-    options: &RefineOptions,
+    bounds: &Bounds,
     domain: Domain,
     points: usize,
     budget: usize,
 ) -> Result<(), Error> {
-    let bounds = Bounds::new(options, domain.lo, domain.hi);
     if bounds.unbounded() {
         // No bound asked for: the Delaunay triangulation is the mesh.
         return Ok(());
     }
-    let (mut bad, mut edges) = refiner::inspect_all(t, &bounds);
+    let (mut bad, mut edges) = refiner::inspect_all(t, bounds);
     if points >= tiles::MIN_POINTS {
         let side = (domain.hi - domain.lo).max_element();
-        (bad, edges) = tiles::refine_tiles(t, domain.lo, side, &bounds, bad, edges, budget)?;
+        (bad, edges) = tiles::refine_tiles(t, domain.lo, side, bounds, bad, edges, budget)?;
     }
     let mut work = Work::new();
     work.queue_all(&bad, &edges);
-    Refiner::new(t, &mut work, bounds, budget).run()
+    Refiner::new(t, &mut work, *bounds, budget).run()
 }
 
 /// Refuses the first point outside `domain`.

@@ -67,8 +67,7 @@ pub(super) fn triangulate(
             strip(points, order, (lo, hi), [k > 0, k < seams.len()])
         })
         .collect::<Result<_, _>>()?;
-    let (mut t, vertex_input) = glue(&strips, &seams, domain, capacity);
-    let seam_edges = seam_edges(&strips);
+    let (mut t, vertex_input, seam_edges) = glue(&strips, &seams, domain, capacity);
     t.flip_to_delaunay(seam_edges);
     Ok((t, vertex_input))
 }
@@ -179,13 +178,14 @@ fn strip(
 
 /// The strips as one triangulation, each strip's right side linked to the next one's left
 /// side. Vertices: the domain's corners, the seams' bottom and top ends, then each strip's
-/// points; triangles: each strip's in turn.
+/// points; triangles: each strip's in turn. Also returns the seam edges, as (triangle, corner)
+/// of each strip's right side.
 fn glue(
     strips: &[Strip],
     seams: &[f64],
     domain: Domain,
     capacity: usize,
-) -> (Triangulation, Vec<u32>) {
+) -> (Triangulation, Vec<u32>, Vec<(u32, usize)>) {
     let last = strips.len() - 1;
     let seam_end = |seam: usize, top: bool| (4 + 2 * seam + usize::from(top)) as u32;
     // Global numbers of strip k's corners, counter-clockwise from its lower left.
@@ -237,6 +237,7 @@ fn glue(
             .iter()
             .map(move |n| n.map(|u| if u == NONE { NONE } else { start + u }))
     });
+    let mut seam_edges = Vec::with_capacity(last);
     for k in 0..last {
         let (r, i) = strips[k].right_side;
         let (l, j) = strips[k + 1].left_side;
@@ -246,6 +247,7 @@ fn glue(
         );
         across[r as usize][i] = l;
         across[l as usize][j] = r;
+        seam_edges.push((r, i));
     }
     let mut vertex_input = vec![NONE; head.len()];
     for (corner, (k, local)) in [(0, 0), (last, 1), (last, 2), (0, 3)]
@@ -262,18 +264,7 @@ fn glue(
         corners,
         across,
     };
-    (t, vertex_input)
-}
-
-/// The glued triangulation's seam edges, as (triangle, corner) of each strip's right side.
-fn seam_edges(strips: &[Strip]) -> Vec<(u32, usize)> {
-    let mut start = 0u32;
-    let mut edges = Vec::new();
-    for s in &strips[..strips.len() - 1] {
-        edges.push((start + s.right_side.0, s.right_side.1));
-        start += s.t.len() as u32;
-    }
-    edges
+    (t, vertex_input, seam_edges)
 }
 
 #[cfg(test)]
@@ -282,6 +273,11 @@ mod tests {
     use crate::generate::{Distribution2d, points as generated};
     use crate::mesh::AngleBounds;
     use crate::morton::{Morton, SortAlgorithm, morton_order};
+
+    fn bounding_box(points: &[DVec2]) -> Domain {
+        let (lo, hi) = crate::morton::bounding_box(points);
+        Domain { lo, hi }
+    }
 
     /// The strips' triangulation of `points`, as a mesh, with the number of strips made.
     fn mesh_in_strips(points: &[DVec2], domain: Domain, count: usize) -> (crate::Mesh, usize) {
@@ -297,12 +293,6 @@ mod tests {
         let others = t.vertices.len() - inputs;
         assert!((2 * seams..=2 * seams + 4).contains(&others));
         (super::super::into_mesh(t, vertex_input, domain), seams + 1)
-    }
-
-    fn bounding_square(points: &[DVec2]) -> Domain {
-        let lo = points.iter().fold(DVec2::INFINITY, |a, &p| a.min(p));
-        let hi = points.iter().fold(DVec2::NEG_INFINITY, |a, &p| a.max(p));
-        Domain { lo, hi }
     }
 
     fn assert_delaunay_mesh(points: &[DVec2], mesh: &crate::Mesh, what: &str) {
@@ -328,7 +318,7 @@ mod tests {
         ] {
             let points = generated(dist, 6000, 5);
             // The bounding box puts points on every side, and some on its corners.
-            let domain = bounding_square(&points);
+            let domain = bounding_box(&points);
             for count in [2, 3, 7, 40] {
                 let (mesh, strips) = mesh_in_strips(&points, domain, count);
                 assert!(strips > 1, "{dist:?} in {count}: no seam placed");
@@ -362,7 +352,7 @@ mod tests {
     #[test]
     fn strips_give_the_same_triangulation_on_any_thread_count() {
         let points = generated(Distribution2d::Kuzmin, 20_000, 9);
-        let domain = bounding_square(&points);
+        let domain = bounding_box(&points);
         let on = |threads| {
             rayon::ThreadPoolBuilder::new()
                 .num_threads(threads)
