@@ -41,7 +41,7 @@ const STAGES: [(&str, Stage); 3] = [
 ];
 
 /// Sorted distinct keys and their framework.
-struct Prepared<K> {
+struct Prepared<K: Copy> {
     keys: Vec<K>,
     framework: Framework<K>,
 }

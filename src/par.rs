@@ -183,6 +183,55 @@ where
     out
 }
 
+/// Where one segment of [`collect_segments_by`] is written, front to back.
+pub struct SegmentWriter<'a, T> {
+    slots: &'a mut [std::mem::MaybeUninit<T>],
+    written: usize,
+}
+
+impl<T> SegmentWriter<'_, T> {
+    /// Writes the next value.
+    ///
+    /// # Panics
+    /// If the segment is full.
+    #[inline]
+    pub fn push(&mut self, value: T) {
+        self.slots[self.written].write(value);
+        self.written += 1;
+    }
+}
+
+/// As [`collect_segments`], with item `i` writing its segment through `fill(i, writer)`; for
+/// producers whose loops are plainer than an iterator.
+///
+/// # Panics
+/// If an item writes fewer or more values than its segment holds.
+pub fn collect_segments_by<T, F>(offsets: &[usize], fill: F) -> Vec<T>
+where
+    T: Send,
+    F: Fn(usize, &mut SegmentWriter<T>) + Sync,
+{
+    let total = offsets[offsets.len() - 1] - offsets[0];
+    let mut out: Vec<T> = with_capacity_huge(total);
+    fill_segments(
+        offsets,
+        &mut out.spare_capacity_mut()[..total],
+        |i, slots| {
+            let len = slots.len();
+            let mut writer = SegmentWriter { slots, written: 0 };
+            fill(i, &mut writer);
+            assert_eq!(writer.written, len, "item {i} wrote too few values");
+        },
+    );
+    // SAFETY: as in `collect_segments_in`: the segments partition the first `total` slots and
+    // each was checked to be written in full.
+    #[allow(unsafe_code)]
+    unsafe {
+        out.set_len(total)
+    };
+    out
+}
+
 /// `f(0), f(1), ..., f(n - 1)` computed in parallel into fresh memory.
 pub fn collect_indexed<T, F>(n: usize, f: F) -> Vec<T>
 where

@@ -37,7 +37,7 @@ impl StageTimes {
 
 /// The trees of one input on one grid width.
 #[derive(Clone, Debug)]
-pub struct TreeBuild<K> {
+pub struct TreeBuild<K: Copy> {
     /// Distinct points in Morton order, the grid and the merged duplicates.
     pub morton: MortonOrder<K>,
     /// The compressed quadtree.

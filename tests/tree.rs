@@ -89,6 +89,35 @@ fn fingerprint(tree: &Tree) -> String {
     }
 }
 
+/// Keys whose gaps shrink or grow geometrically in ramps give long chains of nested squares,
+/// and gaps drawn from a few sizes give squares derived by several pairs; at 20 000 keys many
+/// chains run across the blocks the framework is built in.
+#[test]
+fn long_chains_across_blocks_match_the_reference() {
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut random_exponent = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state % 21) as u32
+    };
+    let gaps: [Box<dyn FnMut(u64) -> u32>; 3] = [
+        Box::new(|i| 20 - (i % 21) as u32),
+        Box::new(|i| (i % 21) as u32),
+        Box::new(move |_| random_exponent()),
+    ];
+    for mut exponent in gaps {
+        let mut key = 0u64;
+        let keys: Vec<u64> = (0..20_000u64)
+            .map(|i| {
+                key += 1 << (2 * exponent(i));
+                key
+            })
+            .collect();
+        assert_matches_reference(&keys);
+    }
+}
+
 #[test]
 fn every_family_matches_the_reference() {
     for dist in FAMILIES {

@@ -21,7 +21,7 @@ use crate::quadtree::{Quadtree, from_internal, with_first_points};
 
 /// A balanced quadtree with cross links and point location.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct BalancedTree<K> {
+pub struct BalancedTree<K: Copy> {
     /// The tree: internal squares in preorder, leaves in Morton order with their points.
     pub tree: Quadtree<K>,
     /// The neighbours of each leaf across each side.
@@ -80,7 +80,7 @@ impl<K: MortonKey> BalancedTree<K> {
         let expected: Vec<Cell<K>> = match cell.neighbour(side) {
             None => Vec::new(),
             Some(beyond) => {
-                let holder = leaves.partition_point(|l| l.cell.anchor <= beyond.anchor) - 1;
+                let holder = leaves.partition_point(|l| { l.cell.anchor } <= { beyond.anchor }) - 1;
                 if leaves[holder].cell.level <= beyond.level {
                     vec![leaves[holder].cell]
                 } else {

@@ -169,7 +169,7 @@ fn demands_of<K: MortonKey>(set: &SplitSet<K>, keys: &[K], m: Move, out: &mut Ve
 }
 
 /// Each point's leaf level, and an index from tiles to the point leaves whose block meets them.
-struct PointLeaves<K> {
+struct PointLeaves<K: Copy> {
     level: Vec<u8>,
     /// By level and tile anchor, heads of lists in `entries`.
     by_tile: Vec<KeyMap<K, u32>>,
@@ -267,9 +267,9 @@ fn crowded_by_points<K: MortonKey>(keys: &[K], i: usize, level: u8) -> bool {
         other != cell && chebyshev(grid_position(other), centre) <= 2
     };
     for coarse in window_cover(cell, 2) {
-        let start = partition_from(keys, i, |k| *k < coarse.anchor);
+        let start = partition_from(keys, i, |k| *k < { coarse.anchor });
         let end = partition_from(keys, start, |k| {
-            k.cell_anchor(coarse.level) <= coarse.anchor
+            k.cell_anchor(coarse.level) <= { coarse.anchor }
         });
         let inside = &keys[start..end];
         let crowded = if inside.len() <= 32 {
@@ -313,7 +313,7 @@ fn partition_from<T>(v: &[T], i: usize, pred: impl Fn(&T) -> bool) -> usize {
 }
 
 fn holds_point<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> bool {
-    let first = keys.partition_point(|k| *k < cell.anchor);
+    let first = keys.partition_point(|k| *k < { cell.anchor });
     keys.get(first).is_some_and(|k| cell.contains(*k))
 }
 

@@ -345,7 +345,7 @@ impl<K: MortonKey> SplitSet<K> {
 
 /// A depth-first walk of the split squares, with each level's tiles sorted and the next one
 /// to read.
-struct Walk<K> {
+struct Walk<K: Copy> {
     tiles: Vec<Vec<(K, u64)>>,
     next: Vec<usize>,
     out: Vec<Cell<K>>,

@@ -16,7 +16,7 @@ pub const NONE: u32 = u32::MAX;
 pub const VALUE_LIMIT: usize = 65;
 
 /// Elements per block: enough to amortize the per-block table of `VALUE_LIMIT` entries.
-const BLOCK: usize = 1 << 13;
+pub(crate) const BLOCK: usize = 1 << 13;
 
 /// For each `i`, the largest `j < i` with `values[j] < values[i]`, or [`NONE`].
 ///
@@ -61,6 +61,18 @@ fn nearest_smaller(values: &[u8], side: Side, bound: Bound) -> Vec<u32> {
         // The right-hand scan runs from the block's end, so it fills the block backwards.
         Side::Right => collect_segments_reversed(&offsets, block),
     }
+}
+
+/// Per block of [`BLOCK`] values, the table `t -> smallest index after the block with value ≤ t`,
+/// as `index + 1` (0 for none).
+pub(crate) fn tables_after_blocks(values: &[u8]) -> Vec<[u32; VALUE_LIMIT]> {
+    outside_tables(values, Side::Right)
+}
+
+/// Per block of [`BLOCK`] values, the table `t -> largest index before the block with value ≤ t`,
+/// as `index + 1` (0 for none).
+pub(crate) fn tables_before_blocks(values: &[u8]) -> Vec<[u32; VALUE_LIMIT]> {
+    outside_tables(values, Side::Left)
 }
 
 /// Per block, the table `t -> nearest index outside the block on `side` with value ≤ t`

@@ -8,8 +8,9 @@
 //!
 //! Nodes are stored in preorder, which for squares is the order of (first point, level): the
 //! nodes whose first point is `s` form one chain, the prefix minima of `d` from entry `s` that
-//! stay deeper than `d[s - 1]`. Counting chains, a prefix sum and a parallel fill build the
-//! arrays without sorting.
+//! stay deeper than `d[s - 1]`. One stack scan per block of entries, from the right, finds
+//! each chain as it pops it and writes its nodes; the blocks' nodes are then copied into place
+//! after a prefix sum over the blocks. No sorting, and no array of per-entry offsets.
 
 mod ansv;
 
@@ -21,11 +22,13 @@ pub use ansv::{
 
 use crate::morton::Cell;
 use crate::morton::MortonKey;
-use crate::par::{collect_indexed, collect_segments_reversed, exclusive_scan_by};
+use rayon::prelude::*;
+
+use crate::par::{collect_indexed, collect_segments_reversed, with_capacity_huge};
 
 /// A framework node: a derived square and the points inside it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct FrameworkNode<K> {
+pub struct FrameworkNode<K: Copy> {
     /// The square.
     pub cell: Cell<K>,
     /// First point (Morton position) inside the square.
@@ -36,7 +39,7 @@ pub struct FrameworkNode<K> {
 
 /// The compressed quadtree: one node per distinct derived square, in preorder.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Framework<K> {
+pub struct Framework<K: Copy> {
     /// The nodes in preorder.
     pub nodes: Vec<FrameworkNode<K>>,
     /// Index of each node's parent, [`NONE`] for the top node.
@@ -78,7 +81,8 @@ pub fn derived_levels<K: MortonKey>(keys: &[K]) -> Vec<u8> {
 /// Builds the framework of strictly increasing Morton keys.
 ///
 /// # Complexity
-/// O(n) work: the nearest-smaller-values passes, one chain walk per node, one prefix sum; depth
+/// O(n) work: one stack scan per block that writes the chains' nodes and finds each entry's
+/// nearest smaller value to the left, one copy into preorder, one pass for the parents; depth
 /// O(n / P + P) for P blocks.
 pub fn build_framework<K: MortonKey>(keys: &[K]) -> Framework<K> {
     assert!(
@@ -90,74 +94,257 @@ pub fn build_framework<K: MortonKey>(keys: &[K]) -> Framework<K> {
         "keys must be strictly increasing"
     );
     let d = derived_levels(keys);
-    let right = nearest_smaller_right(&d);
-    let chains = &Chains {
-        keys,
-        d: &d,
-        right: &right,
-    };
-    let offsets = exclusive_scan_by(d.len(), |s| chains.walk(s).count());
-    // Walks find a chain deepest first; preorder wants it shallowest first.
-    let nodes =
-        collect_segments_reversed(&offsets, |s| chains.walk(s).map(move |e| chains.node(s, e)));
-    drop(right);
-    let left = nearest_smaller_left(&d);
-    let parent = collect_indexed(nodes.len(), |u| parent_of(u, &nodes, &d, &left, &offsets));
+    let (nodes, chains) = chains(keys, &d);
+    let parent = collect_indexed(nodes.len(), |u| parent_of(u, &nodes, &d, &chains));
     Framework { nodes, parent }
 }
 
-struct Chains<'a, K> {
-    keys: &'a [K],
-    d: &'a [u8],
-    right: &'a [u32],
+/// Where each chain starts in the preorder of nodes, and each entry's nearest smaller value to
+/// the left. Block `b` of entries emits its chains from the right, deepest node first, so its
+/// nodes in preorder are its emission reversed.
+struct ChainStarts {
+    /// Per entry `s`, how many nodes its block had emitted once chain `s` was emitted.
+    emitted: Vec<u32>,
+    /// Per entry, the nearest entry to the left with a smaller level, [`NONE`] for none.
+    left: Vec<u32>,
+    /// Per block, one past its last node in preorder.
+    block_end: Vec<usize>,
 }
 
-impl<K: MortonKey> Chains<'_, K> {
-    /// The entries of the nodes whose first point is `s`, deepest first.
-    fn walk(&self, s: usize) -> impl Iterator<Item = usize> + '_ {
-        let floor = if s == 0 { -1 } else { self.d[s - 1] as i32 };
-        std::iter::successors(Some(s), |&e| {
-            let r = self.right[e];
-            (r != NONE).then_some(r as usize)
-        })
-        .take_while(move |&e| self.d[e] as i32 > floor)
-    }
-
-    fn node(&self, s: usize, entry: usize) -> FrameworkNode<K> {
-        let r = self.right[entry];
-        FrameworkNode {
-            cell: Cell::containing(self.keys[s], self.d[entry]),
-            first: s as u32,
-            end: if r == NONE {
-                self.keys.len() as u32
-            } else {
-                r + 1
-            },
+impl ChainStarts {
+    /// Preorder index of the first node of chain `s`; for `s` = the entry count, the node count.
+    fn start(&self, s: usize) -> usize {
+        match self.emitted.get(s) {
+            Some(&e) => self.block_end[s / ansv::BLOCK] - e as usize,
+            None => self.block_end.last().copied().unwrap_or(0),
         }
     }
 }
 
+/// The nodes in preorder, and where each chain starts.
+///
+/// Scanning a block from the right with a stack of nearest strictly smaller values to the right,
+/// the stack after pushing entry `s` is the chain `s, R[s], R[R[s]], ...` as far as it lies in
+/// the block; past the block it goes on through the table of the blocks after (the nearest entry
+/// there below the last value is also the next one's nearest smaller value, since everything
+/// between is larger). The nodes whose first point is `s` are the chain's entries deeper than
+/// `d[s - 1]`.
+fn chains<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K>>, ChainStarts) {
+    let after = ansv::tables_after_blocks(d);
+    let before = ansv::tables_before_blocks(d);
+    let mut emitted = zeroed(d.len());
+    let mut left = zeroed(d.len());
+    let emitted_by_block: Vec<Vec<FrameworkNode<K>>> = emitted
+        .par_chunks_mut(ansv::BLOCK)
+        .zip(left.par_chunks_mut(ansv::BLOCK))
+        .enumerate()
+        .map(|(b, (emitted, left))| {
+            let scan = BlockScan {
+                keys,
+                d,
+                after: &after[b],
+                before: &before[b],
+                start: b * ansv::BLOCK,
+            };
+            let nodes = scan.emit(emitted, left);
+            scan.resolve_left(left);
+            nodes
+        })
+        .collect();
+    let mut block_end = Vec::with_capacity(emitted_by_block.len());
+    let mut total = 0;
+    for block in &emitted_by_block {
+        total += block.len();
+        block_end.push(total);
+    }
+    let offsets: Vec<usize> = std::iter::once(0)
+        .chain(block_end.iter().copied())
+        .collect();
+    let nodes = collect_segments_reversed(&offsets, |b| emitted_by_block[b].iter().copied());
+    let chains = ChainStarts {
+        emitted,
+        left,
+        block_end,
+    };
+    (nodes, chains)
+}
+
+/// `n` zeros in fresh memory, written in parallel.
+fn zeroed(n: usize) -> Vec<u32> {
+    let mut v = with_capacity_huge(n);
+    v.par_extend(rayon::iter::repeat_n(0, n));
+    v
+}
+
+/// In [`BlockScan::emit`]'s record of who popped each entry: the popper has the same level, so
+/// the entry's nearest smaller value to the left is the popper's.
+const SAME_LEVEL: u32 = 1 << 31;
+
+/// In that record: never popped inside the block; the answer lies before it.
+const NOT_POPPED: u32 = u32::MAX;
+
+/// One block's scan for [`chains`].
+struct BlockScan<'a, K> {
+    keys: &'a [K],
+    d: &'a [u8],
+    after: &'a [u32; VALUE_LIMIT],
+    before: &'a [u32; VALUE_LIMIT],
+    start: usize,
+}
+
+impl<K: MortonKey> BlockScan<'_, K> {
+    /// Emits the block's chains from its last entry to its first, each deepest node first, and
+    /// records in `emitted` the running count after each chain. Records in `popped` who popped
+    /// each entry off the stack (block-relative, [`SAME_LEVEL`] marking an equal level), for
+    /// [`BlockScan::resolve_left`]: a strictly smaller popper is the nearest smaller value to
+    /// the left.
+    ///
+    /// The entries that entry `s` pops with a deeper level are exactly chain `s + 1`, so the
+    /// chain is written as it is popped; the block's first chain is what is left on the stack.
+    fn emit(&self, emitted: &mut [u32], popped: &mut [u32]) -> Vec<FrameworkNode<K>> {
+        let mut nodes = Vec::with_capacity(emitted.len());
+        popped.fill(NOT_POPPED);
+        // (level, entry) pairs, levels strictly increasing towards the top.
+        let mut stack: Vec<(u8, u32)> = Vec::with_capacity(VALUE_LIMIT);
+        for i in (0..emitted.len()).rev() {
+            let s = self.start + i;
+            let v = self.d[s];
+            // The level of chain s + 1's last entry so far, while the chain may go on past the
+            // block.
+            let mut open_end = None;
+            while let Some(&(top, entry)) = stack.last().filter(|&&(top, _)| top >= v) {
+                stack.pop();
+                let by = i as u32;
+                if top == v {
+                    popped[entry as usize - self.start] = by | SAME_LEVEL;
+                    open_end = None;
+                    break;
+                }
+                popped[entry as usize - self.start] = by;
+                let end = match stack.last() {
+                    Some(&(_, next)) => next + 1,
+                    None => self.end_after_block(top),
+                };
+                nodes.push(self.node(s + 1, top, end));
+                open_end = Some(top);
+            }
+            if let (Some(level), true) = (open_end, stack.is_empty()) {
+                self.emit_after_block(s + 1, level, v as i32, &mut nodes);
+            }
+            if i + 1 < emitted.len() {
+                emitted[i + 1] = nodes.len() as u32;
+            }
+            stack.push((v, s as u32));
+        }
+        if !emitted.is_empty() {
+            let s = self.start;
+            let floor = if s == 0 { -1 } else { self.d[s - 1] as i32 };
+            self.emit_chain(s, floor, &stack, &mut nodes);
+            emitted[0] = nodes.len() as u32;
+        }
+        nodes
+    }
+
+    fn node(&self, s: usize, level: u8, end: u32) -> FrameworkNode<K> {
+        FrameworkNode {
+            cell: Cell::containing(self.keys[s], level),
+            first: s as u32,
+            end,
+        }
+    }
+
+    /// One past the points of the square of an entry at `level` whose nearest smaller value to
+    /// the right lies after the block.
+    fn end_after_block(&self, level: u8) -> u32 {
+        self.next_after_block(level)
+            .map_or(self.keys.len() as u32, |(_, e)| e + 1)
+    }
+
+    /// The rest of chain `s` after the block, deeper than `floor`, from an entry at `level`.
+    fn emit_after_block(
+        &self,
+        s: usize,
+        mut level: u8,
+        floor: i32,
+        nodes: &mut Vec<FrameworkNode<K>>,
+    ) {
+        while let Some((next, _)) = self.next_after_block(level) {
+            if next as i32 <= floor {
+                break;
+            }
+            nodes.push(self.node(s, next, self.end_after_block(next)));
+            level = next;
+        }
+    }
+
+    /// The nodes of chain `s`, deepest first: the stack from its top, then the blocks after.
+    fn emit_chain(
+        &self,
+        s: usize,
+        floor: i32,
+        stack: &[(u8, u32)],
+        nodes: &mut Vec<FrameworkNode<K>>,
+    ) {
+        for (k, &(level, _)) in stack.iter().enumerate().rev() {
+            if level as i32 <= floor {
+                return;
+            }
+            let end = match k {
+                0 => self.end_after_block(level),
+                _ => stack[k - 1].1 + 1,
+            };
+            nodes.push(self.node(s, level, end));
+        }
+        if let Some(&(level, _)) = stack.first() {
+            self.emit_after_block(s, level, floor, nodes);
+        }
+    }
+
+    /// Turns the record of poppers into each entry's nearest smaller value to the left, from
+    /// the left so that an equal popper is resolved first.
+    fn resolve_left(&self, left: &mut [u32]) {
+        for i in 0..left.len() {
+            left[i] = match left[i] {
+                NOT_POPPED => match self.d[self.start + i] {
+                    0 => NONE,
+                    l => self.before[l as usize - 1].wrapping_sub(1),
+                },
+                p if p & SAME_LEVEL != 0 => left[(p & !SAME_LEVEL) as usize],
+                p => (self.start + p as usize) as u32,
+            };
+        }
+    }
+
+    /// The first entry after the block with a level below `level`.
+    fn next_after_block(&self, level: u8) -> Option<(u8, u32)> {
+        let index = match level {
+            0 => 0,
+            l => self.after[l as usize - 1],
+        };
+        (index != 0).then(|| (self.d[index as usize - 1], index - 1))
+    }
+}
+
 /// Parent of node `u`: the previous node if it starts the same chain; otherwise the square of
-/// the deeper of the entries just outside `u`'s points (the pairs straddling its ends).
+/// the pair just before its points. (The pair just after them is never deeper: were it deeper
+/// than that one, it would continue `u`'s chain.)
 fn parent_of<K: MortonKey>(
     u: usize,
     nodes: &[FrameworkNode<K>],
     d: &[u8],
-    left: &[u32],
-    offsets: &[usize],
+    chains: &ChainStarts,
 ) -> u32 {
     let node = nodes[u];
     if u > 0 && nodes[u - 1].first == node.first {
         return (u - 1) as u32;
     }
-    let before = (node.first > 0).then(|| node.first as usize - 1);
-    let after = ((node.end as usize) <= d.len()).then(|| node.end as usize - 1);
-    let Some(pe) = before.into_iter().chain(after).max_by_key(|&e| d[e]) else {
+    if node.first == 0 {
         return NONE;
-    };
-    let chain_start = left[pe].wrapping_add(1) as usize;
-    let chain = &nodes[offsets[chain_start]..offsets[chain_start + 1]];
-    (offsets[chain_start] + chain.partition_point(|n| n.cell.level < d[pe])) as u32
+    }
+    let pe = node.first as usize - 1;
+    let chain_start = chains.left[pe].wrapping_add(1) as usize;
+    let (from, to) = (chains.start(chain_start), chains.start(chain_start + 1));
+    (from + nodes[from..to].partition_point(|n| n.cell.level < d[pe])) as u32
 }
 
 /// Checks the framework against its keys; returns what is wrong.

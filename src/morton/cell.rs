@@ -58,8 +58,12 @@ impl Side {
 }
 
 /// A square of the tree: the Morton key of its lower-left corner and its level (0 = root).
+///
+/// Packed to 4-byte alignment: 12 bytes on the narrow grid instead of 16, so the arrays of
+/// squares the trees are made of (tens of millions at 1e7 points) take a quarter less memory.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct Cell<K> {
+#[repr(C, packed(4))]
+pub struct Cell<K: Copy> {
     /// Morton key of the lower-left corner.
     pub anchor: K,
     /// Level; the side is `2^-level` of the root's.
@@ -85,7 +89,7 @@ impl<K: MortonKey> Cell<K> {
 
     /// Whether key `k` lies in this square.
     pub fn contains(&self, k: K) -> bool {
-        k.cell_anchor(self.level) == self.anchor
+        k.cell_anchor(self.level) == { self.anchor }
     }
 
     /// The parent square (the root for the root).

@@ -39,7 +39,7 @@ pub struct Duplicates {
 
 /// Distinct points in Morton order on one grid.
 #[derive(Clone, Debug)]
-pub struct MortonOrder<K> {
+pub struct MortonOrder<K: Copy> {
     /// Strictly increasing keys, one per distinct point.
     pub keys: Vec<K>,
     /// `order[i]` is the input index of the point with key `keys[i]`.

@@ -13,11 +13,13 @@ pub use crate::morton::Cell;
 
 use crate::framework::{Framework, NONE};
 use crate::morton::MortonKey;
-use crate::par::{GRAIN, chunk_offsets, collect_indexed, collect_segments, exclusive_scan_by};
+use crate::par::{
+    GRAIN, chunk_offsets, collect_indexed, collect_segments, collect_segments_by, exclusive_scan_by,
+};
 
 /// A leaf and the point in it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct Leaf<K> {
+pub struct Leaf<K: Copy> {
     /// The square.
     pub cell: Cell<K>,
     /// Morton position of its point, [`NONE`] if empty.
@@ -26,7 +28,7 @@ pub struct Leaf<K> {
 
 /// An internal square and where its points start.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct Internal<K> {
+pub struct Internal<K: Copy> {
     /// The square.
     pub cell: Cell<K>,
     /// Morton position of the first point at or after its corner (inside it, unless it is empty).
@@ -35,7 +37,7 @@ pub struct Internal<K> {
 
 /// The unbalanced quadtree as flat arrays.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub struct Quadtree<K> {
+pub struct Quadtree<K: Copy> {
     /// Internal squares in preorder.
     pub internal: Vec<Internal<K>>,
     /// Leaves in Morton order; they tile the root.
@@ -74,11 +76,11 @@ pub fn with_first_points<K: MortonKey>(cells: &[Cell<K>], keys: &[K]) -> Vec<Int
         let chunk = &cells[offsets[c]..offsets[c + 1]];
         let mut cursor = chunk
             .first()
-            .map_or(0, |s| keys.partition_point(|k| *k < s.anchor));
+            .map_or(0, |s| keys.partition_point(|k| *k < { s.anchor }));
         chunk.iter().map(move |&cell| {
             cursor += keys[cursor..]
                 .iter()
-                .take_while(|k| **k < cell.anchor)
+                .take_while(|k| **k < { cell.anchor })
                 .count();
             Internal {
                 cell,
@@ -90,17 +92,29 @@ pub fn with_first_points<K: MortonKey>(cells: &[Cell<K>], keys: &[K]) -> Vec<Int
 
 /// The squares on every framework edge: node `u` owns the levels below its parent's down to its
 /// own. In framework preorder, these paths concatenate to the preorder of internal squares.
+/// The path lengths are found once; the output is allocated per chunk of nodes.
 fn internal_squares<K: MortonKey>(fw: &Framework<K>) -> Vec<Internal<K>> {
-    let offsets = exclusive_scan_by(fw.len(), |u| {
-        (fw.nodes[u].cell.level as i32 - fw.parent_level(u)) as usize
+    let path_len: Vec<u8> = collect_indexed(fw.len(), |u| {
+        (fw.nodes[u].cell.level as i32 - fw.parent_level(u)) as u8
     });
-    collect_segments(&offsets, |u| {
-        let node = fw.nodes[u];
-        let top = (fw.parent_level(u) + 1) as u8;
-        (top..=node.cell.level).map(move |level| Internal {
-            cell: Cell::containing(node.cell.anchor, level),
-            first: node.first,
-        })
+    let chunks = chunk_offsets(fw.len(), GRAIN);
+    let offsets = exclusive_scan_by(chunks.len() - 1, |c| {
+        path_len[chunks[c]..chunks[c + 1]]
+            .iter()
+            .map(|&l| l as usize)
+            .sum()
+    });
+    collect_segments_by(&offsets, |c, out| {
+        let range = chunks[c]..chunks[c + 1];
+        for (node, &len) in fw.nodes[range.clone()].iter().zip(&path_len[range]) {
+            let top = node.cell.level + 1 - len;
+            for level in top..=node.cell.level {
+                out.push(Internal {
+                    cell: Cell::containing(node.cell.anchor, level),
+                    first: node.first,
+                });
+            }
+        }
     })
 }
 
@@ -110,11 +124,24 @@ fn internal_squares<K: MortonKey>(fw: &Framework<K>) -> Vec<Internal<K>> {
 /// from the root to `i` passes `digit_sum_i` earlier sibling subtrees. The leaves between two
 /// consecutive internal squares tile the key interval between their corners.
 fn leaves_of<K: MortonKey>(internal: &[Internal<K>], keys: &[K]) -> Vec<Leaf<K>> {
-    let offsets = gap_offsets(internal);
-    collect_segments(&offsets, |i| {
-        let end = internal.get(i + 1).map(|s| s.cell.anchor);
-        let count = offsets[i + 1] - offsets[i];
-        GapTiles::new(&internal[i], end, keys).take(count)
+    // Leaf counts come from the formula at each end, so only chunk ends need a table.
+    let leaves_at = |i: usize| match internal.get(i) {
+        Some(s) => leaves_before(i, s.cell),
+        None => 3 * internal.len() + 1,
+    };
+    let chunks = chunk_offsets(internal.len(), GRAIN);
+    let offsets: Vec<usize> = chunks.iter().map(|&i| leaves_at(i)).collect();
+    collect_segments_by(&offsets, |c, out| {
+        let mut before = leaves_at(chunks[c]);
+        for i in chunks[c]..chunks[c + 1] {
+            let after = leaves_at(i + 1);
+            let end = internal.get(i + 1).map(|s| s.cell.anchor);
+            let mut tiles = GapTiles::new(&internal[i], end, keys);
+            for _ in before..after {
+                out.push(tiles.next_leaf());
+            }
+            before = after;
+        }
     })
 }
 
@@ -136,7 +163,7 @@ pub fn leaves_before<K: MortonKey>(internal_before: usize, cell: Cell<K>) -> usi
 /// The leaves covering keys from an internal square's corner up to `end` (the next internal
 /// square's corner, or the end of the key space), largest aligned squares first, the first one
 /// a child of that square. Points are assigned by merging with the sorted keys.
-struct GapTiles<'a, K> {
+struct GapTiles<'a, K: Copy> {
     x: K,
     /// Where the gap ends; the end of the key space is 0, so `end - x` wraps to the right span.
     end: K,
@@ -157,10 +184,9 @@ impl<'a, K: MortonKey> GapTiles<'a, K> {
     }
 }
 
-impl<K: MortonKey> Iterator for GapTiles<'_, K> {
-    type Item = Leaf<K>;
-
-    fn next(&mut self) -> Option<Leaf<K>> {
+impl<K: MortonKey> GapTiles<'_, K> {
+    /// The next leaf of the gap; the caller knows how many there are.
+    fn next_leaf(&mut self) -> Leaf<K> {
         let key_bits = 2 * K::AXIS_BITS;
         let span = self.end.wrapping_sub(self.x);
         let span_bits = if span == K::default() {
@@ -174,20 +200,20 @@ impl<K: MortonKey> Iterator for GapTiles<'_, K> {
             .min(align_bits / 2)
             .min(K::AXIS_BITS - self.finest as u32);
         let size = K::pow2(2 * half_bits);
-        let point = match self.keys.get(self.cursor) {
-            Some(k) if k.wrapping_sub(self.x) < size => {
-                self.cursor += 1;
-                (self.cursor - 1) as u32
-            }
-            _ => NONE,
-        };
+        // About half the leaves hold a point, at random: a select, not a branch.
+        let holds = self
+            .keys
+            .get(self.cursor)
+            .is_some_and(|k| k.wrapping_sub(self.x) < size);
+        let point = if holds { self.cursor as u32 } else { NONE };
+        self.cursor += holds as usize;
         let cell = Cell {
             anchor: self.x,
             level: (K::AXIS_BITS - half_bits) as u8,
         };
         self.x = self.x.wrapping_add(size);
         self.finest = 0;
-        Some(Leaf { cell, point })
+        Leaf { cell, point }
     }
 }
 
@@ -301,7 +327,7 @@ impl<K: MortonKey> Quadtree<K> {
 
 /// The Morton positions of the keys inside a square.
 pub fn points_in<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> std::ops::Range<usize> {
-    let start = keys.partition_point(|k| k.cell_anchor(cell.level) < cell.anchor);
+    let start = keys.partition_point(|k| k.cell_anchor(cell.level) < { cell.anchor });
     let end = start + keys[start..].partition_point(|k| cell.contains(*k));
     start..end
 }

@@ -19,7 +19,7 @@ use crate::par::{collect_segments, exclusive_scan_by};
 use crate::quadtree::Leaf;
 
 /// The leaves, their links and the grid, with the geometric questions the warp asks of them.
-pub struct LeafGeometry<'a, K> {
+pub struct LeafGeometry<'a, K: Copy> {
     leaves: &'a [Leaf<K>],
     links: &'a [Links],
     /// The leaf of each point, by Morton position.
