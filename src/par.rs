@@ -201,6 +201,81 @@ impl<T> SegmentWriter<'_, T> {
     }
 }
 
+impl<T> SegmentWriter<'_, T> {
+    /// How many values have been written.
+    pub fn len(&self) -> usize {
+        self.written
+    }
+
+    /// Whether nothing has been written.
+    pub fn is_empty(&self) -> bool {
+        self.written == 0
+    }
+}
+
+/// Per-block outputs of bounded size in one buffer: block `b` owns `stride` slots and fills a
+/// prefix of them. One huge allocation instead of a vector per block, so its pages are the
+/// kernel's cheap large ones, not a heap's small ones.
+pub struct BlockScratch<T> {
+    buffer: Vec<std::mem::MaybeUninit<T>>,
+    stride: usize,
+    lens: Vec<usize>,
+}
+
+impl<T: Copy + Send + Sync> BlockScratch<T> {
+    /// Runs `fill(b, state, writer)` in parallel for each block `b` and its `state` from
+    /// `states`, each writing at most `stride` values (more panics).
+    pub fn fill<S, I, F>(stride: usize, states: I, fill: F) -> Self
+    where
+        I: IndexedParallelIterator<Item = S>,
+        F: Fn(usize, S, &mut SegmentWriter<T>) + Sync,
+    {
+        let blocks = states.len();
+        let mut buffer: Vec<std::mem::MaybeUninit<T>> = with_capacity_huge(blocks * stride);
+        // SAFETY: `MaybeUninit` needs no initialization.
+        #[allow(unsafe_code)]
+        unsafe {
+            buffer.set_len(blocks * stride)
+        };
+        let lens = buffer
+            .par_chunks_mut(stride.max(1))
+            .zip(states)
+            .enumerate()
+            .map(|(b, (slots, state))| {
+                let mut writer = SegmentWriter { slots, written: 0 };
+                fill(b, state, &mut writer);
+                writer.written
+            })
+            .collect();
+        BlockScratch {
+            buffer,
+            stride,
+            lens,
+        }
+    }
+
+    /// What block `b` wrote.
+    pub fn block(&self, b: usize) -> &[T] {
+        let slots = &self.buffer[b * self.stride..][..self.lens[b]];
+        // SAFETY: a writer writes its slots front to back and `lens[b]` counts what block `b`'s
+        // writer wrote, so these slots are initialized; `MaybeUninit<T>` has `T`'s layout.
+        #[allow(unsafe_code)]
+        unsafe {
+            &*(slots as *const [std::mem::MaybeUninit<T>] as *const [T])
+        }
+    }
+
+    /// How many values block `b` wrote.
+    pub fn len_of(&self, b: usize) -> usize {
+        self.lens[b]
+    }
+
+    /// Number of blocks.
+    pub fn blocks(&self) -> usize {
+        self.lens.len()
+    }
+}
+
 /// As [`collect_segments`], with item `i` writing its segment through `fill(i, writer)`; for
 /// producers whose loops are plainer than an iterator.
 ///
@@ -347,6 +422,28 @@ mod tests {
         let offsets = vec![0, 3, 6];
         let _ = collect_segments(&offsets, |i| {
             (0..if i == 0 { 3 } else { 2 }).map(|x| x as u8)
+        });
+    }
+
+    #[test]
+    fn block_scratch_keeps_what_each_block_wrote() {
+        let states: Vec<usize> = (0..37).map(|b| b * 7 % 11).collect();
+        let scratch = BlockScratch::fill(10, states.par_iter(), |b, &count, out| {
+            (0..count).for_each(|k| out.push((b, k)))
+        });
+        assert_eq!(scratch.blocks(), 37);
+        for (b, &count) in states.iter().enumerate() {
+            let expect: Vec<(usize, usize)> = (0..count).map(|k| (b, k)).collect();
+            assert_eq!(scratch.block(b), &expect[..]);
+            assert_eq!(scratch.len_of(b), count);
+        }
+    }
+
+    #[test]
+    #[should_panic]
+    fn block_scratch_refuses_a_block_past_its_stride() {
+        let _ = BlockScratch::fill(3, (0..2usize).into_par_iter(), |_, _, out| {
+            (0..4u8).for_each(|k| out.push(k))
         });
     }
 

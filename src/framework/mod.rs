@@ -24,7 +24,9 @@ use crate::morton::Cell;
 use crate::morton::MortonKey;
 use rayon::prelude::*;
 
-use crate::par::{collect_indexed, collect_segments_reversed, with_capacity_huge};
+use crate::par::{
+    BlockScratch, SegmentWriter, collect_indexed, collect_segments_by, with_capacity_huge,
+};
 
 /// A framework node: a derived square and the points inside it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -95,7 +97,7 @@ pub fn build_framework<K: MortonKey>(keys: &[K]) -> Framework<K> {
     );
     let d = derived_levels(keys);
     let (nodes, chains) = chains(keys, &d);
-    let parent = collect_indexed(nodes.len(), |u| parent_of(u, &nodes, &d, &chains));
+    let parent = parents(&nodes, &d, &chains);
     Framework { nodes, parent }
 }
 
@@ -134,33 +136,35 @@ fn chains<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K>>, ChainSt
     let before = ansv::tables_before_blocks(d);
     let mut emitted = zeroed(d.len());
     let mut left = zeroed(d.len());
-    let emitted_by_block: Vec<Vec<FrameworkNode<K>>> = emitted
+    let scan = |b: usize| BlockScan {
+        keys,
+        d,
+        after: &after[b],
+        before: &before[b],
+        start: b * ansv::BLOCK,
+    };
+    // Per block, the (level, end) of each node in the order emitted: a node's first point
+    // follows from `emitted`.
+    let blocks = emitted
         .par_chunks_mut(ansv::BLOCK)
-        .zip(left.par_chunks_mut(ansv::BLOCK))
-        .enumerate()
-        .map(|(b, (emitted, left))| {
-            let scan = BlockScan {
-                keys,
-                d,
-                after: &after[b],
-                before: &before[b],
-                start: b * ansv::BLOCK,
-            };
-            let nodes = scan.emit(emitted, left);
-            scan.resolve_left(left);
-            nodes
-        })
-        .collect();
-    let mut block_end = Vec::with_capacity(emitted_by_block.len());
+        .zip(left.par_chunks_mut(ansv::BLOCK));
+    let emission = BlockScratch::fill(MAX_NODES_PER_BLOCK, blocks, |b, (emitted, left), out| {
+        let scan = scan(b);
+        scan.emit(emitted, left, out);
+        scan.resolve_left(left);
+    });
+    let mut block_end = Vec::with_capacity(emission.blocks());
     let mut total = 0;
-    for block in &emitted_by_block {
-        total += block.len();
+    for b in 0..emission.blocks() {
+        total += emission.len_of(b);
         block_end.push(total);
     }
     let offsets: Vec<usize> = std::iter::once(0)
         .chain(block_end.iter().copied())
         .collect();
-    let nodes = collect_segments_reversed(&offsets, |b| emitted_by_block[b].iter().copied());
+    let nodes = collect_segments_by(&offsets, |b, out| {
+        scan(b).write_preorder(emission.block(b), &emitted, out)
+    });
     let chains = ChainStarts {
         emitted,
         left,
@@ -168,6 +172,10 @@ fn chains<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K>>, ChainSt
     };
     (nodes, chains)
 }
+
+/// A block's nodes are its entries' squares and at most one for each level past the block (the
+/// entries there that chains reach are the ones the block's table names).
+const MAX_NODES_PER_BLOCK: usize = ansv::BLOCK + VALUE_LIMIT;
 
 /// `n` zeros in fresh memory, written in parallel.
 fn zeroed(n: usize) -> Vec<u32> {
@@ -182,6 +190,9 @@ const SAME_LEVEL: u32 = 1 << 31;
 
 /// In that record: never popped inside the block; the answer lies before it.
 const NOT_POPPED: u32 = u32::MAX;
+
+/// Where a block's scan writes the (level, end) of each node.
+type Emission<'a> = SegmentWriter<'a, (u8, u32)>;
 
 /// One block's scan for [`chains`].
 struct BlockScan<'a, K> {
@@ -201,8 +212,7 @@ impl<K: MortonKey> BlockScan<'_, K> {
     ///
     /// The entries that entry `s` pops with a deeper level are exactly chain `s + 1`, so the
     /// chain is written as it is popped; the block's first chain is what is left on the stack.
-    fn emit(&self, emitted: &mut [u32], popped: &mut [u32]) -> Vec<FrameworkNode<K>> {
-        let mut nodes = Vec::with_capacity(emitted.len());
+    fn emit(&self, emitted: &mut [u32], popped: &mut [u32], nodes: &mut Emission) {
         popped.fill(NOT_POPPED);
         // (level, entry) pairs, levels strictly increasing towards the top.
         let mut stack: Vec<(u8, u32)> = Vec::with_capacity(VALUE_LIMIT);
@@ -225,11 +235,11 @@ impl<K: MortonKey> BlockScan<'_, K> {
                     Some(&(_, next)) => next + 1,
                     None => self.end_after_block(top),
                 };
-                nodes.push(self.node(s + 1, top, end));
+                nodes.push((top, end));
                 open_end = Some(top);
             }
             if let (Some(level), true) = (open_end, stack.is_empty()) {
-                self.emit_after_block(s + 1, level, v as i32, &mut nodes);
+                self.emit_after_block(level, v as i32, nodes);
             }
             if i + 1 < emitted.len() {
                 emitted[i + 1] = nodes.len() as u32;
@@ -239,17 +249,29 @@ impl<K: MortonKey> BlockScan<'_, K> {
         if !emitted.is_empty() {
             let s = self.start;
             let floor = if s == 0 { -1 } else { self.d[s - 1] as i32 };
-            self.emit_chain(s, floor, &stack, &mut nodes);
+            self.emit_chain(floor, &stack, nodes);
             emitted[0] = nodes.len() as u32;
         }
-        nodes
     }
 
-    fn node(&self, s: usize, level: u8, end: u32) -> FrameworkNode<K> {
-        FrameworkNode {
-            cell: Cell::containing(self.keys[s], level),
-            first: s as u32,
-            end,
+    /// The block's nodes in preorder, from what [`BlockScan::emit`] wrote: chain `s` is the
+    /// emission between the counts after chains `s + 1` and `s`, deepest first.
+    fn write_preorder(
+        &self,
+        emission: &[(u8, u32)],
+        emitted: &[u32],
+        out: &mut SegmentWriter<FrameworkNode<K>>,
+    ) {
+        let block = self.start..(self.start + ansv::BLOCK).min(self.d.len());
+        for s in block.clone() {
+            let from = if s + 1 < block.end { emitted[s + 1] } else { 0 };
+            for &(level, end) in emission[from as usize..emitted[s] as usize].iter().rev() {
+                out.push(FrameworkNode {
+                    cell: Cell::containing(self.keys[s], level),
+                    first: s as u32,
+                    end,
+                });
+            }
         }
     }
 
@@ -260,31 +282,20 @@ impl<K: MortonKey> BlockScan<'_, K> {
             .map_or(self.keys.len() as u32, |(_, e)| e + 1)
     }
 
-    /// The rest of chain `s` after the block, deeper than `floor`, from an entry at `level`.
-    fn emit_after_block(
-        &self,
-        s: usize,
-        mut level: u8,
-        floor: i32,
-        nodes: &mut Vec<FrameworkNode<K>>,
-    ) {
+    /// The rest of a chain after the block, deeper than `floor`, from an entry at `level`.
+    fn emit_after_block(&self, mut level: u8, floor: i32, nodes: &mut Emission) {
         while let Some((next, _)) = self.next_after_block(level) {
             if next as i32 <= floor {
                 break;
             }
-            nodes.push(self.node(s, next, self.end_after_block(next)));
+            nodes.push((next, self.end_after_block(next)));
             level = next;
         }
     }
 
-    /// The nodes of chain `s`, deepest first: the stack from its top, then the blocks after.
-    fn emit_chain(
-        &self,
-        s: usize,
-        floor: i32,
-        stack: &[(u8, u32)],
-        nodes: &mut Vec<FrameworkNode<K>>,
-    ) {
+    /// The nodes of the block's first chain, deepest first: the stack from its top, then the
+    /// blocks after.
+    fn emit_chain(&self, floor: i32, stack: &[(u8, u32)], nodes: &mut Emission) {
         for (k, &(level, _)) in stack.iter().enumerate().rev() {
             if level as i32 <= floor {
                 return;
@@ -293,10 +304,10 @@ impl<K: MortonKey> BlockScan<'_, K> {
                 0 => self.end_after_block(level),
                 _ => stack[k - 1].1 + 1,
             };
-            nodes.push(self.node(s, level, end));
+            nodes.push((level, end));
         }
         if let Some(&(level, _)) = stack.first() {
-            self.emit_after_block(s, level, floor, nodes);
+            self.emit_after_block(level, floor, nodes);
         }
     }
 
@@ -325,23 +336,40 @@ impl<K: MortonKey> BlockScan<'_, K> {
     }
 }
 
-/// Parent of node `u`: the previous node if it starts the same chain; otherwise the square of
-/// the pair just before its points. (The pair just after them is never deeper: were it deeper
-/// than that one, it would continue `u`'s chain.)
-fn parent_of<K: MortonKey>(
-    u: usize,
+/// Each node's parent, block by block: within a chain, the previous node; for a chain's first
+/// node, the square of the pair just before its points. (The pair just after them is never
+/// deeper: were it deeper than that one, it would continue the chain.)
+fn parents<K: MortonKey>(nodes: &[FrameworkNode<K>], d: &[u8], chains: &ChainStarts) -> Vec<u32> {
+    let blocks = chains.block_end.len();
+    let offsets: Vec<usize> = (0..=blocks)
+        .map(|b| chains.start((b * ansv::BLOCK).min(d.len())))
+        .collect();
+    collect_segments_by(&offsets, |b, out| {
+        for s in b * ansv::BLOCK..((b + 1) * ansv::BLOCK).min(d.len()) {
+            let chain = chains.start(s)..chains.start(s + 1);
+            if chain.is_empty() {
+                continue;
+            }
+            out.push(first_parent(s, nodes, d, chains));
+            for u in chain.start + 1..chain.end {
+                out.push((u - 1) as u32);
+            }
+        }
+    })
+}
+
+/// Parent of the first node of chain `s`: the square of pair `s - 1`, found in its own chain
+/// by level.
+fn first_parent<K: MortonKey>(
+    s: usize,
     nodes: &[FrameworkNode<K>],
     d: &[u8],
     chains: &ChainStarts,
 ) -> u32 {
-    let node = nodes[u];
-    if u > 0 && nodes[u - 1].first == node.first {
-        return (u - 1) as u32;
-    }
-    if node.first == 0 {
+    if s == 0 {
         return NONE;
     }
-    let pe = node.first as usize - 1;
+    let pe = s - 1;
     let chain_start = chains.left[pe].wrapping_add(1) as usize;
     let (from, to) = (chains.start(chain_start), chains.start(chain_start + 1));
     (from + nodes[from..to].partition_point(|n| n.cell.level < d[pe])) as u32
