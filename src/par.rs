@@ -307,6 +307,58 @@ where
     out
 }
 
+/// As [`collect_segments_by`] for two outputs with the same segments: item `i` writes its
+/// segment of each through `fill(i, first, second)`. Meant for few items (blocks): each is one
+/// task.
+///
+/// # Panics
+/// If an item writes fewer or more values than its segment holds, in either output.
+pub fn collect_segment_pairs_by<A, B, F>(offsets: &[usize], fill: F) -> (Vec<A>, Vec<B>)
+where
+    A: Send,
+    B: Send,
+    F: Fn(usize, &mut SegmentWriter<A>, &mut SegmentWriter<B>) + Sync,
+{
+    let total = offsets[offsets.len() - 1] - offsets[0];
+    let mut first: Vec<A> = with_capacity_huge(total);
+    let mut second: Vec<B> = with_capacity_huge(total);
+    let mut jobs = Vec::with_capacity(offsets.len() - 1);
+    let mut rest = (
+        &mut first.spare_capacity_mut()[..total],
+        &mut second.spare_capacity_mut()[..total],
+    );
+    for (i, w) in offsets.windows(2).enumerate() {
+        let (a, a_rest) = std::mem::take(&mut rest.0).split_at_mut(w[1] - w[0]);
+        let (b, b_rest) = std::mem::take(&mut rest.1).split_at_mut(w[1] - w[0]);
+        jobs.push((i, a, b));
+        rest = (a_rest, b_rest);
+    }
+    jobs.into_par_iter().for_each(|(i, a, b)| {
+        let len = a.len();
+        let mut a = SegmentWriter {
+            slots: a,
+            written: 0,
+        };
+        let mut b = SegmentWriter {
+            slots: b,
+            written: 0,
+        };
+        fill(i, &mut a, &mut b);
+        assert!(
+            a.written == len && b.written == len,
+            "item {i} wrote too few values"
+        );
+    });
+    // SAFETY: the segments partition the first `total` slots of both outputs and each was
+    // checked to be written in full (a short one panics before this line).
+    #[allow(unsafe_code)]
+    unsafe {
+        first.set_len(total);
+        second.set_len(total);
+    }
+    (first, second)
+}
+
 /// `f(0), f(1), ..., f(n - 1)` computed in parallel into fresh memory.
 pub fn collect_indexed<T, F>(n: usize, f: F) -> Vec<T>
 where

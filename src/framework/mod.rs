@@ -25,7 +25,7 @@ use crate::morton::MortonKey;
 use rayon::prelude::*;
 
 use crate::par::{
-    BlockScratch, SegmentWriter, collect_indexed, collect_segments_by, with_capacity_huge,
+    BlockScratch, SegmentWriter, collect_indexed, collect_segment_pairs_by, with_capacity_huge,
 };
 
 /// A framework node: a derived square and the points inside it.
@@ -96,8 +96,7 @@ pub fn build_framework<K: MortonKey>(keys: &[K]) -> Framework<K> {
         "keys must be strictly increasing"
     );
     let d = derived_levels(keys);
-    let (nodes, chains) = chains(keys, &d);
-    let parent = parents(&nodes, &d, &chains);
+    let (nodes, parent) = nodes_and_parents(keys, &d);
     Framework { nodes, parent }
 }
 
@@ -123,7 +122,7 @@ impl ChainStarts {
     }
 }
 
-/// The nodes in preorder, and where each chain starts.
+/// The nodes in preorder and their parents.
 ///
 /// Scanning a block from the right with a stack of nearest strictly smaller values to the right,
 /// the stack after pushing entry `s` is the chain `s, R[s], R[R[s]], ...` as far as it lies in
@@ -131,7 +130,7 @@ impl ChainStarts {
 /// there below the last value is also the next one's nearest smaller value, since everything
 /// between is larger). The nodes whose first point is `s` are the chain's entries deeper than
 /// `d[s - 1]`.
-fn chains<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K>>, ChainStarts) {
+fn nodes_and_parents<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K>>, Vec<u32>) {
     let after = ansv::tables_after_blocks(d);
     let before = ansv::tables_before_blocks(d);
     let mut emitted = zeroed(d.len());
@@ -143,8 +142,6 @@ fn chains<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K>>, ChainSt
         before: &before[b],
         start: b * ansv::BLOCK,
     };
-    // Per block, the (level, end) of each node in the order emitted: a node's first point
-    // follows from `emitted`.
     let blocks = emitted
         .par_chunks_mut(ansv::BLOCK)
         .zip(left.par_chunks_mut(ansv::BLOCK));
@@ -162,15 +159,82 @@ fn chains<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K>>, ChainSt
     let offsets: Vec<usize> = std::iter::once(0)
         .chain(block_end.iter().copied())
         .collect();
-    let nodes = collect_segments_by(&offsets, |b, out| {
-        scan(b).write_preorder(emission.block(b), &emitted, out)
-    });
     let chains = ChainStarts {
         emitted,
         left,
         block_end,
     };
-    (nodes, chains)
+    let find = ParentFinder {
+        d,
+        chains: &chains,
+        emission: &emission,
+    };
+    collect_segment_pairs_by(&offsets, |b, nodes, parents| {
+        // In preorder: the emission reversed. A chain's first node is where the point changes.
+        let mut previous = None;
+        for (k, node) in emission.block(b).iter().rev().enumerate() {
+            let s = b * ansv::BLOCK + node.first as usize;
+            let u = offsets[b] + k;
+            nodes.push(FrameworkNode {
+                cell: Cell::containing(keys[s], node.level),
+                first: s as u32,
+                end: node.end,
+            });
+            parents.push(if previous == Some(s) {
+                (u - 1) as u32
+            } else {
+                find.first_parent(s)
+            });
+            previous = Some(s);
+        }
+    })
+}
+
+/// A node as a block's scan emits it: its level, its first point relative to the block, one
+/// past its last point.
+#[derive(Clone, Copy)]
+struct Emitted {
+    level: u8,
+    first: u16,
+    end: u32,
+}
+
+const _: () = assert!(ansv::BLOCK <= 1 << 16, "block offsets must fit in u16");
+
+/// Finds the parent of a chain's first node.
+struct ParentFinder<'a> {
+    d: &'a [u8],
+    chains: &'a ChainStarts,
+    emission: &'a BlockScratch<Emitted>,
+}
+
+impl ParentFinder<'_> {
+    /// Parent of the first node of chain `s`: the square of pair `s - 1` (the pair just after
+    /// its points is never deeper, or it would continue the chain), found in its own chain by
+    /// level.
+    fn first_parent(&self, s: usize) -> u32 {
+        if s == 0 {
+            return NONE;
+        }
+        let pe = s - 1;
+        let chain = self.chains.left[pe].wrapping_add(1) as usize;
+        let block = chain / ansv::BLOCK;
+        // The chain in emission order (deepest first) is the block's emission between the
+        // counts after the chain and after the one before it (the next entry's).
+        let to = self.chains.emitted[chain] as usize;
+        let from = match chain + 1 {
+            next if next < self.d.len() && next / ansv::BLOCK == block => {
+                self.chains.emitted[next] as usize
+            }
+            _ => 0,
+        };
+        let level = self.d[pe];
+        let shallower = self.emission.block(block)[from..to]
+            .iter()
+            .filter(|n| n.level < level)
+            .count();
+        (self.chains.start(chain) + shallower) as u32
+    }
 }
 
 /// A block's nodes are its entries' squares and at most one for each level past the block (the
@@ -192,7 +256,7 @@ const SAME_LEVEL: u32 = 1 << 31;
 const NOT_POPPED: u32 = u32::MAX;
 
 /// Where a block's scan writes the (level, end) of each node.
-type Emission<'a> = SegmentWriter<'a, (u8, u32)>;
+type Emission<'a> = SegmentWriter<'a, Emitted>;
 
 /// One block's scan for [`chains`].
 struct BlockScan<'a, K> {
@@ -235,11 +299,15 @@ impl<K: MortonKey> BlockScan<'_, K> {
                     Some(&(_, next)) => next + 1,
                     None => self.end_after_block(top),
                 };
-                nodes.push((top, end));
+                nodes.push(Emitted {
+                    level: top,
+                    first: i as u16 + 1,
+                    end,
+                });
                 open_end = Some(top);
             }
             if let (Some(level), true) = (open_end, stack.is_empty()) {
-                self.emit_after_block(level, v as i32, nodes);
+                self.emit_after_block(i + 1, level, v as i32, nodes);
             }
             if i + 1 < emitted.len() {
                 emitted[i + 1] = nodes.len() as u32;
@@ -254,27 +322,6 @@ impl<K: MortonKey> BlockScan<'_, K> {
         }
     }
 
-    /// The block's nodes in preorder, from what [`BlockScan::emit`] wrote: chain `s` is the
-    /// emission between the counts after chains `s + 1` and `s`, deepest first.
-    fn write_preorder(
-        &self,
-        emission: &[(u8, u32)],
-        emitted: &[u32],
-        out: &mut SegmentWriter<FrameworkNode<K>>,
-    ) {
-        let block = self.start..(self.start + ansv::BLOCK).min(self.d.len());
-        for s in block.clone() {
-            let from = if s + 1 < block.end { emitted[s + 1] } else { 0 };
-            for &(level, end) in emission[from as usize..emitted[s] as usize].iter().rev() {
-                out.push(FrameworkNode {
-                    cell: Cell::containing(self.keys[s], level),
-                    first: s as u32,
-                    end,
-                });
-            }
-        }
-    }
-
     /// One past the points of the square of an entry at `level` whose nearest smaller value to
     /// the right lies after the block.
     fn end_after_block(&self, level: u8) -> u32 {
@@ -282,13 +329,18 @@ impl<K: MortonKey> BlockScan<'_, K> {
             .map_or(self.keys.len() as u32, |(_, e)| e + 1)
     }
 
-    /// The rest of a chain after the block, deeper than `floor`, from an entry at `level`.
-    fn emit_after_block(&self, mut level: u8, floor: i32, nodes: &mut Emission) {
+    /// The rest of chain `start + i` after the block, deeper than `floor`, from an entry at
+    /// `level`.
+    fn emit_after_block(&self, i: usize, mut level: u8, floor: i32, nodes: &mut Emission) {
         while let Some((next, _)) = self.next_after_block(level) {
             if next as i32 <= floor {
                 break;
             }
-            nodes.push((next, self.end_after_block(next)));
+            nodes.push(Emitted {
+                level: next,
+                first: i as u16,
+                end: self.end_after_block(next),
+            });
             level = next;
         }
     }
@@ -304,10 +356,14 @@ impl<K: MortonKey> BlockScan<'_, K> {
                 0 => self.end_after_block(level),
                 _ => stack[k - 1].1 + 1,
             };
-            nodes.push((level, end));
+            nodes.push(Emitted {
+                level,
+                first: 0,
+                end,
+            });
         }
         if let Some(&(level, _)) = stack.first() {
-            self.emit_after_block(level, floor, nodes);
+            self.emit_after_block(0, level, floor, nodes);
         }
     }
 
@@ -334,45 +390,6 @@ impl<K: MortonKey> BlockScan<'_, K> {
         };
         (index != 0).then(|| (self.d[index as usize - 1], index - 1))
     }
-}
-
-/// Each node's parent, block by block: within a chain, the previous node; for a chain's first
-/// node, the square of the pair just before its points. (The pair just after them is never
-/// deeper: were it deeper than that one, it would continue the chain.)
-fn parents<K: MortonKey>(nodes: &[FrameworkNode<K>], d: &[u8], chains: &ChainStarts) -> Vec<u32> {
-    let blocks = chains.block_end.len();
-    let offsets: Vec<usize> = (0..=blocks)
-        .map(|b| chains.start((b * ansv::BLOCK).min(d.len())))
-        .collect();
-    collect_segments_by(&offsets, |b, out| {
-        for s in b * ansv::BLOCK..((b + 1) * ansv::BLOCK).min(d.len()) {
-            let chain = chains.start(s)..chains.start(s + 1);
-            if chain.is_empty() {
-                continue;
-            }
-            out.push(first_parent(s, nodes, d, chains));
-            for u in chain.start + 1..chain.end {
-                out.push((u - 1) as u32);
-            }
-        }
-    })
-}
-
-/// Parent of the first node of chain `s`: the square of pair `s - 1`, found in its own chain
-/// by level.
-fn first_parent<K: MortonKey>(
-    s: usize,
-    nodes: &[FrameworkNode<K>],
-    d: &[u8],
-    chains: &ChainStarts,
-) -> u32 {
-    if s == 0 {
-        return NONE;
-    }
-    let pe = s - 1;
-    let chain_start = chains.left[pe].wrapping_add(1) as usize;
-    let (from, to) = (chains.start(chain_start), chains.start(chain_start + 1));
-    (from + nodes[from..to].partition_point(|n| n.cell.level < d[pe])) as u32
 }
 
 /// Checks the framework against its keys; returns what is wrong.
