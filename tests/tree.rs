@@ -177,7 +177,7 @@ fn single_point_is_a_root_leaf() {
     };
     assert!(b.framework.is_empty() && b.quadtree.internal.is_empty());
     assert_eq!(b.quadtree.leaves.len(), 1);
-    assert_eq!(b.quadtree.leaves[0].point, 0);
+    assert_eq!({ b.quadtree.leaves[0].point }, 0);
     b.quadtree.check(&b.morton.keys).unwrap();
 }
 

@@ -137,14 +137,14 @@ impl<K: MortonKey> BalancedTree<K> {
 pub fn check_balance<K: MortonKey>(tree: &Quadtree<K>) -> Result<(), String> {
     let split: HashSet<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
     for s in &tree.internal {
+        let cell = s.cell;
         for side in Side::ALL {
-            let Some(n) = s.cell.neighbour(side) else {
+            let Some(n) = cell.neighbour(side) else {
                 continue;
             };
             if n.level > 0 && !split.contains(&n.parent()) {
                 return Err(format!(
-                    "split square {:?} has no same-size neighbour across {side:?}",
-                    s.cell
+                    "split square {cell:?} has no same-size neighbour across {side:?}"
                 ));
             }
         }

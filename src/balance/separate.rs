@@ -377,27 +377,25 @@ pub fn check_separated<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> Result<(
     let split: HashSet<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
     let leaf_point: HashMap<Cell<K>, u32> = tree.leaves.iter().map(|l| (l.cell, l.point)).collect();
     for leaf in tree.leaves.iter().filter(|l| l.point != NONE) {
+        let cell = leaf.cell;
         for square in block(leaf.cell) {
             let Some(square) = square else {
-                return Err(format!("block of {:?} leaves the root", leaf.cell));
+                return Err(format!("block of {cell:?} leaves the root"));
             };
             match leaf_point.get(&square) {
                 Some(&NONE) => {}
-                Some(_) => return Err(format!("block of {:?} holds another point", leaf.cell)),
+                Some(_) => return Err(format!("block of {cell:?} holds another point")),
                 None => {
-                    return Err(format!(
-                        "block of {:?} has {square:?}, not a leaf",
-                        leaf.cell
-                    ));
+                    return Err(format!("block of {cell:?} has {square:?}, not a leaf"));
                 }
             }
         }
     }
     for s in &tree.internal {
         if holds_point(s.cell, keys) && ring(s.cell).flatten().any(|c| !split.contains(&c)) {
+            let cell = s.cell;
             return Err(format!(
-                "split square {:?} holds a point but a neighbour is not split",
-                s.cell
+                "split square {cell:?} holds a point but a neighbour is not split"
             ));
         }
     }

@@ -30,6 +30,7 @@ use crate::par::{
 
 /// A framework node: a derived square and the points inside it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(C, packed)]
 pub struct FrameworkNode<K: Copy> {
     /// The square.
     pub cell: Cell<K>,
@@ -435,7 +436,7 @@ fn check_every_derived_square_is_a_node<K: MortonKey>(
         let at = fw
             .nodes
             .partition_point(|n| (n.cell.anchor, n.cell.level) < (square.anchor, square.level));
-        if fw.nodes.get(at).is_none_or(|n| n.cell != square) {
+        if fw.nodes.get(at).is_none_or(|n| { n.cell } != square) {
             return Err(format!(
                 "the derived square {square:?} of points {e} and {} is no node",
                 e + 1

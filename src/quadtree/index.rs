@@ -49,7 +49,7 @@ fn children_of<K: MortonKey>(tree: &Quadtree<K>, after: &[u32], i: usize) -> [u3
     let cell = internal[i].cell;
     [0, 1, 2, 3].map(|q| {
         let child = cell.child(q);
-        if internal.get(next).is_some_and(|s| s.cell == child) {
+        if internal.get(next).is_some_and(|s| { s.cell } == child) {
             let here = next as u32;
             next = match after[next] {
                 NONE => internal.len(),

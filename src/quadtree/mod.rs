@@ -19,6 +19,7 @@ use crate::par::{
 
 /// A leaf and the point in it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(C, packed)]
 pub struct Leaf<K: Copy> {
     /// The square.
     pub cell: Cell<K>,
@@ -28,6 +29,7 @@ pub struct Leaf<K: Copy> {
 
 /// An internal square and where its points start.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[repr(C, packed)]
 pub struct Internal<K: Copy> {
     /// The square.
     pub cell: Cell<K>,
@@ -225,10 +227,8 @@ impl<K: MortonKey> Quadtree<K> {
         for (i, s) in self.internal.iter().enumerate() {
             let held = points_in(s.cell, keys).len();
             if held < 2 {
-                return Err(format!(
-                    "internal square {i} {:?} holds {held} points",
-                    s.cell
-                ));
+                let cell = s.cell;
+                return Err(format!("internal square {i} {cell:?} holds {held} points"));
             }
         }
         Ok(())
@@ -303,10 +303,8 @@ impl<K: MortonKey> Quadtree<K> {
                 held.start as u32
             };
             if held.len() > 1 || leaf.point != expected {
-                return Err(format!(
-                    "leaf {j} holds {held:?} but records {}",
-                    leaf.point
-                ));
+                let point = leaf.point;
+                return Err(format!("leaf {j} holds {held:?} but records {point}"));
             }
             located += held.len();
         }
