@@ -21,6 +21,16 @@ pub enum Distribution2d {
     Grid,
 }
 
+impl Distribution2d {
+    /// Every distribution.
+    pub const ALL: [Distribution2d; 4] = [
+        Distribution2d::Uniform,
+        Distribution2d::Cluster,
+        Distribution2d::Kuzmin,
+        Distribution2d::Grid,
+    ];
+}
+
 impl FromStr for Distribution2d {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
@@ -96,12 +106,7 @@ mod tests {
 
     #[test]
     fn seeded_and_sized() {
-        for dist in [
-            Distribution2d::Uniform,
-            Distribution2d::Cluster,
-            Distribution2d::Kuzmin,
-            Distribution2d::Grid,
-        ] {
+        for dist in Distribution2d::ALL {
             let a = points(dist, 500, 7);
             assert_eq!(a.len(), 500);
             assert_eq!(a, points(dist, 500, 7));

@@ -199,9 +199,7 @@ impl<T> SegmentWriter<'_, T> {
         self.slots[self.written].write(value);
         self.written += 1;
     }
-}
 
-impl<T> SegmentWriter<'_, T> {
     /// How many values have been written.
     pub fn len(&self) -> usize {
         self.written

@@ -84,9 +84,9 @@ pub fn derived_levels<K: MortonKey>(keys: &[K]) -> Vec<u8> {
 /// Builds the framework of strictly increasing Morton keys.
 ///
 /// # Complexity
-/// O(n) work: one stack scan per block that writes the chains' nodes and finds each entry's
-/// nearest smaller value to the left, one copy into preorder, one pass for the parents; depth
-/// O(n / P + P) for P blocks.
+/// O(n) work: one stack scan per block that emits the chains' nodes and finds each entry's
+/// nearest smaller value to the left, then one pass that writes nodes and parents in preorder;
+/// depth O(n / P + P) for P blocks.
 pub fn build_framework<K: MortonKey>(keys: &[K]) -> Framework<K> {
     assert!(
         keys.len() < u32::MAX as usize,
@@ -109,16 +109,16 @@ struct ChainStarts {
     emitted: Vec<u32>,
     /// Per entry, the nearest entry to the left with a smaller level, [`NONE`] for none.
     left: Vec<u32>,
-    /// Per block, one past its last node in preorder.
-    block_end: Vec<usize>,
+    /// Per block, where its nodes start in preorder; then the node count.
+    block_start: Vec<usize>,
 }
 
 impl ChainStarts {
     /// Preorder index of the first node of chain `s`; for `s` = the entry count, the node count.
     fn start(&self, s: usize) -> usize {
         match self.emitted.get(s) {
-            Some(&e) => self.block_end[s / ansv::BLOCK] - e as usize,
-            None => self.block_end.last().copied().unwrap_or(0),
+            Some(&e) => self.block_start[s / ansv::BLOCK + 1] - e as usize,
+            None => self.block_start[self.block_start.len() - 1],
         }
     }
 }
@@ -134,8 +134,9 @@ impl ChainStarts {
 fn nodes_and_parents<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K>>, Vec<u32>) {
     let after = ansv::tables_after_blocks(d);
     let before = ansv::tables_before_blocks(d);
-    let mut emitted = zeroed(d.len());
-    let mut left = zeroed(d.len());
+    let mut emitted = filled(d.len(), 0);
+    // Holds who popped each entry until the block resolves it into the left answer.
+    let mut left = filled(d.len(), NOT_POPPED);
     let scan = |b: usize| BlockScan {
         keys,
         d,
@@ -151,31 +152,27 @@ fn nodes_and_parents<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K
         scan.emit(emitted, left, out);
         scan.resolve_left(left);
     });
-    let mut block_end = Vec::with_capacity(emission.blocks());
-    let mut total = 0;
+    let mut block_start = Vec::with_capacity(emission.blocks() + 1);
+    block_start.push(0);
     for b in 0..emission.blocks() {
-        total += emission.len_of(b);
-        block_end.push(total);
+        block_start.push(block_start[b] + emission.len_of(b));
     }
-    let offsets: Vec<usize> = std::iter::once(0)
-        .chain(block_end.iter().copied())
-        .collect();
     let chains = ChainStarts {
         emitted,
         left,
-        block_end,
+        block_start,
     };
     let find = ParentFinder {
         d,
         chains: &chains,
         emission: &emission,
     };
-    collect_segment_pairs_by(&offsets, |b, nodes, parents| {
+    collect_segment_pairs_by(&chains.block_start, |b, nodes, parents| {
         // In preorder: the emission reversed. A chain's first node is where the point changes.
         let mut previous = None;
         for (k, node) in emission.block(b).iter().rev().enumerate() {
             let s = b * ansv::BLOCK + node.first as usize;
-            let u = offsets[b] + k;
+            let u = chains.block_start[b] + k;
             nodes.push(FrameworkNode {
                 cell: Cell::containing(keys[s], node.level),
                 first: s as u32,
@@ -242,10 +239,10 @@ impl ParentFinder<'_> {
 /// entries there that chains reach are the ones the block's table names).
 const MAX_NODES_PER_BLOCK: usize = ansv::BLOCK + VALUE_LIMIT;
 
-/// `n` zeros in fresh memory, written in parallel.
-fn zeroed(n: usize) -> Vec<u32> {
+/// `n` copies of `value` in fresh memory, written in parallel.
+fn filled(n: usize, value: u32) -> Vec<u32> {
     let mut v = with_capacity_huge(n);
-    v.par_extend(rayon::iter::repeat_n(0, n));
+    v.par_extend(rayon::iter::repeat_n(value, n));
     v
 }
 
@@ -270,15 +267,15 @@ struct BlockScan<'a, K> {
 
 impl<K: MortonKey> BlockScan<'_, K> {
     /// Emits the block's chains from its last entry to its first, each deepest node first, and
-    /// records in `emitted` the running count after each chain. Records in `popped` who popped
-    /// each entry off the stack (block-relative, [`SAME_LEVEL`] marking an equal level), for
+    /// records in `emitted` the running count after each chain. Records in `popped` (which
+    /// arrives filled with [`NOT_POPPED`]) who popped each entry off the stack (block-relative,
+    /// [`SAME_LEVEL`] marking an equal level), for
     /// [`BlockScan::resolve_left`]: a strictly smaller popper is the nearest smaller value to
     /// the left.
     ///
     /// The entries that entry `s` pops with a deeper level are exactly chain `s + 1`, so the
     /// chain is written as it is popped; the block's first chain is what is left on the stack.
     fn emit(&self, emitted: &mut [u32], popped: &mut [u32], nodes: &mut Emission) {
-        popped.fill(NOT_POPPED);
         // (level, entry) pairs, levels strictly increasing towards the top.
         let mut stack: Vec<(u8, u32)> = Vec::with_capacity(VALUE_LIMIT);
         for i in (0..emitted.len()).rev() {

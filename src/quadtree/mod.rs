@@ -127,10 +127,7 @@ fn internal_squares<K: MortonKey>(fw: &Framework<K>) -> Vec<Internal<K>> {
 /// consecutive internal squares tile the key interval between their corners.
 fn leaves_of<K: MortonKey>(internal: &[Internal<K>], keys: &[K]) -> Vec<Leaf<K>> {
     // Leaf counts come from the formula at each end, so only chunk ends need a table.
-    let leaves_at = |i: usize| match internal.get(i) {
-        Some(s) => leaves_before(i, s.cell),
-        None => 3 * internal.len() + 1,
-    };
+    let leaves_at = |i: usize| leaves_at(internal, i);
     let chunks = chunk_offsets(internal.len(), GRAIN);
     let offsets: Vec<usize> = chunks.iter().map(|&i| leaves_at(i)).collect();
     collect_segments_by(&offsets, |c, out| {
@@ -149,11 +146,15 @@ fn leaves_of<K: MortonKey>(internal: &[Internal<K>], keys: &[K]) -> Vec<Leaf<K>>
 
 /// Where the leaves after each internal square start, plus the leaf count (see [`leaves_of`]).
 pub fn gap_offsets<K: MortonKey>(internal: &[Internal<K>]) -> Vec<usize> {
-    let n = internal.len();
-    collect_indexed(n + 1, |i| match internal.get(i) {
+    collect_indexed(internal.len() + 1, |i| leaves_at(internal, i))
+}
+
+/// Where the leaves after internal square `i` start; for `i` = the count, the leaf count.
+fn leaves_at<K: MortonKey>(internal: &[Internal<K>], i: usize) -> usize {
+    match internal.get(i) {
         Some(s) => leaves_before(i, s.cell),
-        None => 3 * n + 1,
-    })
+        None => 3 * internal.len() + 1,
+    }
 }
 
 /// The number of leaves before a square of a full quadtree in Morton order, given the number of

@@ -310,12 +310,7 @@ mod tests {
 
     #[test]
     fn strips_glue_into_a_delaunay_triangulation() {
-        for dist in [
-            Distribution2d::Uniform,
-            Distribution2d::Cluster,
-            Distribution2d::Kuzmin,
-            Distribution2d::Grid,
-        ] {
+        for dist in Distribution2d::ALL {
             let points = generated(dist, 6000, 5);
             // The bounding box puts points on every side, and some on its corners.
             let domain = bounding_box(&points);

@@ -6,12 +6,7 @@ use quadmesh::DVec2;
 use quadmesh::generate::Distribution2d;
 
 /// Every generated input family.
-pub const FAMILIES: [Distribution2d; 4] = [
-    Distribution2d::Uniform,
-    Distribution2d::Cluster,
-    Distribution2d::Kuzmin,
-    Distribution2d::Grid,
-];
+pub const FAMILIES: [Distribution2d; 4] = Distribution2d::ALL;
 
 /// Runs `f` on a rayon pool of `threads` threads.
 pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
