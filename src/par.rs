@@ -357,6 +357,16 @@ where
     (first, second)
 }
 
+/// The parts one after another, copied in parallel into fresh memory.
+pub fn concat<T: Copy + Send + Sync>(parts: &[Vec<T>]) -> Vec<T> {
+    let offsets = exclusive_scan_by(parts.len(), |i| parts[i].len());
+    collect_segments_by(&offsets, |i, out| {
+        for &value in &parts[i] {
+            out.push(value);
+        }
+    })
+}
+
 /// `f(0), f(1), ..., f(n - 1)` computed in parallel into fresh memory.
 pub fn collect_indexed<T, F>(n: usize, f: F) -> Vec<T>
 where
@@ -365,6 +375,48 @@ where
 {
     let offsets = chunk_offsets(n, GRAIN);
     collect_segments(&offsets, |c| (offsets[c]..offsets[c + 1]).map(&f))
+}
+
+/// A slice that parallel tasks write by index, for scatters whose targets are distinct by
+/// construction (each slot has exactly one writer).
+pub struct DisjointWrites<'a, T> {
+    ptr: *mut T,
+    len: usize,
+    _slice: std::marker::PhantomData<&'a mut [T]>,
+}
+
+// SAFETY: the writes go to distinct slots (the contract of `write`), so sharing the pointer
+// across threads is sharing `&mut` access to disjoint parts of the slice.
+#[allow(unsafe_code)]
+unsafe impl<T: Send> Sync for DisjointWrites<'_, T> {}
+#[allow(unsafe_code)]
+unsafe impl<T: Send> Send for DisjointWrites<'_, T> {}
+
+impl<'a, T> DisjointWrites<'a, T> {
+    /// Writes into `slice`, which stays borrowed while the writes last.
+    pub fn new(slice: &'a mut [T]) -> Self {
+        DisjointWrites {
+            ptr: slice.as_mut_ptr(),
+            len: slice.len(),
+            _slice: std::marker::PhantomData,
+        }
+    }
+
+    /// Writes `value` at `i`.
+    ///
+    /// # Safety
+    /// No other call, on any thread, writes slot `i` while these writes last.
+    ///
+    /// # Panics
+    /// If `i` is out of bounds.
+    #[inline]
+    #[allow(unsafe_code)]
+    pub unsafe fn write(&self, i: usize, value: T) {
+        assert!(i < self.len, "slot {i} of {}", self.len);
+        // SAFETY: in bounds (checked); no other writer of this slot (the caller's contract),
+        // and the slice is borrowed mutably for our lifetime, so nobody reads it meanwhile.
+        unsafe { *self.ptr.add(i) = value };
+    }
 }
 
 /// Arrays at least this large ask the kernel for transparent huge pages.

@@ -10,66 +10,106 @@
 use rayon::prelude::*;
 
 use crate::morton::{Cell, MortonKey, Side};
+use crate::par::{
+    GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat, exclusive_scan_by,
+};
 
 /// The smallest set of split squares that contains `split`, is closed under parents, and
 /// makes the quadtree balanced; in preorder.
 ///
 /// # Complexity
-/// O(k log k) work for k squares (a parallel sort per level), depth O(L log k) for L levels.
+/// O(k) work for k squares plus a radix sort of the few forced squares that are not parents
+/// already; depth O(L log k) for L levels.
 pub fn balance_closure<K: MortonKey>(split: &[Cell<K>]) -> Vec<Cell<K>> {
     let mut levels = by_level(split);
-    let mut added = vec![Vec::new(); levels.len()];
     for level in (1..levels.len()).rev() {
-        let forced = forced_above(&levels[level], level as u8);
-        let fresh = difference_sorted(&forced, &levels[level - 1]);
-        levels[level - 1] = merge_sorted(&levels[level - 1], &fresh);
-        added[level - 1] = fresh;
-    }
-    // Only the added squares need sorting into preorder; the input usually is in preorder.
-    let mut input = split.to_vec();
-    if !input
-        .windows(2)
-        .all(|w| preorder_key(w[0]) < preorder_key(w[1]))
-    {
-        input.par_sort_unstable_by_key(|c| preorder_key(*c));
-        input.dedup();
-    }
-    merge_preorder(&input, &preorder_of_levels(&added))
-}
-
-fn preorder_key<K: MortonKey>(c: Cell<K>) -> (K, u8) {
-    (c.anchor, c.level)
-}
-
-/// The preorder union of two disjoint lists of squares in preorder.
-fn merge_preorder<K: MortonKey>(a: &[Cell<K>], b: &[Cell<K>]) -> Vec<Cell<K>> {
-    let mut out = Vec::with_capacity(a.len() + b.len());
-    let (mut i, mut j) = (0, 0);
-    while i < a.len() && j < b.len() {
-        if preorder_key(a[i]) < preorder_key(b[j]) {
-            out.push(a[i]);
-            i += 1;
-        } else {
-            out.push(b[j]);
-            j += 1;
+        if !levels[level].is_empty() {
+            let forced = forced_above(&levels[level], level as u8);
+            levels[level - 1] = union_sorted(&levels[level - 1], &forced);
         }
     }
-    out.extend_from_slice(&a[i..]);
-    out.extend_from_slice(&b[j..]);
-    out
+    preorder_of_levels(&levels)
 }
 
-/// The squares of sorted per-level anchor lists, in preorder.
+/// Keys per range of the preorder walk: enough that the binary searches that start a range
+/// cost little beside it.
+const WALK_RANGE: usize = 1 << 15;
+
+/// The squares of sorted per-level anchor lists, closed under parents, in preorder: the
+/// preorder is the order of (anchor, level), so ranges of anchors are walked depth first in
+/// parallel, each into its own part of the output.
 pub(crate) fn preorder_of_levels<K: MortonKey>(levels: &[Vec<K>]) -> Vec<Cell<K>> {
-    let mut cells = Vec::with_capacity(levels.iter().map(Vec::len).sum());
-    for (level, anchors) in levels.iter().enumerate() {
-        cells.extend(anchors.iter().map(|&anchor| Cell {
-            anchor,
-            level: level as u8,
-        }));
+    let Some(widest) = levels.iter().max_by_key(|l| l.len()) else {
+        return Vec::new();
+    };
+    let mut bounds: Vec<Option<K>> = vec![None];
+    bounds.extend(widest.iter().step_by(WALK_RANGE).skip(1).map(|&a| Some(a)));
+    bounds.push(None);
+    let below = |bound: Option<K>, list: &[K]| {
+        bound.map_or(list.len(), |b| list.partition_point(|&a| a < b))
+    };
+    let range = |r: usize| (bounds[r].unwrap_or_default(), bounds[r + 1]);
+    let offsets = exclusive_scan_by(bounds.len() - 1, |r| {
+        let (from, to) = range(r);
+        levels
+            .iter()
+            .map(|list| below(to, list) - below(Some(from), list))
+            .sum()
+    });
+    collect_segments_by(&offsets, |r, out| {
+        let (from, to) = range(r);
+        let mut walk = RangeWalk {
+            levels,
+            next: levels.iter().map(|list| below(Some(from), list)).collect(),
+            from,
+            to,
+            out,
+        };
+        if levels[0].first() == Some(&K::default()) {
+            walk.visit(Cell::root());
+        }
+    })
+}
+
+/// A depth-first walk of the squares whose anchors lie in `from..to` (`to` = `None`: to the
+/// end), with the next unread entry of each level at or after `from`.
+struct RangeWalk<'a, 'w, K: Copy> {
+    levels: &'a [Vec<K>],
+    next: Vec<usize>,
+    from: K,
+    to: Option<K>,
+    out: &'a mut SegmentWriter<'w, Cell<K>>,
+}
+
+impl<K: MortonKey> RangeWalk<'_, '_, K> {
+    /// Visits a square of the set that is in the range or holds its start.
+    fn visit(&mut self, cell: Cell<K>) {
+        if { cell.anchor } >= self.from {
+            self.out.push(cell);
+        }
+        let level = cell.level as usize + 1;
+        let Some(list) = self.levels.get(level) else {
+            return;
+        };
+        for quadrant in 0..4 {
+            let child = cell.child(quadrant);
+            let anchor = child.anchor;
+            if self.to.is_some_and(|to| anchor >= to) {
+                return;
+            }
+            let present = if anchor >= self.from {
+                let hit = list.get(self.next[level]) == Some(&anchor);
+                self.next[level] += usize::from(hit);
+                hit
+            } else {
+                // Before the range: only the square that holds its start is walked.
+                child.contains(self.from) && list.binary_search(&anchor).is_ok()
+            };
+            if present {
+                self.visit(child);
+            }
+        }
     }
-    cells.par_sort_unstable_by_key(|c| preorder_key(*c));
-    cells
 }
 
 /// Sorted, distinct anchors of the squares at each level `0..=AXIS_BITS`.
@@ -88,54 +128,80 @@ pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
     levels
 }
 
-/// The squares at `level - 1` that the split squares at `level` (sorted anchors) force, sorted
-/// and distinct. Siblings are adjacent in the sorted list, so each family is handled once.
+/// How far along the parents a neighbour is looked for before it is left to the sort.
+const NEAR_PARENTS: usize = 4;
+
+/// The squares at `level - 1` that the split squares at `level` (sorted, distinct anchors)
+/// force, sorted and distinct. Siblings are adjacent in the sorted list, so each family is
+/// handled once. The parents come out sorted; a parent's neighbour is mostly a parent too,
+/// found a few places along, so only the rest is radix sorted.
 pub(crate) fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
-    let starts: Vec<usize> = (0..anchors.len())
+    let family_of = |i: usize| anchors[i].cell_anchor(level - 1);
+    // Chunks of whole families: each bound moves on to the next family's start.
+    let mut bounds: Vec<usize> = chunk_offsets(anchors.len(), GRAIN);
+    for b in &mut bounds[1..] {
+        while *b < anchors.len() && *b > 0 && family_of(*b) == family_of(*b - 1) {
+            *b += 1;
+        }
+    }
+    let parts: Vec<(Vec<K>, Vec<K>)> = (0..bounds.len() - 1)
         .into_par_iter()
-        .filter(|&i| {
-            i == 0 || anchors[i - 1].cell_anchor(level - 1) != anchors[i].cell_anchor(level - 1)
-        })
+        .map(|c| forced_by_families(&anchors[bounds[c]..bounds[c + 1]], level))
         .collect();
-    let mut forced: Vec<K> = (0..starts.len())
-        .into_par_iter()
-        .flat_map_iter(|f| {
-            let end = starts.get(f + 1).copied().unwrap_or(anchors.len());
-            let family = anchors[starts[f]..end]
-                .iter()
-                .map(|&anchor| Cell { anchor, level });
-            forced_by_family(family)
-                .into_iter()
-                .flatten()
-                .map(|c| c.anchor)
-        })
-        .collect();
-    forced.par_sort_unstable();
-    forced.dedup();
-    forced
+    let parents = concat(&parts.iter().map(|p| p.0.clone()).collect::<Vec<_>>());
+    let mut others = concat(&parts.into_iter().map(|p| p.1).collect::<Vec<_>>());
+    K::sort_keys(&mut others);
+    others.dedup();
+    union_sorted(&parents, &others)
 }
 
-/// What split siblings force together: their parent, and the parent's neighbours across the
-/// sides of the parent that they touch.
-fn forced_by_family<K: MortonKey>(family: impl Iterator<Item = Cell<K>>) -> [Option<Cell<K>>; 5] {
-    let mut touched = [false; 4];
-    let mut parent = None;
-    for cell in family {
-        parent = Some(cell.parent());
-        for side in touched_sides(cell) {
-            touched[side as usize] = true;
+/// For sorted squares at `level` in whole families: their parents (sorted, distinct), and the
+/// neighbours the families force that were not found among the parents nearby.
+fn forced_by_families<K: MortonKey>(anchors: &[K], level: u8) -> (Vec<K>, Vec<K>) {
+    let mut parents: Vec<K> = Vec::with_capacity(anchors.len() / 2 + 1);
+    let mut touched: Vec<u8> = Vec::with_capacity(anchors.len() / 2 + 1);
+    for &anchor in anchors {
+        let cell = Cell { anchor, level };
+        let parent = anchor.cell_anchor(level - 1);
+        let sides = touched_sides(cell)
+            .into_iter()
+            .fold(0u8, |m, side| m | 1 << side as u8);
+        if parents.last() == Some(&parent) {
+            *touched.last_mut().expect("one per parent") |= sides;
+        } else {
+            parents.push(parent);
+            touched.push(sides);
         }
     }
-    let Some(parent) = parent else {
-        return [None; 5];
+    let mut others = Vec::new();
+    for (f, (&anchor, &sides)) in parents.iter().zip(&touched).enumerate() {
+        let parent = Cell {
+            anchor,
+            level: level - 1,
+        };
+        for side in Side::ALL {
+            if sides & 1 << side as u8 == 0 {
+                continue;
+            }
+            let Some(beside) = parent.neighbour(side) else {
+                continue;
+            };
+            if !among_near(&parents, f, beside.anchor) {
+                others.push(beside.anchor);
+            }
+        }
+    }
+    (parents, others)
+}
+
+/// Whether `anchor` is within [`NEAR_PARENTS`] places of `parents[f]` (either way).
+fn among_near<K: MortonKey>(parents: &[K], f: usize, anchor: K) -> bool {
+    let near = if anchor > parents[f] {
+        &parents[f + 1..(f + 1 + NEAR_PARENTS).min(parents.len())]
+    } else {
+        &parents[f.saturating_sub(NEAR_PARENTS)..f]
     };
-    let mut out = [Some(parent), None, None, None, None];
-    for side in Side::ALL {
-        if touched[side as usize] {
-            out[1 + side as usize] = parent.neighbour(side);
-        }
-    }
-    out
+    near.contains(&anchor)
 }
 
 /// The two sides of its parent that a square touches.
@@ -158,8 +224,28 @@ pub fn forced_by<K: MortonKey>(cell: Cell<K>) -> [Option<Cell<K>>; 3] {
     ]
 }
 
+/// The sorted union of two sorted, distinct lists, merged in parallel: the longer one is cut
+/// into chunks and each takes the shorter one's keys below its end.
+pub(crate) fn union_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
+    let (long, short) = if a.len() >= b.len() { (a, b) } else { (b, a) };
+    let bounds = chunk_offsets(long.len(), GRAIN);
+    let in_short = |i: usize| match i {
+        0 => 0,
+        i if i == long.len() => short.len(),
+        i => short.partition_point(|&x| x < long[i]),
+    };
+    let parts: Vec<Vec<K>> = (0..bounds.len() - 1)
+        .into_par_iter()
+        .map(|c| {
+            let (from, to) = (bounds[c], bounds[c + 1]);
+            merge_distinct(&long[from..to], &short[in_short(from)..in_short(to)])
+        })
+        .collect();
+    concat(&parts)
+}
+
 /// The sorted union of two sorted, distinct lists.
-pub(crate) fn merge_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
+fn merge_distinct<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
     let mut out = Vec::with_capacity(a.len() + b.len());
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
@@ -173,38 +259,44 @@ pub(crate) fn merge_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
     out
 }
 
-/// The elements of sorted `a` that are not in sorted `b`.
-pub(crate) fn difference_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
-    let mut j = 0;
-    a.iter()
-        .copied()
-        .filter(|x| {
-            j += b[j..].partition_point(|y| y < x);
-            b.get(j) != Some(x)
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
-    fn difference_removes_the_common_ones() {
+    fn union_keeps_one_of_each() {
         assert_eq!(
-            difference_sorted::<u64>(&[1, 2, 3, 7], &[2, 7, 9]),
-            vec![1, 3]
+            union_sorted::<u64>(&[1, 3, 5], &[2, 3, 6]),
+            vec![1, 2, 3, 5, 6]
         );
-        assert_eq!(difference_sorted::<u64>(&[1], &[]), vec![1]);
+        assert_eq!(union_sorted::<u64>(&[], &[2]), vec![2]);
+        assert_eq!(union_sorted::<u64>(&[], &[]), Vec::<u64>::new());
+        // Many chunks of the longer list, with the shorter one's keys before, between and after.
+        let long: Vec<u64> = (0..50_000).map(|i| 3 * i + 10).collect();
+        let short: Vec<u64> = (0..20_000).map(|i| 7 * i).collect();
+        let mut expected: Vec<u64> = long.iter().chain(&short).copied().collect();
+        expected.sort_unstable();
+        expected.dedup();
+        assert_eq!(union_sorted(&long, &short), expected);
+        assert_eq!(union_sorted(&short, &long), expected);
     }
 
     #[test]
-    fn merge_keeps_one_of_each() {
-        assert_eq!(
-            merge_sorted::<u64>(&[1, 3, 5], &[2, 3, 6]),
-            vec![1, 2, 3, 5, 6]
-        );
-        assert_eq!(merge_sorted::<u64>(&[], &[2]), vec![2]);
+    fn the_walk_gives_the_preorder_across_many_ranges() {
+        // Random squares at levels 9 to 14 and all their ancestors: the finest level alone spans
+        // several walk ranges.
+        let mut cells: Vec<Cell<u64>> = (0..120_000u64)
+            .flat_map(|i| {
+                let key = i.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(17);
+                let level = 9 + (i % 6) as u8;
+                (0..=level).map(move |l| Cell::containing(key, l))
+            })
+            .collect();
+        cells.sort_unstable_by_key(|c| (c.anchor, c.level));
+        cells.dedup();
+        let levels = by_level(&cells);
+        assert!(levels.iter().map(Vec::len).max().unwrap() > 2 * WALK_RANGE);
+        assert_eq!(preorder_of_levels(&levels), cells);
     }
 
     #[test]

@@ -1,16 +1,17 @@
 //! Cross links between leaves that share a side, and the leaf of every point.
 //!
-//! A leaf's neighbour across a side is found as in a pointer quadtree: climb while the path to
-//! the leaf runs along that side, step to the sibling across it, and descend mirrored. The climb
-//! is O(1) levels on average (each level is on the side with probability 1/2).
+//! The same-size square across each side of a child follows from its parent's: a sibling, or a
+//! child of the parent's neighbour (or that neighbour itself, if it is a leaf). Squares in
+//! preorder are walked in chunks, each keeping these neighbours along its path from the root,
+//! so every square and leaf costs O(1) look-ups and no climbing.
 
 use rayon::prelude::*;
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
-use crate::par::{collect_indexed, collect_segments};
-use crate::quadtree::index::{LEAF, TreeIndex, quadrant_at};
-use crate::quadtree::{Quadtree, gap_offsets};
+use crate::par::{GRAIN, chunk_offsets, collect_segments_by, prefetch};
+use crate::quadtree::index::{LEAF, children, path_to};
+use crate::quadtree::{Quadtree, leaves_at};
 
 /// A leaf's neighbours across its four sides (in [`Side::ALL`] order), two slots per side: one
 /// leaf of the same or twice the size and [`NONE`], or the two half-size leaves in increasing
@@ -20,105 +21,125 @@ pub type Links = [u32; 8];
 /// The cross links of every leaf of a balanced tree.
 ///
 /// # Complexity
-/// O(k) expected work, O(k · depth) at worst; leaves in parallel.
+/// O(k) work for k leaves, in parallel over chunks of squares.
 pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
-    if tree.internal.is_empty() {
+    let internal = &tree.internal;
+    if internal.is_empty() {
         return vec![[NONE; 8]; tree.leaves.len()];
     }
-    let index = &TreeIndex::new(tree);
-    // The same-size neighbours of internal squares, by climbing; a leaf's then take O(1).
-    let beside = &collect_indexed(tree.internal.len(), |i| {
-        let cell = tree.internal[i].cell;
-        Side::ALL.map(|side| match index.parent[i] {
-            NONE => NONE,
-            parent => same_size(index, cell, parent, side),
-        })
-    });
-    let offsets = gap_offsets(&tree.internal);
-    collect_segments(&offsets, |i| {
-        // Leaves after internal square `i` are children of `i` or of its ancestors, in turn.
-        let mut parent = i as u32;
-        tree.leaves[offsets[i]..offsets[i + 1]]
-            .iter()
-            .map(move |leaf| {
-                while tree.internal[parent as usize].cell.level + 1 > leaf.cell.level {
-                    parent = index.parent[parent as usize];
-                }
-                let q = leaf.cell.quadrant();
-                let mut links = [NONE; 8];
-                for side in Side::ALL {
-                    let entry = if on_side(q, side) {
-                        match beside[parent as usize][side as usize] {
-                            e if e == NONE || e & LEAF != 0 => e,
-                            e => index.children[e as usize][mirror(q, side) as usize],
-                        }
-                    } else {
-                        index.children[parent as usize][mirror(q, side) as usize]
-                    };
-                    let pair = leaves_facing(index, entry, side);
-                    links[2 * side as usize..2 * side as usize + 2].copy_from_slice(&pair);
-                }
-                links
-            })
+    let children = &children(tree);
+    let chunks = chunk_offsets(internal.len(), GRAIN);
+    let offsets: Vec<usize> = chunks.iter().map(|&i| leaves_at(internal, i)).collect();
+    collect_segments_by(&offsets, |c, out| {
+        let mut path = NeighbourPath::to(tree, children, chunks[c]);
+        let mut first_leaf = offsets[c];
+        for i in chunks[c]..chunks[c + 1] {
+            path.enter(i as u32, internal[i].cell);
+            let end = leaves_at(internal, i + 1);
+            for leaf in &tree.leaves[first_leaf..end] {
+                out.push(path.leaf_links(leaf.cell));
+            }
+            first_leaf = end;
+        }
     })
 }
 
-/// The entry of the same-size square across `side` of `cell` (whose parent is internal square
-/// `parent`): an internal index, a leaf index tagged [`LEAF`] for a leaf that covers it (of the
-/// same or a larger size), or [`NONE`] outside the root. Climb while the path runs along the
-/// side, step across, descend mirrored.
-fn same_size<K: MortonKey>(index: &TreeIndex, cell: Cell<K>, parent: u32, side: Side) -> u32 {
-    let mut level = cell.level;
-    let mut node = parent as usize;
-    while on_side(quadrant_at(cell, level), side) {
-        if level == 1 {
-            return NONE;
+/// The internal squares on the path from the root to the current one, by level, each with the
+/// entries of the same-size squares across its sides: an internal index, a leaf index tagged
+/// [`LEAF`] for a leaf that covers that square (of the same or a larger size), or [`NONE`]
+/// outside the root.
+struct NeighbourPath<'a> {
+    children: &'a [[u32; 4]],
+    squares: Vec<u32>,
+    beside: Vec<[u32; 4]>,
+}
+
+impl<'a> NeighbourPath<'a> {
+    /// The path down to the parent of internal square `i`.
+    fn to<K: MortonKey>(tree: &Quadtree<K>, children: &'a [[u32; 4]], i: usize) -> Self {
+        let squares = path_to(tree, i);
+        let mut path = NeighbourPath {
+            children,
+            beside: vec![[NONE; 4]; squares.len()],
+            squares,
+        };
+        let cell = tree.internal[i].cell;
+        for level in 1..cell.level {
+            let ancestor = Cell::containing(cell.anchor, level);
+            path.beside[level as usize] = path.child_beside(level, ancestor.quadrant());
         }
-        node = index.parent[node] as usize;
-        level -= 1;
+        path
     }
-    let mut entry = index.children[node][mirror(quadrant_at(cell, level), side) as usize];
-    for deeper in level + 1..=cell.level {
-        if entry & LEAF != 0 {
-            return entry;
+
+    /// Makes internal square `index`, `cell`, the path's square at its level.
+    fn enter<K: MortonKey>(&mut self, index: u32, cell: Cell<K>) {
+        let level = cell.level as usize;
+        self.squares[level] = index;
+        self.beside[level] = match level {
+            0 => [NONE; 4],
+            _ => self.child_beside(cell.level, cell.quadrant()),
+        };
+        // The children of split neighbours are read next, for this square's children.
+        for e in self.beside[level] {
+            if e & LEAF == 0 {
+                prefetch(&self.children[e as usize]);
+            }
         }
-        entry = index.children[entry as usize][mirror(quadrant_at(cell, deeper), side) as usize];
     }
-    entry
+
+    /// The neighbour entries of the child in quadrant `q` (`2 * xbit + ybit`) of the path's
+    /// square at `level - 1`: a sibling across the sides inside the parent; across the parent's
+    /// own sides, the parent's neighbour if that is a leaf (or [`NONE`]), else its child.
+    fn child_beside(&self, level: u8, q: u32) -> [u32; 4] {
+        let parent = level as usize - 1;
+        let siblings = self.children[self.squares[parent] as usize];
+        let beside = self.beside[parent];
+        let across = |e: u32, quadrant: u32| {
+            if e == NONE || e & LEAF != 0 {
+                e
+            } else {
+                self.children[e as usize][quadrant as usize]
+            }
+        };
+        let (x_mirror, y_mirror) = (q ^ 2, q ^ 1);
+        let (west, east) = if q & 2 == 0 {
+            (across(beside[0], x_mirror), siblings[x_mirror as usize])
+        } else {
+            (siblings[x_mirror as usize], across(beside[1], x_mirror))
+        };
+        let (south, north) = if q & 1 == 0 {
+            (across(beside[2], y_mirror), siblings[y_mirror as usize])
+        } else {
+            (siblings[y_mirror as usize], across(beside[3], y_mirror))
+        };
+        [west, east, south, north]
+    }
+
+    /// The links of a leaf whose parent is on the path.
+    fn leaf_links<K: MortonKey>(&self, cell: Cell<K>) -> Links {
+        let [west, east, south, north] = self.child_beside(cell.level, cell.quadrant());
+        let [w0, w1] = leaves_facing(self.children, west, Side::West);
+        let [e0, e1] = leaves_facing(self.children, east, Side::East);
+        let [s0, s1] = leaves_facing(self.children, south, Side::South);
+        let [n0, n1] = leaves_facing(self.children, north, Side::North);
+        [w0, w1, e0, e1, s0, s1, n0, n1]
+    }
 }
 
 /// The leaves across `side` given the entry of the same-size square there: that leaf, or, if
 /// the square is split, its two children facing us (leaves, by balance).
-fn leaves_facing(index: &TreeIndex, entry: u32, side: Side) -> [u32; 2] {
+#[inline]
+fn leaves_facing(children: &[[u32; 4]], entry: u32, side: Side) -> [u32; 2] {
     if entry == NONE {
         return [NONE; 2];
     }
     if entry & LEAF != 0 {
         return [entry & !LEAF, NONE];
     }
-    let facing = side.opposite().children_touching();
-    facing.map(|q| match index.children[entry as usize][q as usize] {
-        e if e & LEAF != 0 => e & !LEAF,
-        _ => NONE,
-    })
-}
-
-/// Whether a child in quadrant `q` touches its parent's `side`.
-fn on_side(q: u32, side: Side) -> bool {
-    match side {
-        Side::West => q & 2 == 0,
-        Side::East => q & 2 != 0,
-        Side::South => q & 1 == 0,
-        Side::North => q & 1 != 0,
-    }
-}
-
-/// The quadrant across `side` from quadrant `q`, within the same parent or the next one.
-fn mirror(q: u32, side: Side) -> u32 {
-    match side {
-        Side::West | Side::East => q ^ 2,
-        Side::South | Side::North => q ^ 1,
-    }
+    let [a, b] = side.opposite().children_touching();
+    let split = children[entry as usize];
+    let leaf = |e: u32| if e & LEAF != 0 { e & !LEAF } else { NONE };
+    [leaf(split[a as usize]), leaf(split[b as usize])]
 }
 
 /// The leaf of each point, by Morton position: points and leaves are both in Morton order.

@@ -59,6 +59,8 @@ pub enum SortAlgorithm {
 pub trait SortPairs: Sized {
     /// Sorts pairs by key, then by index.
     fn sort_pairs(pairs: &mut [Pair<Self>], algorithm: SortAlgorithm);
+    /// Sorts plain keys (radix sort, multithreaded when large).
+    fn sort_keys(keys: &mut [Self]);
 }
 
 macro_rules! impl_sort_pairs {
@@ -72,6 +74,10 @@ macro_rules! impl_sort_pairs {
                 }
                 order_equal_keys_by_index(pairs);
             }
+
+            fn sort_keys(keys: &mut [$k]) {
+                voracious(keys);
+            }
         }
     };
 }
@@ -81,16 +87,16 @@ impl_sort_pairs!(u128);
 /// Below this, the multithreaded radix sort's set-up costs more than it saves.
 const PARALLEL_SORT_CUTOFF: usize = 1 << 16;
 
-fn voracious<K>(pairs: &mut [Pair<K>])
+fn voracious<T, K>(items: &mut [T])
 where
-    Pair<K>: Radixable<K>,
+    T: Radixable<K>,
     K: voracious_radix_sort::RadixKey,
 {
     let threads = rayon::current_num_threads();
-    if threads > 1 && pairs.len() >= PARALLEL_SORT_CUTOFF {
-        pairs.voracious_mt_sort(threads);
+    if threads > 1 && items.len() >= PARALLEL_SORT_CUTOFF {
+        items.voracious_mt_sort(threads);
     } else {
-        pairs.voracious_sort();
+        items.voracious_sort();
     }
 }
 

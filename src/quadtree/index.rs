@@ -1,68 +1,77 @@
-//! Navigation in a quadtree stored as flat arrays: the parent of every internal square and the
-//! four children of each, found by gathers in parallel (no scatter, no search).
+//! Navigation in a quadtree stored as flat arrays: the four children of every internal square,
+//! and the path from the root down to any internal square.
 
-use crate::framework::{NONE, nearest_at_most_right, nearest_smaller_left};
+use rayon::prelude::*;
+
 use crate::morton::{Cell, MortonKey};
-use crate::par::collect_indexed;
+use crate::par::{DisjointWrites, GRAIN, chunk_offsets};
 
-use super::{Quadtree, leaves_before};
+use super::{Quadtree, leaves_at};
 
 /// Tag of a child entry that is a leaf index rather than an internal-square index.
 pub const LEAF: u32 = 1 << 31;
 
-/// Parents and children of the internal squares of a tree.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct TreeIndex {
-    /// Parent (internal index) of each internal square; [`NONE`] for the root.
-    pub parent: Vec<u32>,
-    /// Children of each internal square by quadrant: an internal index, or a leaf index tagged
-    /// with [`LEAF`].
-    pub children: Vec<[u32; 4]>,
-}
-
-impl TreeIndex {
-    /// The index of a tree with at least one internal square and fewer than 2^31 leaves.
-    ///
-    /// In preorder, an internal square's parent is the nearest earlier square of a smaller level,
-    /// and its next sibling the nearest later square of no greater level. A leaf child's index
-    /// follows from the number of internal squares before it ([`leaves_before`]).
-    ///
-    /// # Panics
-    /// If the tree has 2^31 leaves or more.
-    pub fn new<K: MortonKey>(tree: &Quadtree<K>) -> Self {
-        assert!(
-            tree.leaves.len() < LEAF as usize,
-            "too many leaves to index"
-        );
-        let levels: Vec<u8> = collect_indexed(tree.internal.len(), |i| tree.internal[i].cell.level);
-        let parent = nearest_smaller_left(&levels);
-        let after = nearest_at_most_right(&levels);
-        let children = collect_indexed(tree.internal.len(), |i| children_of(tree, &after, i));
-        TreeIndex { parent, children }
-    }
-}
-
-/// The children of internal square `i`: consecutive internal children are linked by `after`.
-fn children_of<K: MortonKey>(tree: &Quadtree<K>, after: &[u32], i: usize) -> [u32; 4] {
+/// The children of each internal square by quadrant: an internal index, or a leaf index tagged
+/// with [`LEAF`]. Needs at least one internal square and fewer than 2^31 leaves.
+///
+/// In preorder, the parent of an internal square, or of a leaf after it, is the square one
+/// level up on the current path from the root; each chunk of squares keeps that path and writes
+/// every child into its parent's slot. Each slot has one child, so the writes never meet.
+///
+/// # Panics
+/// If the tree has 2^31 leaves or more.
+pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
+    assert!(
+        tree.leaves.len() < LEAF as usize,
+        "too many leaves to index"
+    );
     let internal = &tree.internal;
-    let mut next = i + 1;
-    let cell = internal[i].cell;
-    [0, 1, 2, 3].map(|q| {
-        let child = cell.child(q);
-        if internal.get(next).is_some_and(|s| { s.cell } == child) {
-            let here = next as u32;
-            next = match after[next] {
-                NONE => internal.len(),
-                a => a as usize,
-            };
-            here
-        } else {
-            LEAF | leaves_before(next, child) as u32
+    let mut children = vec![[0u32; 4]; internal.len()];
+    let slots = DisjointWrites::new(children.as_flattened_mut());
+    let slot = |parent: u32, child: Cell<K>| 4 * parent as usize + child.quadrant() as usize;
+    let chunks = chunk_offsets(internal.len(), GRAIN);
+    (0..chunks.len() - 1).into_par_iter().for_each(|c| {
+        let mut path = path_to(tree, chunks[c]);
+        let mut first_leaf = leaves_at(internal, chunks[c]);
+        for i in chunks[c]..chunks[c + 1] {
+            let cell = internal[i].cell;
+            if cell.level > 0 {
+                let parent = path[cell.level as usize - 1];
+                // SAFETY: a square has one parent, so its slot has one writer.
+                #[allow(unsafe_code)]
+                unsafe {
+                    slots.write(slot(parent, cell), i as u32)
+                };
+            }
+            path[cell.level as usize] = i as u32;
+            let end = leaves_at(internal, i + 1);
+            for j in first_leaf..end {
+                let leaf = tree.leaves[j].cell;
+                let parent = path[leaf.level as usize - 1];
+                // SAFETY: as above, for a leaf.
+                #[allow(unsafe_code)]
+                unsafe {
+                    slots.write(slot(parent, leaf), LEAF | j as u32)
+                };
+            }
+            first_leaf = end;
         }
-    })
+    });
+    children
 }
 
-/// The quadrant of the ancestor of `cell` at `level` within its parent (`level >= 1`).
-pub fn quadrant_at<K: MortonKey>(cell: Cell<K>, level: u8) -> u32 {
-    Cell::containing(cell.anchor, level).quadrant()
+/// The internal squares from the root down to the parent of internal square `i`, by level, with
+/// room below for a path down to the finest level.
+pub fn path_to<K: MortonKey>(tree: &Quadtree<K>, i: usize) -> Vec<u32> {
+    let internal = &tree.internal;
+    let cell = internal[i].cell;
+    let mut path = vec![0u32; K::AXIS_BITS as usize + 1];
+    for level in 0..cell.level {
+        let ancestor = Cell::containing(cell.anchor, level);
+        // Preorder is the order of (corner, level).
+        path[level as usize] = internal[..i]
+            .partition_point(|s| ({ s.cell.anchor }, s.cell.level) < ({ ancestor.anchor }, level))
+            as u32;
+    }
+    path
 }

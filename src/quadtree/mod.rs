@@ -150,7 +150,7 @@ pub fn gap_offsets<K: MortonKey>(internal: &[Internal<K>]) -> Vec<usize> {
 }
 
 /// Where the leaves after internal square `i` start; for `i` = the count, the leaf count.
-fn leaves_at<K: MortonKey>(internal: &[Internal<K>], i: usize) -> usize {
+pub(crate) fn leaves_at<K: MortonKey>(internal: &[Internal<K>], i: usize) -> usize {
     match internal.get(i) {
         Some(s) => leaves_before(i, s.cell),
         None => 3 * internal.len() + 1,
