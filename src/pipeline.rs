@@ -202,7 +202,7 @@ pub fn separated_tree(
 /// relative to the extent for either grid or for f64, [`Error::TooLarge`] past 32-bit indices.
 pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport), Error> {
     let (tree, mut times) = separated_tree(points, options)?;
-    let (mesh, quality, duplicates) = match &tree {
+    let (mesh, quality, duplicates) = match tree {
         Tree::Narrow(build) => warp_build(build, points, &mut times)?,
         Tree::Wide(build) => warp_build(build, points, &mut times)?,
     };
@@ -239,13 +239,19 @@ pub(crate) fn report_of(
 type Warped = (Mesh, AngleQuality, usize);
 
 fn warp_build<K: MortonKey>(
-    build: &TreeBuild<K>,
+    build: TreeBuild<K>,
     points: &[DVec2],
     times: &mut StageTimes,
 ) -> Result<Warped, Error> {
-    let tree = build.balanced.as_ref().expect("a separated tree");
-    let morton = &build.morton;
-    let (mesh, quality) = warp(tree, &morton.order, &morton.grid, points, times)?;
+    // The framework and the unbalanced tree go here; the warp reads the separated tree's leaves,
+    // links and point location only, so its internal squares go too, before the mesh's arrays
+    // are made.
+    let TreeBuild {
+        morton, balanced, ..
+    } = build;
+    let mut tree = balanced.expect("a separated tree");
+    tree.tree.internal = Vec::new();
+    let (mesh, quality) = warp(&tree, &morton.order, &morton.grid, points, times)?;
     Ok((mesh, quality, morton.duplicates.count))
 }
 

@@ -18,7 +18,7 @@ use crate::balance::BalancedTree;
 use crate::error::Error;
 use crate::mesh::{AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, angles_deg};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
-use crate::par::{collect_segments, exclusive_scan_by};
+use crate::par::{GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, exclusive_scan_by};
 use crate::pipeline::StageTimes;
 use templates::{Across, Kind, Part, RingSide, template};
 use vertices::{LeafGeometry, Numbering};
@@ -72,29 +72,25 @@ pub fn warp<K: MortonKey>(
         Ok::<_, Error>((kinds, moved_leaves, offsets))
     })?;
     let triangles = times.time("warp triangles", || {
-        collect_segments(&offsets, |leaf| {
+        collect_per_leaf(&offsets, |leaf, out| {
             let labels = labels(leaf);
-            template_of(kinds[leaf])
-                .triangles
-                .iter()
-                .map(move |t| t.map(|label| labels[label as usize]))
+            for t in &template_of(kinds[leaf]).triangles {
+                out.push(t.map(|label| labels[label as usize]));
+            }
         })
     });
     // The numbering is only needed for labels; free it before the neighbours take their place.
     drop(numbering);
     let neighbours = times.time("warp neighbours", || {
-        collect_segments(&offsets, |leaf| {
-            let across = &template_of(kinds[leaf]).across;
-            let geometry = &geometry;
-            let (kinds, offsets) = (&kinds, &offsets);
-            across.iter().map(move |row| {
-                row.map(|a| match a {
-                    Across::Inside { triangle, .. } => (offsets[leaf] + triangle as usize) as u32,
+        collect_per_leaf(&offsets, |leaf, out| {
+            for row in &template_of(kinds[leaf]).across {
+                out.push(row.map(|a| match a {
+                    Across::Inside { triangle, .. } => offsets[leaf] + triangle as u32,
                     Across::Boundary { side, part } => {
-                        facing_triangle(geometry, kinds, offsets, leaf, side, part)
+                        facing_triangle(&geometry, &kinds, &offsets, leaf, side, part)
                     }
-                })
-            })
+                }));
+            }
         })
     });
     let (boundary, quality) = times.time("warp boundary", || {
@@ -122,17 +118,48 @@ fn template_of(kind: u8) -> &'static templates::Template {
     template(kind & !MOVED)
 }
 
-/// Where each leaf's triangles start, with the total appended.
-fn triangle_offsets(kinds: &[u8]) -> Result<Vec<usize>, Error> {
-    let offsets = exclusive_scan_by(kinds.len(), |leaf| template_of(kinds[leaf]).triangles.len());
-    let total = offsets[offsets.len() - 1];
+/// Where each leaf's triangles start, with the total appended; 32-bit, as triangle indices are.
+fn triangle_offsets(kinds: &[u8]) -> Result<Vec<u32>, Error> {
+    let n = kinds.len();
+    let size = |leaf: usize| match kinds.get(leaf) {
+        Some(&k) => template_of(k).triangles.len(),
+        None => 0,
+    };
+    // One more position than leaves, for the total.
+    let chunks = chunk_offsets(n + 1, GRAIN);
+    let chunk_starts = exclusive_scan_by(chunks.len() - 1, |c| {
+        (chunks[c]..chunks[c + 1]).map(size).sum()
+    });
+    let total = chunk_starts[chunk_starts.len() - 1];
     if total >= NONE as usize {
         return Err(Error::TooLarge {
             what: "triangles",
             count: total,
         });
     }
-    Ok(offsets)
+    Ok(collect_segments_by(&chunks, |c, out| {
+        let mut at = chunk_starts[c] as u32;
+        for leaf in chunks[c]..chunks[c + 1] {
+            out.push(at);
+            at += size(leaf) as u32;
+        }
+    }))
+}
+
+/// The values of every leaf in turn, `fill(leaf, writer)` writing exactly the leaf's share as
+/// `offsets` gives it (the start of each leaf's values, the total appended).
+fn collect_per_leaf<T, F>(offsets: &[u32], fill: F) -> Vec<T>
+where
+    T: Send,
+    F: Fn(usize, &mut SegmentWriter<T>) + Sync,
+{
+    let chunks = chunk_offsets(offsets.len() - 1, GRAIN);
+    let starts: Vec<usize> = chunks.iter().map(|&leaf| offsets[leaf] as usize).collect();
+    collect_segments_by(&starts, |c, out| {
+        for leaf in chunks[c]..chunks[c + 1] {
+            fill(leaf, out);
+        }
+    })
 }
 
 /// The Morton position of a point whose leaf is finer than the grid resolves the points, if
@@ -149,7 +176,7 @@ pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>) -> Option<usi
 fn angle_quality(
     kinds: &[u8],
     moved_leaves: &[u32],
-    offsets: &[usize],
+    offsets: &[u32],
     triangles: &[[u32; 3]],
     vertices: &[DVec2],
 ) -> AngleQuality {
@@ -181,7 +208,8 @@ fn angle_quality(
     moved_leaves
         .par_iter()
         .fold(AngleQuality::empty, |mut q, &leaf| {
-            for t in &triangles[offsets[leaf as usize]..offsets[leaf as usize + 1]] {
+            let leaf = leaf as usize;
+            for t in &triangles[offsets[leaf] as usize..offsets[leaf + 1] as usize] {
                 let [a, b, c] = t.map(|v| vertices[v as usize]);
                 for angle in angles_deg(a, b, c) {
                     q.add(angle, 1);
@@ -409,7 +437,7 @@ fn link_side(side: RingSide) -> Side {
 fn facing_triangle<K: MortonKey>(
     geometry: &LeafGeometry<K>,
     kinds: &[u8],
-    offsets: &[usize],
+    offsets: &[u32],
     leaf: usize,
     side: RingSide,
     part: Part,
@@ -431,7 +459,7 @@ fn facing_triangle<K: MortonKey>(
     };
     let (triangle, _) =
         template_of(kinds[other]).facing[side.opposite() as usize][other_part as usize];
-    (offsets[other] + triangle as usize) as u32
+    offsets[other] + triangle as u32
 }
 
 /// The triangle edges on the root's sides, counter-clockwise, leaf by leaf in Morton order.
@@ -439,7 +467,7 @@ fn boundary_edges<K: MortonKey>(
     geometry: &LeafGeometry<K>,
     kinds: &[u8],
     triangles: &[[u32; 3]],
-    offsets: &[usize],
+    offsets: &[u32],
 ) -> Vec<BoundaryEdge> {
     (0..geometry.leaves())
         .into_par_iter()
@@ -450,7 +478,7 @@ fn boundary_edges<K: MortonKey>(
                 .map(move |side| {
                     let (t, corner) =
                         template_of(kinds[leaf]).facing[side as usize][Part::Full as usize];
-                    let tri = triangles[offsets[leaf] + t as usize];
+                    let tri = triangles[offsets[leaf] as usize + t as usize];
                     let c = corner as usize;
                     BoundaryEdge {
                         vertices: [tri[(c + 1) % 3], tri[(c + 2) % 3]],
