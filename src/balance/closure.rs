@@ -7,11 +7,14 @@
 //! only to coarser levels, so one sweep from the finest level up reaches the least fixed point:
 //! the unique smallest balanced tree containing the input, the one the sequential ripple gives.
 
+use std::borrow::Cow;
+
 use rayon::prelude::*;
 
 use crate::morton::{Cell, MortonKey, Side};
 use crate::par::{
-    GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat, exclusive_scan_by,
+    DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat,
+    exclusive_scan_by,
 };
 
 /// The smallest set of split squares that contains `split`, is closed under parents, and
@@ -112,19 +115,54 @@ impl<K: MortonKey> RangeWalk<'_, '_, K> {
     }
 }
 
-/// Sorted, distinct anchors of the squares at each level `0..=AXIS_BITS`.
+/// Sorted, distinct anchors of the squares at each level `0..=AXIS_BITS`. In preorder (the
+/// usual input, checked) each level's squares already come in order, so they are only
+/// distributed, in parallel: each chunk counts its squares per level, then writes them at the
+/// places those counts give.
 pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
-    let mut sorted = split.to_vec();
-    // One stable counting pass by level; each level is then sorted (a single run when the input
-    // was in preorder, which the sort detects in linear time).
-    radsort::sort_by_key(&mut sorted, |c| c.level);
-    let mut levels = vec![Vec::new(); K::AXIS_BITS as usize + 1];
-    for chunk in sorted.chunk_by(|a, b| a.level == b.level) {
-        let mut anchors: Vec<K> = chunk.iter().map(|c| c.anchor).collect();
-        anchors.par_sort_unstable();
-        anchors.dedup();
-        levels[chunk[0].level as usize] = anchors;
+    let key = |c: &Cell<K>| (c.anchor, c.level);
+    let sorted: Cow<[Cell<K>]> = if split.par_windows(2).all(|w| key(&w[0]) < key(&w[1])) {
+        Cow::Borrowed(split)
+    } else {
+        let mut cells = split.to_vec();
+        cells.par_sort_unstable_by_key(key);
+        cells.dedup();
+        Cow::Owned(cells)
+    };
+    let level_count = K::AXIS_BITS as usize + 1;
+    let chunks = chunk_offsets(sorted.len(), GRAIN);
+    let counts: Vec<Vec<usize>> = (0..chunks.len() - 1)
+        .into_par_iter()
+        .map(|c| {
+            let mut count = vec![0; level_count];
+            for cell in &sorted[chunks[c]..chunks[c + 1]] {
+                count[cell.level as usize] += 1;
+            }
+            count
+        })
+        .collect();
+    // Where each chunk starts writing at each level, and each level's size.
+    let mut starts = counts;
+    let mut totals = vec![0; level_count];
+    for chunk in &mut starts {
+        for (start, total) in chunk.iter_mut().zip(&mut totals) {
+            (*start, *total) = (*total, *total + *start);
+        }
     }
+    let mut levels: Vec<Vec<K>> = totals.iter().map(|&n| vec![K::default(); n]).collect();
+    let slots: Vec<DisjointWrites<K>> = levels.iter_mut().map(|l| DisjointWrites::new(l)).collect();
+    starts.into_par_iter().enumerate().for_each(|(c, mut at)| {
+        for cell in &sorted[chunks[c]..chunks[c + 1]] {
+            let level = cell.level as usize;
+            // SAFETY: the chunks' ranges at each level are disjoint, from the prefix sums.
+            #[allow(unsafe_code)]
+            unsafe {
+                slots[level].write(at[level], cell.anchor)
+            };
+            at[level] += 1;
+        }
+    });
+    drop(slots);
     levels
 }
 

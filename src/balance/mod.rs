@@ -17,6 +17,7 @@ pub use separate::{block, check_separated, separate};
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
+use crate::par::collect_indexed;
 use crate::quadtree::{Quadtree, from_internal, with_first_points};
 
 /// A balanced quadtree with cross links and point location.
@@ -35,7 +36,7 @@ pub struct BalancedTree<K: Copy> {
 /// # Complexity
 /// O(k log k) work for k output squares; the sweep has one parallel step per level.
 pub fn balance<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K> {
-    let split: Vec<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
+    let split: Vec<Cell<K>> = collect_indexed(tree.internal.len(), |i| tree.internal[i].cell);
     linked_tree(&balance_closure(&split), keys)
 }
 
