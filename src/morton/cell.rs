@@ -108,30 +108,26 @@ impl<K: MortonKey> Cell<K> {
             return None;
         }
         let key_bits = 2 * K::AXIS_BITS;
-        let all = if key_bits == 128 {
-            u128::MAX
-        } else {
-            (1u128 << key_bits) - 1
-        };
-        let y_bits = all / 3; // 0b0101...
-        let x_bits = all ^ y_bits;
+        let all = u128::MAX >> (128 - key_bits);
+        let y_bits = K::from_u128(all / 3); // 0b0101...
+        let x_bits = K::from_u128(all - all / 3);
         let (own, other, unit_shift) = match side {
             Side::West | Side::East => (x_bits, y_bits, 1),
             Side::South | Side::North => (y_bits, x_bits, 0),
         };
-        let k = self.anchor.to_u128();
-        let unit = 1u128 << (2 * (K::AXIS_BITS - self.level as u32) + unit_shift);
+        let k = self.anchor;
+        let unit = K::pow2(2 * (K::AXIS_BITS - self.level as u32) + unit_shift);
         let part = k & own;
-        let moved = match side {
-            Side::East | Side::North => (k | other).wrapping_add(unit) & own & all,
-            Side::West | Side::South => part.wrapping_sub(unit) & own,
-        };
-        let outside = match side {
-            Side::East | Side::North => moved < part,
-            Side::West | Side::South => part < unit,
+        let (moved, outside) = match side {
+            // The carry runs through the other axis's bits, set to ones; past the top it wraps.
+            Side::East | Side::North => {
+                let moved = (k | other).wrapping_add(unit) & own;
+                (moved, moved < part)
+            }
+            Side::West | Side::South => (part.wrapping_sub(unit) & own, part < unit),
         };
         (!outside).then(|| Cell {
-            anchor: K::from_u128(moved | (k & other)),
+            anchor: moved | (k & other),
             level: self.level,
         })
     }

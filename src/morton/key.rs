@@ -27,6 +27,8 @@ pub trait MortonKey:
     + Sync
     + 'static
     + std::ops::BitXor<Output = Self>
+    + std::ops::BitAnd<Output = Self>
+    + std::ops::BitOr<Output = Self>
     + SortPairs
     + sealed::Sealed
 {
