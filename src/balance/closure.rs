@@ -182,12 +182,12 @@ pub(crate) fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
             *b += 1;
         }
     }
-    let parts: Vec<(Vec<K>, Vec<K>)> = (0..bounds.len() - 1)
+    let (parents, others): (Vec<Vec<K>>, Vec<Vec<K>>) = (0..bounds.len() - 1)
         .into_par_iter()
         .map(|c| forced_by_families(&anchors[bounds[c]..bounds[c + 1]], level))
-        .collect();
-    let parents = concat(&parts.iter().map(|p| p.0.clone()).collect::<Vec<_>>());
-    let mut others = concat(&parts.into_iter().map(|p| p.1).collect::<Vec<_>>());
+        .unzip();
+    let parents = concat(&parents);
+    let mut others = concat(&others);
     K::sort_keys(&mut others);
     others.dedup();
     union_sorted(&parents, &others)

@@ -11,7 +11,7 @@ use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
 use crate::par::{GRAIN, chunk_offsets, collect_segments_by, prefetch};
 use crate::quadtree::index::{LEAF, children, path_to};
-use crate::quadtree::{Quadtree, leaves_at};
+use crate::quadtree::{Quadtree, leaf_starts, with_gap_leaves};
 
 /// A leaf's neighbours across its four sides (in [`Side::ALL`] order), two slots per side: one
 /// leaf of the same or twice the size and [`NONE`], or the two half-size leaves in increasing
@@ -29,17 +29,14 @@ pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
     }
     let children = &children(tree);
     let chunks = chunk_offsets(internal.len(), GRAIN);
-    let offsets: Vec<usize> = chunks.iter().map(|&i| leaves_at(internal, i)).collect();
+    let offsets = leaf_starts(internal, &chunks);
     collect_segments_by(&offsets, |c, out| {
         let mut path = NeighbourPath::to(tree, children, chunks[c]);
-        let mut first_leaf = offsets[c];
-        for i in chunks[c]..chunks[c + 1] {
+        for (i, gap) in with_gap_leaves(internal, chunks[c]..chunks[c + 1]) {
             path.enter(i as u32, internal[i].cell);
-            let end = leaves_at(internal, i + 1);
-            for leaf in &tree.leaves[first_leaf..end] {
+            for leaf in &tree.leaves[gap] {
                 out.push(path.leaf_links(leaf.cell));
             }
-            first_leaf = end;
         }
     })
 }

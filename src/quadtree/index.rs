@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::morton::{Cell, MortonKey};
 use crate::par::{DisjointWrites, GRAIN, chunk_offsets};
 
-use super::{Quadtree, leaves_at};
+use super::{Quadtree, with_gap_leaves};
 
 /// Tag of a child entry that is a leaf index rather than an internal-square index.
 pub const LEAF: u32 = 1 << 31;
@@ -32,8 +32,7 @@ pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
     let chunks = chunk_offsets(internal.len(), GRAIN);
     (0..chunks.len() - 1).into_par_iter().for_each(|c| {
         let mut path = path_to(tree, chunks[c]);
-        let mut first_leaf = leaves_at(internal, chunks[c]);
-        for i in chunks[c]..chunks[c + 1] {
+        for (i, gap) in with_gap_leaves(internal, chunks[c]..chunks[c + 1]) {
             let cell = internal[i].cell;
             if cell.level > 0 {
                 let parent = path[cell.level as usize - 1];
@@ -44,8 +43,7 @@ pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
                 };
             }
             path[cell.level as usize] = i as u32;
-            let end = leaves_at(internal, i + 1);
-            for j in first_leaf..end {
+            for j in gap {
                 let leaf = tree.leaves[j].cell;
                 let parent = path[leaf.level as usize - 1];
                 // SAFETY: as above, for a leaf.
@@ -54,7 +52,6 @@ pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
                     slots.write(slot(parent, leaf), LEAF | j as u32)
                 };
             }
-            first_leaf = end;
         }
     });
     children

@@ -11,6 +11,8 @@ pub mod reference;
 
 pub use crate::morton::Cell;
 
+use std::ops::Range;
+
 use crate::framework::{Framework, NONE};
 use crate::morton::MortonKey;
 use crate::par::{
@@ -127,30 +129,40 @@ fn internal_squares<K: MortonKey>(fw: &Framework<K>) -> Vec<Internal<K>> {
 /// consecutive internal squares tile the key interval between their corners.
 fn leaves_of<K: MortonKey>(internal: &[Internal<K>], keys: &[K]) -> Vec<Leaf<K>> {
     // Leaf counts come from the formula at each end, so only chunk ends need a table.
-    let leaves_at = |i: usize| leaves_at(internal, i);
     let chunks = chunk_offsets(internal.len(), GRAIN);
-    let offsets: Vec<usize> = chunks.iter().map(|&i| leaves_at(i)).collect();
-    collect_segments_by(&offsets, |c, out| {
-        let mut before = leaves_at(chunks[c]);
-        for i in chunks[c]..chunks[c + 1] {
-            let after = leaves_at(i + 1);
+    collect_segments_by(&leaf_starts(internal, &chunks), |c, out| {
+        for (i, gap) in with_gap_leaves(internal, chunks[c]..chunks[c + 1]) {
             let end = internal.get(i + 1).map(|s| s.cell.anchor);
             let mut tiles = GapTiles::new(&internal[i], end, keys);
-            for _ in before..after {
+            for _ in gap {
                 out.push(tiles.next_leaf());
             }
-            before = after;
         }
     })
 }
 
-/// Where the leaves after each internal square start, plus the leaf count (see [`leaves_of`]).
-pub fn gap_offsets<K: MortonKey>(internal: &[Internal<K>]) -> Vec<usize> {
-    collect_indexed(internal.len() + 1, |i| leaves_at(internal, i))
+/// Where the leaves after each of the internal squares `at` start (see [`with_gap_leaves`]).
+pub(crate) fn leaf_starts<K: MortonKey>(internal: &[Internal<K>], at: &[usize]) -> Vec<usize> {
+    at.iter().map(|&i| leaves_at(internal, i)).collect()
+}
+
+/// The internal squares of `range` (preorder indices), each with the leaves that follow it up
+/// to the next internal square: children of it or of its ancestors, in Morton order.
+pub(crate) fn with_gap_leaves<K: MortonKey>(
+    internal: &[Internal<K>],
+    range: Range<usize>,
+) -> impl Iterator<Item = (usize, Range<usize>)> + '_ {
+    let mut first = leaves_at(internal, range.start);
+    range.map(move |i| {
+        let end = leaves_at(internal, i + 1);
+        let gap = first..end;
+        first = end;
+        (i, gap)
+    })
 }
 
 /// Where the leaves after internal square `i` start; for `i` = the count, the leaf count.
-pub(crate) fn leaves_at<K: MortonKey>(internal: &[Internal<K>], i: usize) -> usize {
+fn leaves_at<K: MortonKey>(internal: &[Internal<K>], i: usize) -> usize {
     match internal.get(i) {
         Some(s) => leaves_before(i, s.cell),
         None => 3 * internal.len() + 1,
