@@ -6,10 +6,10 @@ use common::{FAMILIES, on_threads, with_keys};
 
 use quadmesh::DVec2;
 use quadmesh::balance::reference::ripple_closure;
-use quadmesh::balance::{balance, balance_closure, check_balance, forced_by};
-use quadmesh::framework::build_framework;
+use quadmesh::balance::{Links, balance, balance_closure, check_balance, forced_by};
+use quadmesh::framework::{NONE, build_framework};
 use quadmesh::generate::{Distribution2d, points};
-use quadmesh::morton::{Cell, Morton, MortonKey, SortAlgorithm, morton_order};
+use quadmesh::morton::{Cell, Morton, MortonKey, Side, SortAlgorithm, morton_order};
 use quadmesh::quadtree::{Quadtree, expand, from_internal, with_first_points};
 
 fn unbalanced<K: MortonKey>(keys: &[K]) -> Quadtree<K> {
@@ -144,7 +144,14 @@ fn checkers_catch_corruption<K: MortonKey>(keys: &[K]) {
         "Kuzmin's unbalanced tree is not balanced"
     );
     let mut balanced = balance(&tree, keys);
-    balanced.links[3][0] = balanced.links[3][1];
+    // Leaf 3 made its own west neighbour.
+    let links = balanced.links[3];
+    balanced.links[3] = Links::new([
+        [3, NONE],
+        links.across(Side::East),
+        links.across(Side::South),
+        links.across(Side::North),
+    ]);
     assert!(balanced.check(keys).is_err(), "corrupted link");
     let mut balanced = balance(&tree, keys);
     balanced.point_leaf.swap(0, 1);

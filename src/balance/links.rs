@@ -13,10 +13,63 @@ use crate::par::{GRAIN, chunk_offsets, collect_segments_by, prefetch};
 use crate::quadtree::index::{LEAF, children, path_to};
 use crate::quadtree::{Quadtree, leaf_starts, with_gap_leaves};
 
-/// A leaf's neighbours across its four sides (in [`Side::ALL`] order), two slots per side: one
-/// leaf of the same or twice the size and [`NONE`], or the two half-size leaves in increasing
-/// coordinate along the side, or two [`NONE`] on the root's boundary.
-pub type Links = [u32; 8];
+/// A leaf's neighbours across its four sides: one leaf of the same or twice the size, the two
+/// half-size leaves in increasing coordinate along the side, or none on the root's boundary.
+///
+/// 24 bytes instead of 32: the two half-size leaves west or east of a leaf are siblings in
+/// consecutive quadrants (the east or west children of one square), so they are consecutive
+/// leaves and one index flagged [`PAIR`] stands for both. South and north pairs are not
+/// consecutive (a sibling's subtree may lie between them) and keep two slots.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Links([u32; 6]);
+
+/// On a west or east slot: the leaf there and the next one. Leaf indices stay below it, as the
+/// children index's [`LEAF`] tag already requires.
+const PAIR: u32 = 1 << 31;
+
+impl Links {
+    /// A leaf with no neighbour on any side (the root alone).
+    pub const NONE: Links = Links([NONE; 6]);
+
+    /// From the leaves across each side, in [`Side::ALL`] order, as [`Links::across`] gives
+    /// them: a west or east pair must be two consecutive leaves.
+    pub fn new([west, east, south, north]: [[u32; 2]; 4]) -> Links {
+        Links([
+            Self::consecutive(west),
+            Self::consecutive(east),
+            south[0],
+            south[1],
+            north[0],
+            north[1],
+        ])
+    }
+
+    fn consecutive([first, second]: [u32; 2]) -> u32 {
+        if second == NONE {
+            return first;
+        }
+        debug_assert!(second == first + 1 && first < PAIR, "{first} {second}");
+        first | PAIR
+    }
+
+    /// The leaves across `side`: one and [`NONE`], two smaller ones, or two [`NONE`].
+    #[inline]
+    pub fn across(&self, side: Side) -> [u32; 2] {
+        match side {
+            Side::West | Side::East => {
+                let slot = self.0[side as usize];
+                if slot != NONE && slot & PAIR != 0 {
+                    let first = slot & !PAIR;
+                    [first, first + 1]
+                } else {
+                    [slot, NONE]
+                }
+            }
+            Side::South => [self.0[2], self.0[3]],
+            Side::North => [self.0[4], self.0[5]],
+        }
+    }
+}
 
 /// The cross links of every leaf of a balanced tree.
 ///
@@ -25,7 +78,7 @@ pub type Links = [u32; 8];
 pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
     let internal = &tree.internal;
     if internal.is_empty() {
-        return vec![[NONE; 8]; tree.leaves.len()];
+        return vec![Links::NONE; tree.leaves.len()];
     }
     let children = &children(tree);
     let chunks = chunk_offsets(internal.len(), GRAIN);
@@ -115,11 +168,12 @@ impl<'a> NeighbourPath<'a> {
     /// The links of a leaf whose parent is on the path.
     fn leaf_links<K: MortonKey>(&self, cell: Cell<K>) -> Links {
         let [west, east, south, north] = self.child_beside(cell.level, cell.quadrant());
-        let [w0, w1] = leaves_facing(self.children, west, Side::West);
-        let [e0, e1] = leaves_facing(self.children, east, Side::East);
-        let [s0, s1] = leaves_facing(self.children, south, Side::South);
-        let [n0, n1] = leaves_facing(self.children, north, Side::North);
-        [w0, w1, e0, e1, s0, s1, n0, n1]
+        Links::new([
+            leaves_facing(self.children, west, Side::West),
+            leaves_facing(self.children, east, Side::East),
+            leaves_facing(self.children, south, Side::South),
+            leaves_facing(self.children, north, Side::North),
+        ])
     }
 }
 

@@ -67,15 +67,14 @@ impl<K: MortonKey> BalancedTree<K> {
         }
         for (j, links) in self.links.iter().enumerate() {
             for side in Side::ALL {
-                let pair = &links[2 * side as usize..2 * side as usize + 2];
-                self.check_side(j, side, pair)?;
+                self.check_side(j, side, links.across(side))?;
             }
         }
         Ok(())
     }
 
     /// One side of leaf `j`: the linked leaves are the ones across it, and link back.
-    fn check_side(&self, j: usize, side: Side, pair: &[u32]) -> Result<(), String> {
+    fn check_side(&self, j: usize, side: Side, pair: [u32; 2]) -> Result<(), String> {
         let leaves = &self.tree.leaves;
         let cell = leaves[j].cell;
         let expected: Vec<Cell<K>> = match cell.neighbour(side) {
@@ -103,8 +102,7 @@ impl<K: MortonKey> BalancedTree<K> {
             ));
         }
         for &i in pair.iter().filter(|&&i| i != NONE) {
-            let back = &self.links[i as usize]
-                [2 * side.opposite() as usize..2 * side.opposite() as usize + 2];
+            let back = self.links[i as usize].across(side.opposite());
             if !back.contains(&(j as u32)) {
                 return Err(format!(
                     "leaf {i} does not link back to {j} across {:?}",

@@ -72,16 +72,15 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
 
     /// The leaves across `side`: one and [`NONE`], two smaller ones, or two [`NONE`].
     pub fn across(&self, leaf: usize, side: Side) -> [u32; 2] {
-        let s = 2 * side as usize;
-        [self.links[leaf][s], self.links[leaf][s + 1]]
+        self.links[leaf].across(side)
     }
 
     fn split(&self, leaf: usize, side: Side) -> bool {
-        self.links[leaf][2 * side as usize + 1] != NONE
+        self.across(leaf, side)[1] != NONE
     }
 
     fn has(&self, leaf: usize, side: Side) -> bool {
-        self.links[leaf][2 * side as usize] != NONE
+        self.across(leaf, side)[0] != NONE
     }
 
     /// Sides carrying a midpoint, one bit per ring side (south, east, north, west).
