@@ -120,22 +120,31 @@ fn template_of(kind: u8) -> &'static templates::Template {
 
 /// Where each leaf's triangles start, with the total appended; 32-bit, as triangle indices are.
 fn triangle_offsets(kinds: &[u8]) -> Result<Vec<u32>, Error> {
-    let n = kinds.len();
-    let size = |leaf: usize| match kinds.get(leaf) {
-        Some(&k) => template_of(k).triangles.len(),
-        None => 0,
-    };
+    leaf_offsets(
+        kinds.len(),
+        |leaf| template_of(kinds[leaf]).triangles.len(),
+        "triangles",
+    )
+}
+
+/// Where each leaf's `size(leaf)` items start, with the total appended, in 32 bits as the mesh's
+/// indices are: half the memory of `usize` offsets on arrays as long as the leaves.
+///
+/// # Errors
+/// [`Error::TooLarge`] when the total reaches [`NONE`].
+fn leaf_offsets<F>(leaves: usize, size: F, what: &'static str) -> Result<Vec<u32>, Error>
+where
+    F: Fn(usize) -> usize + Sync,
+{
+    let size = |leaf: usize| if leaf < leaves { size(leaf) } else { 0 };
     // One more position than leaves, for the total.
-    let chunks = chunk_offsets(n + 1, GRAIN);
+    let chunks = chunk_offsets(leaves + 1, GRAIN);
     let chunk_starts = exclusive_scan_by(chunks.len() - 1, |c| {
         (chunks[c]..chunks[c + 1]).map(size).sum()
     });
     let total = chunk_starts[chunk_starts.len() - 1];
     if total >= NONE as usize {
-        return Err(Error::TooLarge {
-            what: "triangles",
-            count: total,
-        });
+        return Err(Error::TooLarge { what, count: total });
     }
     Ok(collect_segments_by(&chunks, |c, out| {
         let mut at = chunk_starts[c] as u32;

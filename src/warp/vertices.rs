@@ -8,14 +8,13 @@
 //! links.
 
 use glam::DVec2;
+use rayon::prelude::*;
 
+use super::{collect_per_leaf, leaf_offsets};
 use crate::balance::{BalancedTree, Links};
 use crate::error::Error;
 use crate::mesh::NONE;
 use crate::morton::{Grid, MortonKey, Side};
-use rayon::prelude::*;
-
-use crate::par::{collect_segments, exclusive_scan_by};
 use crate::quadtree::Leaf;
 
 /// The leaves, their links and the grid, with the geometric questions the warp asks of them.
@@ -154,7 +153,8 @@ mod own {
 /// The vertex numbering: per leaf, what it owns and where its vertices start.
 pub struct Numbering {
     owns: Vec<u8>,
-    first: Vec<usize>,
+    /// The first vertex each leaf owns, the total appended.
+    first: Vec<u32>,
 }
 
 impl Numbering {
@@ -163,21 +163,18 @@ impl Numbering {
             .into_par_iter()
             .map(|leaf| owned(geometry, leaf))
             .collect();
-        let first = exclusive_scan_by(owns.len(), |leaf| 1 + owns[leaf].count_ones() as usize);
-        let total = first[first.len() - 1];
-        if total >= NONE as usize {
-            return Err(Error::TooLarge {
-                what: "vertices",
-                count: total,
-            });
-        }
+        let first = leaf_offsets(
+            owns.len(),
+            |leaf| 1 + owns[leaf].count_ones() as usize,
+            "vertices",
+        )?;
         Ok(Numbering { owns, first })
     }
 
     /// The coordinates of every vertex (grid positions, before any corner moves) and, for each,
     /// [`NONE`] as its input index.
     pub fn vertices<K: MortonKey>(&self, geometry: &LeafGeometry<K>) -> (Vec<DVec2>, Vec<u32>) {
-        let coordinates = collect_segments(&self.first, |leaf| {
+        let coordinates = collect_per_leaf(&self.first, |leaf, out| {
             let (x, y, size) = geometry.grid_square(leaf);
             let half = size / 2;
             let owns = self.owns[leaf];
@@ -189,14 +186,12 @@ impl Numbering {
                 (own::LOWER_RIGHT, (x + size, y)),
                 (own::UPPER_RIGHT, (x + size, y + size)),
             ];
-            std::iter::once((x, y))
-                .chain(
-                    slots
-                        .into_iter()
-                        .filter(move |(bit, _)| owns & bit != 0)
-                        .map(|(_, at)| at),
-                )
-                .map(|(gx, gy)| geometry.vertex(gx, gy))
+            out.push(geometry.vertex(x, y));
+            for (bit, (gx, gy)) in slots {
+                if owns & bit != 0 {
+                    out.push(geometry.vertex(gx, gy));
+                }
+            }
         });
         let inputs = (0..coordinates.len())
             .into_par_iter()
@@ -206,13 +201,13 @@ impl Numbering {
     }
 
     fn anchor(&self, leaf: u32) -> u32 {
-        self.first[leaf as usize] as u32
+        self.first[leaf as usize]
     }
 
     /// The vertex `bit` (one of [`own`]) that `leaf` owns.
     fn slot(&self, leaf: u32, bit: u8) -> u32 {
         let before = self.owns[leaf as usize] & (bit - 1);
-        self.first[leaf as usize] as u32 + 1 + before.count_ones()
+        self.first[leaf as usize] + 1 + before.count_ones()
     }
 
     /// The vertices of `leaf` by ring label: LL, S-mid, LR, E-mid, UR, N-mid, UL, W-mid,
