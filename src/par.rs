@@ -20,9 +20,36 @@ pub fn exclusive_scan_by<F>(n: usize, count: F) -> Vec<usize>
 where
     F: Fn(usize) -> usize + Sync,
 {
+    let (starts, total) = chunk_starts(n, &count);
+    scan_from_chunk_starts(n, &count, &starts, total, |at| at)
+}
+
+/// As [`exclusive_scan_by`], in 32 bits: half the memory on arrays as long as the items, for
+/// offsets that are 32-bit indices themselves.
+///
+/// # Errors
+/// The total, when it reaches `u32::MAX` (the indices' "none").
+pub fn exclusive_scan_u32_by<F>(n: usize, count: F) -> Result<Vec<u32>, usize>
+where
+    F: Fn(usize) -> usize + Sync,
+{
+    let (starts, total) = chunk_starts(n, &count);
+    if total >= u32::MAX as usize {
+        return Err(total);
+    }
+    Ok(scan_from_chunk_starts(n, &count, &starts, total, |at| {
+        at as u32
+    }))
+}
+
+/// Where each chunk of [`GRAIN`] items starts in the sum of the counts, and the total.
+fn chunk_starts<F>(n: usize, count: &F) -> (Vec<usize>, usize)
+where
+    F: Fn(usize) -> usize + Sync,
+{
     let chunks = chunk_offsets(n, GRAIN);
     let sums: Vec<usize> = collect_indexed(chunks.len() - 1, |c| {
-        (chunks[c]..chunks[c + 1]).map(&count).sum()
+        (chunks[c]..chunks[c + 1]).map(count).sum()
     });
     let mut starts = Vec::with_capacity(sums.len());
     let mut total = 0usize;
@@ -30,14 +57,30 @@ where
         starts.push(total);
         total += s;
     }
+    (starts, total)
+}
+
+/// The prefix sums from the chunks' starts, each stored as `store(sum)`.
+fn scan_from_chunk_starts<T, F, S>(
+    n: usize,
+    count: &F,
+    starts: &[usize],
+    total: usize,
+    store: S,
+) -> Vec<T>
+where
+    T: Send,
+    F: Fn(usize) -> usize + Sync,
+    S: Fn(usize) -> T + Sync,
+{
     // Output position `i` of chunk `c` is `starts[c]` plus the counts before `i` in the chunk;
     // the extra last position holds the total.
     let chunks = chunk_offsets(n + 1, GRAIN);
     collect_segments(&chunks, |c| {
         let mut acc = starts.get(c).copied().unwrap_or(total);
-        let count = &count;
+        let store = &store;
         (chunks[c]..chunks[c + 1]).map(move |i| {
-            let here = acc;
+            let here = store(acc);
             if i < n {
                 acc += count(i);
             }
@@ -547,6 +590,18 @@ mod tests {
         let _ = BlockScratch::fill(3, (0..2usize).into_par_iter(), |_, _, out| {
             (0..4u8).for_each(|k| out.push(k))
         });
+    }
+
+    #[test]
+    fn the_32_bit_scan_matches_the_wide_one_and_refuses_overflow() {
+        let count = |i: usize| i % 5;
+        let n = 3 * GRAIN + 7;
+        let wide = exclusive_scan_by(n, count);
+        let narrow = exclusive_scan_u32_by(n, count).expect("fits");
+        assert_eq!(narrow.len(), n + 1);
+        assert!(narrow.iter().zip(&wide).all(|(&a, &b)| a as usize == b));
+        let half = u32::MAX as usize / 2 + 1;
+        assert_eq!(exclusive_scan_u32_by(2, |_| half), Err(2 * half));
     }
 
     #[test]

@@ -25,7 +25,7 @@ use crate::morton::MortonKey;
 use rayon::prelude::*;
 
 use crate::par::{
-    BlockScratch, SegmentWriter, collect_indexed, collect_segment_pairs_by, with_capacity_huge,
+    BlockScratch, SegmentWriter, collect_indexed, collect_segment_pairs_by, exclusive_scan_by,
 };
 
 /// A framework node: a derived square and the points inside it.
@@ -134,9 +134,9 @@ impl ChainStarts {
 fn nodes_and_parents<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K>>, Vec<u32>) {
     let after = ansv::tables_after_blocks(d);
     let before = ansv::tables_before_blocks(d);
-    let mut emitted = filled(d.len(), 0);
+    let mut emitted = collect_indexed(d.len(), |_| 0u32);
     // Holds who popped each entry until the block resolves it into the left answer.
-    let mut left = filled(d.len(), NOT_POPPED);
+    let mut left = collect_indexed(d.len(), |_| NOT_POPPED);
     let scan = |b: usize| BlockScan {
         keys,
         d,
@@ -152,11 +152,7 @@ fn nodes_and_parents<K: MortonKey>(keys: &[K], d: &[u8]) -> (Vec<FrameworkNode<K
         scan.emit(emitted, left, out);
         scan.resolve_left(left);
     });
-    let mut block_start = Vec::with_capacity(emission.blocks() + 1);
-    block_start.push(0);
-    for b in 0..emission.blocks() {
-        block_start.push(block_start[b] + emission.len_of(b));
-    }
+    let block_start = exclusive_scan_by(emission.blocks(), |b| emission.len_of(b));
     let chains = ChainStarts {
         emitted,
         left,
@@ -239,13 +235,6 @@ impl ParentFinder<'_> {
 /// entries there that chains reach are the ones the block's table names).
 const MAX_NODES_PER_BLOCK: usize = ansv::BLOCK + VALUE_LIMIT;
 
-/// `n` copies of `value` in fresh memory, written in parallel.
-fn filled(n: usize, value: u32) -> Vec<u32> {
-    let mut v = with_capacity_huge(n);
-    v.par_extend(rayon::iter::repeat_n(value, n));
-    v
-}
-
 /// In [`BlockScan::emit`]'s record of who popped each entry: the popper has the same level, so
 /// the entry's nearest smaller value to the left is the popper's.
 const SAME_LEVEL: u32 = 1 << 31;
@@ -256,7 +245,7 @@ const NOT_POPPED: u32 = u32::MAX;
 /// Where a block's scan writes the (level, end) of each node.
 type Emission<'a> = SegmentWriter<'a, Emitted>;
 
-/// One block's scan for [`chains`].
+/// One block's scan for [`nodes_and_parents`].
 struct BlockScan<'a, K> {
     keys: &'a [K],
     d: &'a [u8],

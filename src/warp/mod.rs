@@ -18,7 +18,7 @@ use crate::balance::BalancedTree;
 use crate::error::Error;
 use crate::mesh::{AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, angles_deg};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
-use crate::par::{GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, exclusive_scan_by};
+use crate::par::{GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, exclusive_scan_u32_by};
 use crate::pipeline::StageTimes;
 use templates::{Across, Kind, Part, RingSide, template};
 use vertices::{LeafGeometry, Numbering};
@@ -128,7 +128,7 @@ fn triangle_offsets(kinds: &[u8]) -> Result<Vec<u32>, Error> {
 }
 
 /// Where each leaf's `size(leaf)` items start, with the total appended, in 32 bits as the mesh's
-/// indices are: half the memory of `usize` offsets on arrays as long as the leaves.
+/// indices are.
 ///
 /// # Errors
 /// [`Error::TooLarge`] when the total reaches [`NONE`].
@@ -136,23 +136,7 @@ fn leaf_offsets<F>(leaves: usize, size: F, what: &'static str) -> Result<Vec<u32
 where
     F: Fn(usize) -> usize + Sync,
 {
-    let size = |leaf: usize| if leaf < leaves { size(leaf) } else { 0 };
-    // One more position than leaves, for the total.
-    let chunks = chunk_offsets(leaves + 1, GRAIN);
-    let chunk_starts = exclusive_scan_by(chunks.len() - 1, |c| {
-        (chunks[c]..chunks[c + 1]).map(size).sum()
-    });
-    let total = chunk_starts[chunk_starts.len() - 1];
-    if total >= NONE as usize {
-        return Err(Error::TooLarge { what, count: total });
-    }
-    Ok(collect_segments_by(&chunks, |c, out| {
-        let mut at = chunk_starts[c] as u32;
-        for leaf in chunks[c]..chunks[c + 1] {
-            out.push(at);
-            at += size(leaf) as u32;
-        }
-    }))
+    exclusive_scan_u32_by(leaves, size).map_err(|count| Error::TooLarge { what, count })
 }
 
 /// The values of every leaf in turn, `fill(leaf, writer)` writing exactly the leaf's share as
