@@ -59,9 +59,9 @@ pub fn warp<K: MortonKey>(
         Ok::<_, Error>((numbering, vertices, vertex_input, moves))
     })?;
     let labels = |leaf: usize| numbering.labels(&geometry, leaf);
-    let (kinds, moved_leaves, offsets) = times.time("warp templates", || {
+    let (kinds, moved_quality, offsets) = times.time("warp templates", || {
         let mut kinds = unmoved_templates(&geometry, order, points)?;
-        let moved_leaves = warped_templates(
+        let moved_quality = warped_templates(
             &geometry,
             &labels,
             &moves,
@@ -69,7 +69,7 @@ pub fn warp<K: MortonKey>(
             &mut kinds,
         )?;
         let offsets = triangle_offsets(&kinds)?;
-        Ok::<_, Error>((kinds, moved_leaves, offsets))
+        Ok::<_, Error>((kinds, moved_quality, offsets))
     })?;
     let triangles = times.time("warp triangles", || {
         collect_per_leaf(&offsets, |leaf, out| {
@@ -96,7 +96,7 @@ pub fn warp<K: MortonKey>(
     let (boundary, quality) = times.time("warp boundary", || {
         (
             boundary_edges(&geometry, &kinds, &triangles, &offsets),
-            angle_quality(&kinds, &moved_leaves, &offsets, &triangles, &vertices),
+            unmoved_quality(&kinds).merge(moved_quality),
         )
     });
     let mesh = Mesh {
@@ -164,16 +164,10 @@ pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>) -> Option<usi
         .position_first(|&leaf| tree.tree.leaves[leaf as usize].cell.level > finest)
 }
 
-/// The angles of the mesh: measured on the triangles of leaves with a moved corner, taken from
-/// the template for all others (an unmoved leaf is a square, so its angles are the template's).
-fn angle_quality(
-    kinds: &[u8],
-    moved_leaves: &[u32],
-    offsets: &[u32],
-    triangles: &[[u32; 3]],
-    vertices: &[DVec2],
-) -> AngleQuality {
-    // Leaves whose corner moved are measured below; the others count by template.
+/// The angles of the leaves without a moved corner, from their templates: such a leaf is a
+/// square, so its angles are the template's. (The warped leaves' angles are measured as their
+/// diagonals are chosen.)
+fn unmoved_quality(kinds: &[u8]) -> AngleQuality {
     let unmoved_per_kind = kinds
         .par_chunks(crate::par::GRAIN)
         .fold(
@@ -192,26 +186,12 @@ fn angle_quality(
                 a
             },
         );
-    let quality = unmoved_per_kind
+    unmoved_per_kind
         .iter()
         .enumerate()
         .filter(|(_, count)| **count > 0)
         .map(|(code, &count)| templates::unit_angles(code as u8).repeated(count))
-        .fold(AngleQuality::empty(), AngleQuality::merge);
-    moved_leaves
-        .par_iter()
-        .fold(AngleQuality::empty, |mut q, &leaf| {
-            let leaf = leaf as usize;
-            for t in &triangles[offsets[leaf] as usize..offsets[leaf + 1] as usize] {
-                let [a, b, c] = t.map(|v| vertices[v as usize]);
-                for angle in angles_deg(a, b, c) {
-                    q.add(angle, 1);
-                }
-            }
-            q
-        })
-        .reduce(AngleQuality::empty, AngleQuality::merge)
-        .merge(quality)
+        .fold(AngleQuality::empty(), AngleQuality::merge)
 }
 
 /// A point's moved corner: its leaf and the corner's ring label there.
@@ -302,42 +282,60 @@ pub(crate) fn unresolvable(point: DVec2, input: u32) -> Error {
     }
 }
 
+/// The four leaves around a moved corner, each with its template code.
+type WarpedBlock = [(u32, u8); 4];
+
 /// The max-min diagonals of the four leaves around every moved corner, written into `kinds`
-/// with [`MOVED`] set; returns those leaves.
+/// with [`MOVED`] set; returns the angles of those leaves' triangles.
 fn warped_templates<K: MortonKey>(
     geometry: &LeafGeometry<K>,
     labels: &(impl Fn(usize) -> [u32; 9] + Sync),
     moves: &[Move],
     (vertices, vertex_input): (&[DVec2], &[u32]),
     kinds: &mut [u8],
-) -> Result<Vec<u32>, Error> {
-    let blocks: Vec<Option<[(u32, u8); 4]>> = moves
-        .par_iter()
-        .map(|&m| {
-            let block = block_around(geometry, m)?;
-            let mut out = [(0, 0); 4];
-            for (slot, (leaf, corner)) in out.iter_mut().zip(block) {
-                let labels = labels(leaf as usize);
-                if geometry.midpoint_mask(leaf as usize) != 0 {
-                    return None;
-                }
-                let kind = max_min_diagonal(&labels, corner as usize, vertices)?;
-                *slot = (leaf, kind.code() | MOVED);
+) -> Result<AngleQuality, Error> {
+    let warped_block = |m: Move| {
+        let block = block_around(geometry, m)?;
+        let mut out: WarpedBlock = [(0, 0); 4];
+        let mut quality = AngleQuality::empty();
+        for (slot, (leaf, corner)) in out.iter_mut().zip(block) {
+            let labels = labels(leaf as usize);
+            if geometry.midpoint_mask(leaf as usize) != 0 {
+                return None;
             }
-            Some(out)
+            let (kind, angles) = max_min_diagonal(&labels, corner as usize, vertices)?;
+            *slot = (leaf, kind.code() | MOVED);
+            quality = quality.merge(angles);
+        }
+        Some((out, quality))
+    };
+    // Per chunk of moves: the blocks, and the angles of their triangles.
+    let parts: Vec<(Vec<Option<WarpedBlock>>, AngleQuality)> = moves
+        .par_chunks(GRAIN)
+        .map(|chunk| {
+            let mut quality = AngleQuality::empty();
+            let blocks = chunk
+                .iter()
+                .map(|&m| {
+                    let (block, angles) = warped_block(m)?;
+                    quality = quality.merge(angles);
+                    Some(block)
+                })
+                .collect();
+            (blocks, quality)
         })
         .collect();
-    if let Some(bad) = blocks.iter().position(Option::is_none) {
+    let blocks = || parts.iter().flat_map(|(blocks, _)| blocks);
+    if let Some(bad) = blocks().position(|b| b.is_none()) {
         let leaf = moves[bad].leaf as usize;
         let vertex = labels(leaf)[moves[bad].corner as usize] as usize;
         return Err(unresolvable(vertices[vertex], vertex_input[vertex]));
     }
-    let mut moved_leaves = Vec::with_capacity(4 * moves.len());
-    for &(leaf, kind) in blocks.iter().flatten().flatten() {
+    for &(leaf, kind) in blocks().flatten().flatten() {
         kinds[leaf as usize] = kind;
-        moved_leaves.push(leaf);
     }
-    Ok(moved_leaves)
+    let quality = parts.iter().map(|(_, q)| *q);
+    Ok(quality.fold(AngleQuality::empty(), AngleQuality::merge))
 }
 
 /// The four leaves around a moved corner, each with the corner's ring label in it: the point's
@@ -373,25 +371,27 @@ fn block_around<K: MortonKey>(geometry: &LeafGeometry<K>, m: Move) -> Option<[(u
 }
 
 /// The diagonal of a quadrilateral with one moved corner whose two triangles have the larger
-/// smallest angle; on a tie the one through the moved corner; never one that makes a triangle
-/// of area ≤ 0. `None` if neither works (f64 cannot resolve the leaf).
-fn max_min_diagonal(labels: &[u32; 9], moved: usize, vertices: &[DVec2]) -> Option<Kind> {
+/// smallest angle, with the angles of those triangles; on a tie the one through the moved
+/// corner; never one that makes a triangle of area ≤ 0. `None` if neither works (f64 cannot
+/// resolve the leaf).
+fn max_min_diagonal(
+    labels: &[u32; 9],
+    moved: usize,
+    vertices: &[DVec2],
+) -> Option<(Kind, AngleQuality)> {
     let at = |label: u8| vertices[labels[label as usize] as usize];
-    let score = |kind: Kind| {
-        let t = template(kind.code());
-        let mut smallest = f64::INFINITY;
-        for tri in &t.triangles {
+    let angles = |kind: Kind| {
+        let mut quality = AngleQuality::empty();
+        for tri in &template(kind.code()).triangles {
             let [a, b, c] = tri.map(at);
             if orient2d(coord(a), coord(b), coord(c)) <= 0.0 {
                 return None;
             }
-            smallest = smallest.min(
-                angles_deg(a, b, c)
-                    .into_iter()
-                    .fold(f64::INFINITY, f64::min),
-            );
+            angles_deg(a, b, c)
+                .into_iter()
+                .for_each(|angle| quality.add(angle, 1));
         }
-        Some(smallest)
+        Some((kind, quality))
     };
     let through = if moved.is_multiple_of(4) {
         Kind::DiagonalUp
@@ -403,11 +403,9 @@ fn max_min_diagonal(labels: &[u32; 9], moved: usize, vertices: &[DVec2]) -> Opti
     } else {
         Kind::DiagonalUp
     };
-    match (score(through), score(other)) {
-        (Some(a), Some(b)) => Some(if b > a { other } else { through }),
-        (Some(_), None) => Some(through),
-        (None, Some(_)) => Some(other),
-        (None, None) => None,
+    match (angles(through), angles(other)) {
+        (Some(a), Some(b)) => Some(if b.1.min > a.1.min { b } else { a }),
+        (a, b) => a.or(b),
     }
 }
 
@@ -521,14 +519,19 @@ mod tests {
         }
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for (labels, moved) in quads {
-            let kind = max_min_diagonal(&labels, moved, &vertices).expect("a valid diagonal");
+            let (kind, reported) =
+                max_min_diagonal(&labels, moved, &vertices).expect("a valid diagonal");
+            let mut measured = AngleQuality::empty();
             for t in &template(kind.code()).triangles {
                 let [a, b, c] = t.map(|l| vertices[labels[l as usize] as usize]);
                 for angle in angles_deg(a, b, c) {
-                    lo = lo.min(angle);
-                    hi = hi.max(angle);
+                    measured.add(angle, 1);
                 }
             }
+            // The angles reported with the diagonal are those of its triangles.
+            assert_eq!(reported, measured);
+            lo = lo.min(measured.min);
+            hi = hi.max(measured.max);
         }
         (lo, hi)
     }
