@@ -294,10 +294,10 @@ fn warped_templates<K: MortonKey>(
     (vertices, vertex_input): (&[DVec2], &[u32]),
     kinds: &mut [u8],
 ) -> Result<AngleQuality, Error> {
-    let warped_block = |m: Move| {
+    // A block's angles go straight into its chunk's summary: a block that fails fails the call.
+    let warped_block = |m: Move, quality: &mut AngleQuality| {
         let block = block_around(geometry, m)?;
         let mut out: WarpedBlock = [(0, 0); 4];
-        let mut quality = AngleQuality::empty();
         for (slot, (leaf, corner)) in out.iter_mut().zip(block) {
             let labels = labels(leaf as usize);
             if geometry.midpoint_mask(leaf as usize) != 0 {
@@ -305,9 +305,9 @@ fn warped_templates<K: MortonKey>(
             }
             let (kind, angles) = max_min_diagonal(&labels, corner as usize, vertices)?;
             *slot = (leaf, kind.code() | MOVED);
-            quality = quality.merge(angles);
+            *quality = quality.merge(angles);
         }
-        Some((out, quality))
+        Some(out)
     };
     // Per chunk of moves: the blocks, and the angles of their triangles.
     let parts: Vec<(Vec<Option<WarpedBlock>>, AngleQuality)> = moves
@@ -316,11 +316,7 @@ fn warped_templates<K: MortonKey>(
             let mut quality = AngleQuality::empty();
             let blocks = chunk
                 .iter()
-                .map(|&m| {
-                    let (block, angles) = warped_block(m)?;
-                    quality = quality.merge(angles);
-                    Some(block)
-                })
+                .map(|&m| warped_block(m, &mut quality))
                 .collect();
             (blocks, quality)
         })
