@@ -1,6 +1,9 @@
 //! The crate's error type: every way an input can be refused, with what to fix.
 
+use glam::DVec2;
 use thiserror::Error;
+
+use crate::mesh::{BoundarySide, Reflection};
 
 /// Why an input was refused. Nothing is dropped silently: each variant names the offending data.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -80,6 +83,38 @@ pub enum Error {
         /// Its y coordinate.
         y: f64,
     },
+    /// Points so close to a given domain's top (or right) side, or so close together on it,
+    /// that the row of equal cells the mesh keeps along that side would be too many.
+    #[error(
+        "point {index} ({x}, {y}) needs cells so small near the domain's {side} side, which the \
+         mesh lines with equal cells, that it would take {cells} of them; move points that are \
+         nearly on that side onto it or away from it, or widen the domain"
+    )]
+    NearDomainSide {
+        /// Input index of the point.
+        index: usize,
+        /// Its x coordinate.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+        /// Which side.
+        side: BoundarySide,
+        /// How many cells the band along the side would have.
+        cells: u128,
+    },
+    /// A given domain so much wider than tall (or taller than wide) that the row of equal
+    /// cells along its long sides would be too many.
+    #[error(
+        "the domain is {width} wide and {height} tall; its mesh would need more cells along its \
+         long side than its points justify (at most 64 per point or 2^20); mesh a less elongated \
+         domain"
+    )]
+    ThinDomain {
+        /// The domain's width.
+        width: f64,
+        /// The domain's height.
+        height: f64,
+    },
     /// An option's value is out of range.
     #[error("--{option}: {message}")]
     InvalidOption {
@@ -133,4 +168,75 @@ pub enum Error {
         /// The system's message.
         message: String,
     },
+}
+
+impl Error {
+    /// The same error for the input's mirror image `r`: coordinates and sides mapped.
+    pub fn reflected(self, r: Reflection) -> Error {
+        let at = |x: f64, y: f64| r.point(DVec2::new(x, y));
+        let pair = |p: [f64; 2]| r.point(DVec2::from(p)).into();
+        match self {
+            Error::NonFinite { index, x, y } => {
+                let p = at(x, y);
+                Error::NonFinite {
+                    index,
+                    x: p.x,
+                    y: p.y,
+                }
+            }
+            Error::Inseparable { a, pa, b, pb } => Error::Inseparable {
+                a,
+                pa: pair(pa),
+                b,
+                pb: pair(pb),
+            },
+            Error::Unresolvable { index, x, y } => {
+                let p = at(x, y);
+                Error::Unresolvable {
+                    index,
+                    x: p.x,
+                    y: p.y,
+                }
+            }
+            Error::OutsideDomain { index, x, y } => {
+                let p = at(x, y);
+                Error::OutsideDomain {
+                    index,
+                    x: p.x,
+                    y: p.y,
+                }
+            }
+            Error::NearDomainSide {
+                index,
+                x,
+                y,
+                side,
+                cells,
+            } => {
+                let p = at(x, y);
+                Error::NearDomainSide {
+                    index,
+                    x: p.x,
+                    y: p.y,
+                    side: r.side(side),
+                    cells,
+                }
+            }
+            Error::ThinDomain { width, height } => match r {
+                Reflection::Diagonal => Error::ThinDomain {
+                    width: height,
+                    height: width,
+                },
+                Reflection::Horizontal => Error::ThinDomain { width, height },
+            },
+            Error::CoordinateRange { lo, hi } => {
+                let (a, b) = (r.point(DVec2::from(lo)), r.point(DVec2::from(hi)));
+                Error::CoordinateRange {
+                    lo: a.min(b).into(),
+                    hi: a.max(b).into(),
+                }
+            }
+            other => other,
+        }
+    }
 }

@@ -4,17 +4,22 @@
 use std::time::{Duration, Instant};
 
 use glam::DVec2;
+use rayon::prelude::*;
 
-use crate::balance::{BalancedTree, balance, separate};
+use crate::balance::{
+    BalancedTree, Band, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, balance,
+    coarsest_band_level, separate, separate_in,
+};
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
-use crate::mesh::{AngleQuality, Mesh, MeshReport};
+use crate::mesh::{AngleQuality, BoundarySide, Domain, Mesh, MeshReport, Reflection};
 use crate::morton::{
-    Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order,
-    morton_order_wide,
+    Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order, morton_order_on,
+    morton_order_wide, validate_points,
 };
+use crate::par::collect_indexed;
 use crate::quadtree::{Quadtree, expand};
-use crate::warp::{point_finer_than_grid, unresolvable, warp};
+use crate::warp::{leaves_below, point_finer_than_grid, unresolvable, warp};
 
 /// Wall-clock time of each stage, in the order they ran.
 #[derive(Clone, Debug, Default)]
@@ -46,6 +51,9 @@ pub struct TreeBuild<K: Copy> {
     pub quadtree: Quadtree<K>,
     /// The balanced (or well-separated) tree, when asked for.
     pub balanced: Option<BalancedTree<K>>,
+    /// The band of uniform leaves along a given domain's top side, when that lies inside the
+    /// root.
+    pub band: Option<Band>,
 }
 
 impl<K: MortonKey> TreeBuild<K> {
@@ -148,44 +156,51 @@ fn trees_of<K: MortonKey>(
         framework,
         quadtree,
         balanced,
+        band: None,
     }
 }
 
 /// What [`mesh_points`] builds and how.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MeshOptions {
     /// The sort used for Morton order.
     pub sort: SortAlgorithm,
+    /// The rectangle to mesh, holding every point (on its sides too); by default the points'
+    /// bounding box centred in a square twice its larger side.
+    pub domain: Option<Domain>,
 }
 
 /// The well-separated tree the warp needs, on the narrow grid if it resolves the points finely
-/// enough for their leaves, on the wide grid otherwise.
+/// enough for their leaves, on the wide grid otherwise; on the options' domain if they give one,
+/// which must then be at least as wide as it is tall (see [`Grid::on_domain`]) and hold the
+/// points.
 ///
 /// # Errors
-/// Whatever [`morton_order`] refuses, and [`Error::Unresolvable`] for points too close together
-/// relative to the extent for even the wide grid.
+/// Whatever [`morton_order`] refuses, [`Error::Unresolvable`] for points too close together
+/// relative to the extent for even the wide grid, and [`Error::NearDomainSide`] when a domain's
+/// top side needs too fine a band of leaves.
 pub fn separated_tree(
     points: &[DVec2],
     options: &MeshOptions,
 ) -> Result<(Tree, StageTimes), Error> {
     let mut times = StageTimes::default();
-    let separated = TreeOptions::default()
-        .sort(options.sort)
-        .refinement(Refinement::Separated);
-    let morton = times.time("morton", || morton_order(points, options.sort))?;
+    let domain = options.domain.map(|d| (d.lo, d.hi));
+    let morton = times.time("morton", || morton_order_on(points, domain, options.sort))?;
     let m = match morton {
         Morton::Narrow(m) => {
-            let build = trees_of(m, &separated, &mut times);
+            let build = separated_build(m, points, &mut times)?;
             if deepest_point_leaf(&build).is_none() {
                 return Ok((Tree::Narrow(build), times));
             }
             // Points so close that their leaves are finer than the narrow grid resolves the
             // points: the wide grid places them exactly enough.
-            times.time("morton wide", || morton_order_wide(points, options.sort))?
+            times.time("morton wide", || {
+                morton_order_wide(points, domain, options.sort)
+            })?
         }
         Morton::Wide(m) => m,
     };
-    let build = trees_of(m, &separated, &mut times);
+    let build = separated_build(m, points, &mut times)?;
     if let Some(p) = deepest_point_leaf(&build) {
         let index = build.morton.order[p];
         return Err(unresolvable(points[index as usize], index));
@@ -193,14 +208,172 @@ pub fn separated_tree(
     Ok((Tree::Wide(build), times))
 }
 
+/// The framework, the unbalanced tree and the well-separated tree on `morton`'s grid, with the
+/// band along the domain's top side if it has one inside the root (the grid then moves the
+/// band's top row onto that side).
+fn separated_build<K: MortonKey>(
+    mut morton: MortonOrder<K>,
+    points: &[DVec2],
+    times: &mut StageTimes,
+) -> Result<TreeBuild<K>, Error> {
+    let sides = morton.grid.given_domain().map(|(lo, hi)| DomainSides {
+        on: collect_indexed(morton.order.len(), |i| {
+            sides_touched(points[morton.order[i] as usize], lo, hi)
+        }),
+        inner_top: morton.grid.inner_top(),
+    });
+    let keys = &morton.keys;
+    let limit = band_level_limit::<K>(keys.len());
+    if let Some(top) = morton.grid.inner_top()
+        && coarsest_band_level(top, K::AXIS_BITS) > limit
+    {
+        let (lo, hi) = morton.grid.domain();
+        return Err(Error::ThinDomain {
+            width: hi.x - lo.x,
+            height: hi.y - lo.y,
+        });
+    }
+    let framework = times.time("framework", || build_framework(keys));
+    let quadtree = times.time("quadtree", || expand(&framework, keys));
+    let separated = times.time("separate", || {
+        separate_in(&quadtree, keys, sides.as_ref(), limit)
+    });
+    let (balanced, band) = separated.map_err(|(level, p)| {
+        let index = morton.order[p];
+        let point = points[index as usize];
+        Error::NearDomainSide {
+            index: index as usize,
+            x: point.x,
+            y: point.y,
+            side: BoundarySide::Top,
+            cells: 1u128 << level,
+        }
+    })?;
+    if let Some(band) = band {
+        morton.grid.set_top_row(band.top_row);
+    }
+    Ok(TreeBuild {
+        morton,
+        framework,
+        quadtree,
+        balanced: Some(balanced),
+        band,
+    })
+}
+
+/// The sides of the domain `[lo, hi]` that `p` lies on.
+fn sides_touched(p: DVec2, lo: DVec2, hi: DVec2) -> u8 {
+    [
+        (p.x == lo.x, ON_LEFT),
+        (p.y == lo.y, ON_BOTTOM),
+        (p.x == hi.x, ON_RIGHT),
+        (p.y == hi.y, ON_TOP),
+    ]
+    .into_iter()
+    .filter(|&(on, _)| on)
+    .fold(0, |bits, (_, side)| bits | side)
+}
+
+/// The finest band along a domain's top side allowed for `points` points: at most 64 cells per
+/// point or 2^20 cells, whichever is more, and within the grid.
+fn band_level_limit<K: MortonKey>(points: usize) -> u8 {
+    let cells = (points as u128 * 64).max(1 << 20);
+    cells.ilog2().min(K::AXIS_BITS - 1) as u8
+}
+
 /// The quality mesh of `points` by warping (angles in [22.5°, 112.5°]) on the current rayon
-/// pool, with its report. The domain is the quadtree's root square: the points' bounding box
-/// centred in a square of twice its larger side.
+/// pool, with its report. The domain is the options' rectangle, or else the quadtree's root
+/// square: the points' bounding box centred in a square of twice its larger side.
 ///
 /// # Errors
 /// Whatever [`morton_order`] refuses, [`Error::Unresolvable`] for points too close together
-/// relative to the extent for either grid or for f64, [`Error::TooLarge`] past 32-bit indices.
+/// relative to the extent for either grid or for f64, [`Error::TooLarge`] past 32-bit indices;
+/// with a domain, [`Error::InvalidOption`] unless it is a finite rectangle,
+/// [`Error::OutsideDomain`] for a point outside it and [`Error::NearDomainSide`] for a point
+/// so close to a side (or points so close together on it) that the cells along it would be too
+/// many.
 pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport), Error> {
+    let Some(domain) = options.domain else {
+        return mesh_on(points, options);
+    };
+    domain.check()?;
+    validate_points(points)?;
+    domain.check_holds(points)?;
+    // The mesher lines one side with equal cells (the top of a domain at least as wide as
+    // tall): it works in the mirror image that makes that side the better one.
+    let reflections = reflections_for(points, domain);
+    if reflections.is_empty() {
+        return mesh_on(points, options);
+    }
+    let image = |p: DVec2| reflections.iter().fold(p, |p, r| r.point(p));
+    let mirrored: Vec<DVec2> = points.par_iter().map(|&p| image(p)).collect();
+    let options = MeshOptions {
+        domain: Some(reflections.iter().fold(domain, |d, &r| d.reflected(r))),
+        ..*options
+    };
+    let back = reflections.iter().rev();
+    match mesh_on(&mirrored, &options) {
+        Ok((mesh, report)) => Ok((back.fold(mesh, |m, &r| m.reflected(r)), report)),
+        Err(e) => Err(back.fold(e, |e, &r| e.reflected(r))),
+    }
+}
+
+/// The mirror images, in order, that turn `domain` into one at least as wide as tall whose top
+/// side is the better of its two long sides to line with equal cells: the one whose nearest
+/// point not on it, and closest two points on it, are further apart.
+fn reflections_for(points: &[DVec2], domain: Domain) -> Vec<Reflection> {
+    let extent = domain.hi - domain.lo;
+    let mut reflections = Vec::new();
+    let mut image = domain;
+    if extent.y > extent.x {
+        reflections.push(Reflection::Diagonal);
+        image = domain.reflected(Reflection::Diagonal);
+    }
+    let diagonal = reflections.first().copied();
+    let flip = |p: DVec2| diagonal.map_or(p, |r| r.point(p));
+    if extent.x != extent.y
+        && side_clearance(points, flip, image, BoundarySide::Bottom)
+            > side_clearance(points, flip, image, BoundarySide::Top)
+    {
+        reflections.push(Reflection::Horizontal);
+    }
+    reflections
+}
+
+/// How far points keep from the top or bottom `side` of `domain` (after `image` maps them into
+/// it): the least distance from the side to a point not on it, or between two points on it.
+fn side_clearance(
+    points: &[DVec2],
+    image: impl Fn(DVec2) -> DVec2 + Sync,
+    domain: Domain,
+    side: BoundarySide,
+) -> f64 {
+    let height = |p: DVec2| match side {
+        BoundarySide::Bottom => p.y - domain.lo.y,
+        _ => domain.hi.y - p.y,
+    };
+    let off_side = points
+        .par_iter()
+        .map(|&p| height(image(p)))
+        .filter(|&h| h > 0.0)
+        .reduce(|| f64::INFINITY, f64::min);
+    let mut on_side: Vec<f64> = points
+        .par_iter()
+        .map(|&p| image(p))
+        .filter(|&p| height(p) == 0.0)
+        .map(|p| p.x)
+        .collect();
+    on_side.par_sort_unstable_by(f64::total_cmp);
+    let apart = on_side
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|&d| d > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    off_side.min(apart)
+}
+
+/// [`mesh_points`] once the domain, if any, is at least as wide as it is tall.
+fn mesh_on(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport), Error> {
     let (tree, mut times) = separated_tree(points, options)?;
     let (mesh, quality, duplicates) = match tree {
         Tree::Narrow(build) => warp_build(build, points, &mut times)?,
@@ -247,10 +420,16 @@ fn warp_build<K: MortonKey>(
     // links and point location only, so its internal squares go too, before the mesh's arrays
     // are made.
     let TreeBuild {
-        morton, balanced, ..
+        morton,
+        balanced,
+        band,
+        ..
     } = build;
     let mut tree = balanced.expect("a separated tree");
     tree.tree.internal = Vec::new();
+    if let Some(band) = band {
+        tree = times.time("warp band", || leaves_below(tree, band.top_row));
+    }
     let (mesh, quality) = warp(&tree, &morton.order, &morton.grid, points, times)?;
     Ok((mesh, quality, morton.duplicates.count))
 }

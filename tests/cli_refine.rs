@@ -255,7 +255,12 @@ fn bad_domains_are_one_line_errors() {
             &["--min-angle", "30", "--domain", "0.1,0.1,0.2,0.2"][..],
             "outside the domain",
         ),
-        (&["--domain", "-1,-1,2,2"][..], "--domain"),
+        (&["--domain", "0,0,1,0"][..], "--domain"),
+        (&["--domain", "0.1,0.1,0.2,0.2"][..], "outside the domain"),
+        (
+            &["--domain", "0,0,1,1", "--max-vertices", "9"][..],
+            "--max-vertices",
+        ),
     ] {
         let out = quadmesh(&[&["mesh", s(&input), "-o", s(&prefix)][..], args].concat());
         let err = stderr(&out);

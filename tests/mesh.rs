@@ -3,71 +3,16 @@
 
 mod common;
 
-use common::{FAMILIES, distinct_count, mixed_point_sets, on_threads};
+use common::{FAMILIES, WARP, check_warped, distinct_count, mixed_point_sets, on_threads};
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
-use quadmesh::mesh::{AngleBounds, angles_deg};
-use quadmesh::warp::ANGLE_BOUNDS;
+use quadmesh::mesh::AngleBounds;
 use quadmesh::{DVec2, Error, Mesh, MeshOptions, MeshReport, mesh_points};
-
-const WARP: AngleBounds = AngleBounds {
-    min_deg: ANGLE_BOUNDS.0,
-    max_deg: ANGLE_BOUNDS.1,
-};
 
 fn mesh_checked(points: &[DVec2]) -> (Mesh, MeshReport) {
     let (mesh, report) = mesh_points(points, &MeshOptions::default()).unwrap();
-    if let Err(fault) = mesh.validate(points, WARP) {
-        panic!("invalid mesh of {} points: {fault}", points.len());
-    }
-    assert_eq!(report.triangles, mesh.triangles.len());
-    assert_eq!(report.vertices, mesh.vertices.len());
-    assert!(
-        report.min_angle >= WARP.min_deg - 1e-9,
-        "{}",
-        report.min_angle
-    );
-    assert!(
-        report.max_angle <= WARP.max_deg + 1e-9,
-        "{}",
-        report.max_angle
-    );
-    let angles: u64 = report.histogram.iter().sum();
-    assert_eq!(angles, 3 * mesh.triangles.len() as u64);
-    assert_report_measures(&mesh, &report);
+    check_warped(points, &mesh, &report);
     (mesh, report)
-}
-
-/// The report's angles, taken from templates and from the diagonals' choice, are those of the
-/// mesh's triangles. The templates give the angles of ideal squares, and a leaf's f64 corners
-/// far from the origin make a square only to about 1e-4 of its size, so the report may differ
-/// from the measure by that much: its extremes by up to `TOLERANCE_DEG`, its histogram only by
-/// angles that close to a bin's edge.
-fn assert_report_measures(mesh: &Mesh, report: &MeshReport) {
-    const TOLERANCE_DEG: f64 = 0.01;
-    let (mut min, mut max, mut histogram) = (f64::INFINITY, f64::NEG_INFINITY, [0u64; 18]);
-    let mut near_edges = 0;
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
-        for angle in angles_deg(a, b, c) {
-            min = min.min(angle);
-            max = max.max(angle);
-            histogram[((angle / 10.0) as usize).min(17)] += 1;
-            let edge = (angle / 10.0).round() * 10.0;
-            near_edges += u64::from((angle - edge).abs() < TOLERANCE_DEG);
-        }
-    }
-    let close = |reported: f64, measured: f64| (reported - measured).abs() < TOLERANCE_DEG;
-    assert!(close(report.min_angle, min), "{} {min}", report.min_angle);
-    assert!(close(report.max_angle, max), "{} {max}", report.max_angle);
-    let moved: u64 = (report.histogram.iter().zip(histogram))
-        .map(|(&r, m)| r.abs_diff(m))
-        .sum();
-    assert!(
-        moved <= 2 * near_edges,
-        "report {:?}, measured {histogram:?}",
-        report.histogram
-    );
 }
 
 #[test]

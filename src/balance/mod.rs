@@ -13,7 +13,10 @@ use std::collections::HashSet;
 
 pub use closure::{balance_closure, forced_by};
 pub use links::{Links, cross_links, point_leaves};
-pub use separate::{block, check_separated, separate};
+pub use separate::{
+    Band, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
+    coarsest_band_level, separate, separate_in,
+};
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};

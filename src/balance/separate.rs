@@ -25,11 +25,12 @@
 use rayon::prelude::*;
 
 use super::split_set::{
-    KeyMap, SplitSet, Squares, at_position, grid_position, last_position, window_tiles,
+    KeyMap, Rect, SplitSet, Squares, at_position, grid_position, last_position, rect_squares,
+    window_tiles,
 };
 use super::{BalancedTree, linked_tree};
 use crate::framework::NONE;
-use crate::morton::{Cell, MortonKey};
+use crate::morton::{Cell, GUARD_LEVELS, MortonKey};
 use crate::quadtree::Quadtree;
 
 /// The well-separated refinement of `tree`, with links and point location.
@@ -45,30 +46,291 @@ use crate::quadtree::Quadtree;
 /// rounds; a chain of points placed so that each split forces the next one takes a round per
 /// point, each as cheap as the splits it adds.
 pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K> {
+    let (separated, _) = separate_in(tree, keys, None, u8::MAX).expect("no band without a domain");
+    separated
+}
+
+/// [`separate`] in a given domain (see [`DomainSides`]): a point's block may stick out of the
+/// root only across a side the point lies on, and is cut there. When the domain's top side lies
+/// inside the root, the tree also gets a [`Band`] along it; that band must be no finer than
+/// `max_band_level`.
+///
+/// # Errors
+/// The band level needed when it is finer than `max_band_level`, with the Morton position of a
+/// point whose leaf near the side is that fine.
+pub fn separate_in<K: MortonKey>(
+    tree: &Quadtree<K>,
+    keys: &[K],
+    sides: Option<&DomainSides>,
+    max_band_level: u8,
+) -> Result<(BalancedTree<K>, Option<Band>), (u8, usize)> {
+    let rules = Rules::new(sides);
     let mut set = SplitSet::new();
     set.insert_closed(tree.internal.iter().map(|s| Squares::one(s.cell)));
     let mut leaves = PointLeaves::new(keys.len());
-    let mut moves = first_moves(&set, tree, keys);
-    while !moves.is_empty() {
-        let demanded: Vec<Vec<Squares<K>>> = moves
-            .par_chunks(MOVES_PER_TASK)
-            .map(|chunk| {
-                let mut out = Vec::new();
-                for &m in chunk {
-                    demands_of(&set, keys, m, &mut out);
-                }
-                out
-            })
-            .collect();
-        // The two updates touch different structures.
-        let (added, ()) = rayon::join(
-            || set.insert_closed(demanded.iter().flatten().copied()),
-            || leaves.record(keys, &moves),
-        );
+    let mut moves = first_moves(&set, &rules, tree, keys);
+    let mut band = None;
+    loop {
+        while !moves.is_empty() {
+            let demanded: Vec<Vec<Squares<K>>> = moves
+                .par_chunks(MOVES_PER_TASK)
+                .map(|chunk| {
+                    let mut out = Vec::new();
+                    for &m in chunk {
+                        demands_of(&set, keys, m, &mut out);
+                    }
+                    out
+                })
+                .collect();
+            // The two updates touch different structures.
+            let (added, ()) = rayon::join(
+                || set.insert_closed(demanded.iter().flatten().copied()),
+                || leaves.record(keys, &moves),
+            );
+            let candidates = leaves.near(&added);
+            moves = settle_all(&set, &rules, keys, &leaves.level, &candidates);
+        }
+        // Once the points are settled, the band goes in as split squares and the points near
+        // it settle again; nothing that follows is finer than the band inside it.
+        let Some(top) = rules.top.filter(|_| band.is_none()) else {
+            break;
+        };
+        let chosen = band_for(&set, top);
+        if chosen.level > max_band_level {
+            return Err((chosen.level, finest_near(keys, &leaves.level, top)));
+        }
+        band = Some(chosen);
+        let added = set.insert_closed(chosen.parents::<K>());
         let candidates = leaves.near(&added);
-        moves = settle_all(&set, keys, &leaves.level, &candidates);
+        moves = settle_all(&set, &rules, keys, &leaves.level, &candidates);
     }
-    linked_tree(&set.preorder(), keys)
+    Ok((linked_tree(&set.preorder(), keys), band))
+}
+
+/// The Morton position of the point with the finest leaf among those whose leaf lies within
+/// four of its sides (or the grid's guard cells) below the domain's top side `top`, the first
+/// such if several: the point that made the band so fine.
+fn finest_near<K: MortonKey>(keys: &[K], level: &[u8], top: InnerTop) -> usize {
+    (0..keys.len())
+        .into_par_iter()
+        .filter(|&p| {
+            let shift = K::AXIS_BITS - level[p] as u32;
+            let (_, y) = grid_position(Cell::containing(keys[p], level[p]));
+            let upper = (u128::from(y) + 1) << shift;
+            let reach = (4u128 << shift).max(2 << GUARD_LEVELS);
+            top.floor.saturating_sub(upper) < reach
+        })
+        .max_by_key(|&p| (level[p], std::cmp::Reverse(p)))
+        .unwrap_or(0)
+}
+
+/// Which sides of a given domain each point lies on, and where the domain's top side lies when
+/// it is not the root's: what the separation rules need of a domain that points may touch. The
+/// domain must be at least as wide as it is tall, so that its left, bottom and right sides are
+/// the root's (see [`crate::morton::Grid::on_domain`]).
+#[derive(Clone, Debug, Default)]
+pub struct DomainSides {
+    /// Per point in Morton order, a bit per side it lies on: [`ON_LEFT`], [`ON_BOTTOM`],
+    /// [`ON_RIGHT`], [`ON_TOP`].
+    pub on: Vec<u8>,
+    /// The domain's top side in finest-grid units when it lies inside the root.
+    pub inner_top: Option<f64>,
+}
+
+/// The point lies on the domain's left side.
+pub const ON_LEFT: u8 = 1;
+/// The point lies on the domain's bottom side.
+pub const ON_BOTTOM: u8 = 2;
+/// The point lies on the domain's right side.
+pub const ON_RIGHT: u8 = 4;
+/// The point lies on the domain's top side.
+pub const ON_TOP: u8 = 8;
+
+/// A domain's top side inside the root, in finest-grid units: the integers around it.
+#[derive(Clone, Copy, Debug)]
+struct InnerTop {
+    exact: f64,
+    floor: u128,
+    ceil: u128,
+}
+
+impl InnerTop {
+    fn new(exact: f64) -> Self {
+        InnerTop {
+            exact,
+            floor: exact.floor() as u128,
+            ceil: exact.ceil() as u128,
+        }
+    }
+}
+
+/// The row of uniform leaves along a domain's top side that lies inside the root.
+///
+/// Every leaf the side crosses (or touches from below) is of `level`, so the grid row `top_row`
+/// (in finest units) moves onto the side for every column at once: that row's top when the side
+/// keeps at least half of it (its leaves become rectangles at least half as tall as wide), its
+/// bottom when the side keeps less than 1/16 of it (those leaves go, and the leaves below, of
+/// at least half their size, stretch by less than 1/8). `level` is the coarsest where one of
+/// those holds and no leaf is finer in the row; the leaves below it are graded as usual.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Band {
+    /// The level of the band's leaves.
+    pub level: u8,
+    /// The grid row (finest units) that lies on the domain's top side.
+    pub top_row: u128,
+    /// The band's row among the rows of `level`.
+    row: u64,
+}
+
+impl Band {
+    /// The squares whose split makes the band's leaves.
+    fn parents<K: MortonKey>(&self) -> Vec<Squares<K>> {
+        let level = self.level - 1;
+        rect_squares(
+            level,
+            Rect {
+                columns: (0, last_position(level)),
+                rows: (self.row / 2, self.row / 2),
+            },
+        )
+    }
+}
+
+/// The level of the coarsest band a domain's top side at `inner_top` (finest grid units, as
+/// [`DomainSides::inner_top`]) allows on an `axis_bits` grid, whatever the points: the band's
+/// leaves can be no larger than the domain is tall.
+pub fn coarsest_band_level(inner_top: f64, axis_bits: u32) -> u8 {
+    allowed_from(InnerTop::new(inner_top), 1, axis_bits).level
+}
+
+/// The band along `top` for the split squares `set`: the coarsest level at which no split
+/// square of that level or finer meets the band's row, and the side cuts that row in a shape
+/// the templates keep within the angle bounds (at most three levels finer than the first).
+fn band_for<K: MortonKey>(set: &SplitSet<K>, top: InnerTop) -> Band {
+    let axis_bits = K::AXIS_BITS;
+    let mut level = 1;
+    // Each split square pushes the band below the finest level at which it meets the band.
+    for l in (1..=axis_bits as u8).rev() {
+        if l < level {
+            break;
+        }
+        let from = level;
+        let meets = set
+            .squares_at(l)
+            .filter_map(|cell| finest_meeting(cell, top, from))
+            .max();
+        if let Some(m) = meets {
+            level = level.max(m + 1);
+        }
+    }
+    allowed_from(top, level, axis_bits)
+}
+
+/// The band at the first level from `level` on where the side cuts the row in an allowed shape.
+fn allowed_from(top: InnerTop, mut level: u8, axis_bits: u32) -> Band {
+    loop {
+        let band = band_at(top, level, axis_bits);
+        if band.top_row != u128::MAX || level as u32 >= axis_bits {
+            return band;
+        }
+        level += 1;
+    }
+}
+
+/// The band row at `level`, with `top_row` [`u128::MAX`] when the side cuts it in a shape not
+/// allowed (keeping between 1/16 and 1/2 of it, or less with no row below).
+fn band_at(top: InnerTop, level: u8, axis_bits: u32) -> Band {
+    let side = 1u128 << (axis_bits - level as u32);
+    // The row whose leaves the side crosses or touches from below.
+    let row = top.ceil.div_ceil(side).saturating_sub(1);
+    let bottom = row * side;
+    let kept = (top.exact - bottom as f64) / side as f64;
+    let top_row = if kept >= 0.5 {
+        bottom + side
+    } else if kept < 1.0 / 16.0 && row > 0 {
+        bottom
+    } else {
+        u128::MAX
+    };
+    Band {
+        level,
+        top_row,
+        row: u64::try_from(row).unwrap_or(u64::MAX),
+    }
+}
+
+/// The finest level from `from` to `cell`'s own at which `cell`, a split square below the side
+/// `top`, meets the band's row, if any. The row at level j lies within one of its sides below
+/// the side, so a square further below meets only coarser rows.
+fn finest_meeting<K: MortonKey>(cell: Cell<K>, top: InnerTop, from: u8) -> Option<u8> {
+    let axis_bits = K::AXIS_BITS;
+    let shift = axis_bits - cell.level as u32;
+    let (_, y) = grid_position(cell);
+    let bottom = u128::from(y) << shift;
+    if bottom >= top.ceil || cell.level < from {
+        return None;
+    }
+    let upper = bottom + (1u128 << shift);
+    let distance = top.floor.saturating_sub(upper);
+    // Rows of side at most half the distance lie wholly above the square.
+    let bits = 128 - distance.leading_zeros();
+    let mut level = (axis_bits + 1).saturating_sub(bits).min(cell.level as u32) as u8;
+    loop {
+        let side = 1u128 << (axis_bits - level as u32);
+        let row_bottom = top.ceil.div_ceil(side).saturating_sub(1) * side;
+        if row_bottom < upper {
+            return Some(level);
+        }
+        if level <= from {
+            return None;
+        }
+        level -= 1;
+    }
+}
+
+/// The block rules R3a, c, d as a domain shapes them.
+struct Rules<'a> {
+    sides: Option<&'a DomainSides>,
+    top: Option<InnerTop>,
+}
+
+impl<'a> Rules<'a> {
+    fn new(sides: Option<&'a DomainSides>) -> Self {
+        let top = sides.and_then(|s| s.inner_top).map(InnerTop::new);
+        Rules { sides, top }
+    }
+
+    /// The squares of point `i`'s 5×5 block around `cell` that the rules look at: all of them,
+    /// less those beyond a domain side the point lies on; `None` when the block crosses the
+    /// root's side or the domain's top side elsewhere (the point's square must then be split).
+    fn window<K: MortonKey>(&self, i: usize, cell: Cell<K>) -> Option<Rect> {
+        let (x, y) = grid_position(cell);
+        let last = last_position(cell.level);
+        let on = self.sides.map_or(0, |s| s.on[i]);
+        let low = |c: u64, on_side: bool| match c.checked_sub(2) {
+            Some(c) => Some(c),
+            None => on_side.then_some(0),
+        };
+        let high = |c: u64, on_side: bool| match c.checked_add(2).filter(|&c| c <= last) {
+            Some(c) => Some(c),
+            None => on_side.then_some(last),
+        };
+        let columns = (low(x, on & ON_LEFT != 0)?, high(x, on & ON_RIGHT != 0)?);
+        let bottom = low(y, on & ON_BOTTOM != 0)?;
+        let top = match self.top {
+            None => high(y, on & ON_TOP != 0)?,
+            // The rows above a point on the side lie outside the domain.
+            Some(_) if on & ON_TOP != 0 => y,
+            Some(t) => {
+                let shift = K::AXIS_BITS - cell.level as u32;
+                ((u128::from(y) + 3) << shift <= t.floor).then_some(y + 2)?
+            }
+        };
+        Some(Rect {
+            columns,
+            rows: (bottom, top),
+        })
+    }
 }
 
 /// Moves whose demands one task gathers.
@@ -87,19 +349,24 @@ struct Move {
 /// The first moves: each point from the root down past its leaf in the unbalanced tree (split
 /// already) and every level whose block is crowded by points or the root (R3c, d), then as
 /// [`descend`] goes. Crowding by points only lessens going down, so later rounds skip it.
-fn first_moves<K: MortonKey>(set: &SplitSet<K>, tree: &Quadtree<K>, keys: &[K]) -> Vec<Move> {
+fn first_moves<K: MortonKey>(
+    set: &SplitSet<K>,
+    rules: &Rules,
+    tree: &Quadtree<K>,
+    keys: &[K],
+) -> Vec<Move> {
     tree.leaves
         .par_iter()
         .filter(|leaf| leaf.point != NONE)
         .map(|leaf| {
             let i = leaf.point as usize;
             let split = walk(set, keys[i], leaf.cell.level);
-            let level = clear_of_points(keys, i, split);
+            let level = clear_of_points(rules, keys, i, split);
             Move {
                 point: leaf.point,
                 from: 0,
                 split,
-                to: descend(set, keys[i], level),
+                to: descend(set, rules, keys, i, level),
             }
         })
         .collect()
@@ -108,6 +375,7 @@ fn first_moves<K: MortonKey>(set: &SplitSet<K>, tree: &Quadtree<K>, keys: &[K]) 
 /// Settles each candidate point against the current split squares; returns those that moved.
 fn settle_all<K: MortonKey>(
     set: &SplitSet<K>,
+    rules: &Rules,
     keys: &[K],
     level: &[u8],
     candidates: &[u32],
@@ -118,7 +386,7 @@ fn settle_all<K: MortonKey>(
             let key = keys[point as usize];
             let from = level[point as usize];
             let split = walk(set, key, from);
-            let to = descend(set, key, split);
+            let to = descend(set, rules, keys, point as usize, split);
             (to != from).then_some(Move {
                 point,
                 from,
@@ -131,10 +399,12 @@ fn settle_all<K: MortonKey>(
 
 /// The level of the leaf of `key`, from its unsplit square at level `from` on, once the rules
 /// are applied to it alone: below every square whose block holds a split square (R3a).
-fn descend<K: MortonKey>(set: &SplitSet<K>, key: K, from: u8) -> u8 {
+fn descend<K: MortonKey>(set: &SplitSet<K>, rules: &Rules, keys: &[K], i: usize, from: u8) -> u8 {
     let mut level = from;
     // Squares below an unsplit one are unsplit, so the path need not be walked again.
-    while (level as u32) < K::AXIS_BITS && crowded_by_splits(set, Cell::containing(key, level)) {
+    while (level as u32) < K::AXIS_BITS
+        && crowded_by_splits(set, rules, i, Cell::containing(keys[i], level))
+    {
         level += 1;
     }
     level
@@ -149,9 +419,17 @@ fn walk<K: MortonKey>(set: &SplitSet<K>, key: K, from: u8) -> u8 {
     level
 }
 
-/// Whether the 5×5 block around `cell` sticks out of the root or holds a split square.
-fn crowded_by_splits<K: MortonKey>(set: &SplitSet<K>, cell: Cell<K>) -> bool {
-    !window_inside(grid_position(cell), cell.level, 2) || set.any_near(cell, 2)
+/// Whether point `i`'s 5×5 block around `cell` sticks out where it may not or holds a split
+/// square.
+fn crowded_by_splits<K: MortonKey>(
+    set: &SplitSet<K>,
+    rules: &Rules,
+    i: usize,
+    cell: Cell<K>,
+) -> bool {
+    rules
+        .window(i, cell)
+        .is_none_or(|window| set.any_in(cell.level, window))
 }
 
 /// Appends the squares a move demands that are not split yet: the path it passed (R3a, c, d),
@@ -245,9 +523,9 @@ impl<K: MortonKey> PointLeaves<K> {
 
 /// The first level from `from` on where the 5×5 block around point `i`'s square lies in the
 /// root and holds no other point (R3c, d), or the finest level.
-fn clear_of_points<K: MortonKey>(keys: &[K], i: usize, from: u8) -> u8 {
+fn clear_of_points<K: MortonKey>(rules: &Rules, keys: &[K], i: usize, from: u8) -> u8 {
     let mut level = from;
-    while (level as u32) < K::AXIS_BITS && crowded_by_points(keys, i, level) {
+    while (level as u32) < K::AXIS_BITS && crowded_by_points(rules, keys, i, level) {
         level += 1;
     }
     level
@@ -256,10 +534,11 @@ fn clear_of_points<K: MortonKey>(keys: &[K], i: usize, from: u8) -> u8 {
 /// Whether the 5×5 block around point `i`'s square at `level` sticks out of the root or holds
 /// another point. Only the points in the (at most 2×2) squares four times as large that cover
 /// the block are looked at, found by galloping from `i`: they are mostly close in Morton order.
-fn crowded_by_points<K: MortonKey>(keys: &[K], i: usize, level: u8) -> bool {
+fn crowded_by_points<K: MortonKey>(rules: &Rules, keys: &[K], i: usize, level: u8) -> bool {
     let cell = Cell::containing(keys[i], level);
     let centre = grid_position(cell);
-    if !window_inside(centre, level, 2) {
+    // No point lies beyond a side the window is cut at, so the whole block is searched.
+    if rules.window(i, cell).is_none() {
         return true;
     }
     let crowds = |&k: &K| {
@@ -319,13 +598,6 @@ fn holds_point<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> bool {
 
 fn chebyshev((ax, ay): (u64, u64), (bx, by): (u64, u64)) -> u64 {
     ax.abs_diff(bx).max(ay.abs_diff(by))
-}
-
-/// Whether the squares within `radius` of the square at `(x, y)` of `level` all lie in the root.
-fn window_inside((x, y): (u64, u64), level: u8, radius: u64) -> bool {
-    let side = 1u128 << level;
-    let fits = |c: u64| c >= radius && u128::from(c) + u128::from(radius) < side;
-    fits(x) && fits(y)
 }
 
 /// The squares two levels up (at most 2×2 for a radius up to 2) that cover the squares within

@@ -114,7 +114,23 @@ pub(super) fn window_tiles<K: MortonKey>(
     let (x, y) = grid_position(cell);
     let last = last_position(cell.level);
     let span = move |c: u64| (c.saturating_sub(radius), c.saturating_add(radius).min(last));
-    let ((x0, x1), (y0, y1)) = (span(x), span(y));
+    rect_tiles(Rect {
+        columns: span(x),
+        rows: span(y),
+    })
+}
+
+/// Columns and rows (inclusive) of squares of one level.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Rect {
+    pub columns: (u64, u64),
+    pub rows: (u64, u64),
+}
+
+/// The tiles that the squares of `rect` (inside the root) meet, with the bits of those squares
+/// in each.
+pub(super) fn rect_tiles<K: MortonKey>(rect: Rect) -> impl Iterator<Item = (K, u64)> {
+    let ((x0, x1), (y0, y1)) = (rect.columns, rect.rows);
     (x0 >> 3..=x1 >> 3).flat_map(move |tx| {
         let columns = axis_mask(&COLUMNS, x0, x1, tx);
         (y0 >> 3..=y1 >> 3).map(move |ty| {
@@ -122,6 +138,28 @@ pub(super) fn window_tiles<K: MortonKey>(
             (tile, columns & axis_mask(&ROWS, y0, y1, ty))
         })
     })
+}
+
+/// The indices of the set bits of a mask, lowest first.
+struct BitIndices(u64);
+
+impl Iterator for BitIndices {
+    type Item = u32;
+
+    fn next(&mut self) -> Option<u32> {
+        (self.0 != 0).then(|| {
+            let index = self.0.trailing_zeros();
+            self.0 &= self.0 - 1;
+            index
+        })
+    }
+}
+
+/// The squares of `rect` at `level`, a tile at a time.
+pub(super) fn rect_squares<K: MortonKey>(level: u8, rect: Rect) -> Vec<Squares<K>> {
+    rect_tiles::<K>(rect)
+        .map(|(tile, mask)| Squares { tile, mask, level })
+        .collect()
 }
 
 /// Squares of one tile: the tile (see [`tile_bit`]), its level, and a bit per square.
@@ -231,11 +269,21 @@ impl<K: MortonKey> SplitSet<K> {
             .is_some_and(|mask| mask & bit != 0)
     }
 
-    /// Whether a split square lies within `radius` of `cell` along both axes (`cell` included).
-    pub(super) fn any_near(&self, cell: Cell<K>, radius: u64) -> bool {
-        let tiles = &self.levels[cell.level as usize];
-        window_tiles(cell, radius)
+    /// Whether a split square of `level` lies in `rect`.
+    pub(super) fn any_in(&self, level: u8, rect: Rect) -> bool {
+        let tiles = &self.levels[level as usize];
+        rect_tiles::<K>(rect)
             .any(|(tile, window)| tiles.get(&tile).is_some_and(|mask| mask & window != 0))
+    }
+
+    /// The split squares of `level`, in no particular order.
+    pub(super) fn squares_at(&self, level: u8) -> impl ParallelIterator<Item = Cell<K>> + '_ {
+        self.levels[level as usize]
+            .par_iter()
+            .flat_map_iter(move |(&tile, &mask)| {
+                let squares = Squares { tile, mask, level };
+                BitIndices(mask).map(move |i| squares.square(i))
+            })
     }
 
     /// Appends to `out` the squares within `radius` of `cell` (`cell` included) that are not

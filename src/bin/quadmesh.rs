@@ -125,8 +125,9 @@ struct QualityArgs {
     /// angle bound).
     #[arg(long, value_name = "X", allow_negative_numbers = true)]
     max_area: Option<f64>,
-    /// Refinement meshes this rectangle instead of the square around the points; it must hold
-    /// every point (points on its sides become boundary vertices), e.g. their bounding box.
+    /// Mesh this rectangle instead of the square around the points; it must hold every point
+    /// (points on its sides become boundary vertices with the same angle bounds), e.g. their
+    /// bounding box.
     #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_rectangle, allow_hyphen_values = true)]
     domain: Option<[f64; 4]>,
     /// Refinement stops with an error past N vertices, input points included [default: 100 per
@@ -157,11 +158,16 @@ impl QualityArgs {
             min_angle_deg: self.min_angle.unwrap_or(0.0),
             max_area: self.max_area,
             max_vertices: self.max_vertices,
-            domain: self.domain.map(|d| Domain {
-                lo: DVec2::new(d[0], d[1]),
-                hi: DVec2::new(d[2], d[3]),
-            }),
+            domain: self.domain(),
             ..RefineOptions::default()
+        })
+    }
+
+    /// The rectangle asked for, if any.
+    fn domain(&self) -> Option<Domain> {
+        self.domain.map(|d| Domain {
+            lo: DVec2::new(d[0], d[1]),
+            hi: DVec2::new(d[2], d[3]),
         })
     }
 
@@ -170,9 +176,12 @@ impl QualityArgs {
     fn check(&self) -> Result<()> {
         let Some(options) = self.refinement() else {
             anyhow::ensure!(
-                self.max_vertices.is_none() && self.domain.is_none(),
-                "--max-vertices and --domain apply to refinement only (--min-angle or --max-area)"
+                self.max_vertices.is_none(),
+                "--max-vertices applies to refinement only (--min-angle or --max-area)"
             );
+            if let Some(domain) = self.domain() {
+                domain.check()?;
+            }
             return Ok(());
         };
         options.check()?;
@@ -205,7 +214,13 @@ impl QualityArgs {
     fn mesh(&self, points: &[DVec2]) -> Result<(Mesh, MeshReport), quadmesh::Error> {
         match self.refinement() {
             Some(options) => refine_points(points, &options),
-            None => mesh_points(points, &MeshOptions::default()),
+            None => mesh_points(
+                points,
+                &MeshOptions {
+                    domain: self.domain(),
+                    ..MeshOptions::default()
+                },
+            ),
         }
     }
 }

@@ -6,7 +6,10 @@ mod validate;
 
 use std::time::Duration;
 
-use glam::DVec2;
+use glam::{DVec2, Vec2Swizzles};
+use rayon::prelude::*;
+
+use crate::error::Error;
 
 pub use delaunay_check::check_delaunay;
 pub use validate::{AngleBounds, validate};
@@ -34,6 +37,81 @@ impl Domain {
     pub fn contains(&self, p: DVec2) -> bool {
         self.lo.x <= p.x && p.x <= self.hi.x && self.lo.y <= p.y && p.y <= self.hi.y
     }
+
+    /// Refuses a rectangle that is not finite or has no area.
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] for the `domain` option.
+    pub fn check(&self) -> Result<(), Error> {
+        let (lo, hi) = (self.lo, self.hi);
+        if lo.is_finite() && hi.is_finite() && lo.x < hi.x && lo.y < hi.y {
+            return Ok(());
+        }
+        Err(Error::InvalidOption {
+            option: "domain",
+            message: format!(
+                "[{}, {}] x [{}, {}] is not a rectangle of positive area",
+                lo.x, hi.x, lo.y, hi.y
+            ),
+        })
+    }
+
+    /// Refuses points outside the rectangle (its sides count as inside).
+    ///
+    /// # Errors
+    /// [`Error::OutsideDomain`] for the first such point.
+    pub fn check_holds(&self, points: &[DVec2]) -> Result<(), Error> {
+        match points.par_iter().position_first(|&p| !self.contains(p)) {
+            Some(index) => Err(Error::OutsideDomain {
+                index,
+                x: points[index].x,
+                y: points[index].y,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// The rectangle's mirror image.
+    pub fn reflected(&self, r: Reflection) -> Domain {
+        let (a, b) = (r.point(self.lo), r.point(self.hi));
+        Domain {
+            lo: a.min(b),
+            hi: a.max(b),
+        }
+    }
+}
+
+/// A mirror image the mesher may work in and map back from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reflection {
+    /// Across the diagonal `x = y`: coordinates swapped.
+    Diagonal,
+    /// Across the x axis: `y` negated.
+    Horizontal,
+}
+
+impl Reflection {
+    /// The image of a point (exact: a swap or a sign change).
+    pub fn point(self, p: DVec2) -> DVec2 {
+        match self {
+            Reflection::Diagonal => p.yx(),
+            Reflection::Horizontal => DVec2::new(p.x, -p.y),
+        }
+    }
+
+    /// The image of a domain side.
+    pub fn side(self, side: BoundarySide) -> BoundarySide {
+        use BoundarySide::{Bottom, Left, Right, Top};
+        match (self, side) {
+            (Reflection::Diagonal, Bottom) => Left,
+            (Reflection::Diagonal, Left) => Bottom,
+            (Reflection::Diagonal, Right) => Top,
+            (Reflection::Diagonal, Top) => Right,
+            (Reflection::Horizontal, Bottom) => Top,
+            (Reflection::Horizontal, Top) => Bottom,
+            (Reflection::Horizontal, other) => other,
+        }
+    }
 }
 
 /// Which side of the domain a boundary edge lies on; the value is the edge's marker in the
@@ -49,6 +127,17 @@ pub enum BoundarySide {
     Top = 3,
     /// `x = lo.x`.
     Left = 4,
+}
+
+impl std::fmt::Display for BoundarySide {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            BoundarySide::Bottom => "bottom",
+            BoundarySide::Right => "right",
+            BoundarySide::Top => "top",
+            BoundarySide::Left => "left",
+        })
+    }
 }
 
 /// A triangle edge on the domain boundary, oriented counter-clockwise around the domain.
@@ -81,6 +170,29 @@ pub struct Mesh {
     pub boundary: Vec<BoundaryEdge>,
     /// The region the triangles cover exactly.
     pub domain: Domain,
+}
+
+impl Mesh {
+    /// The mesh's mirror image: each triangle's last two corners (with their neighbours) and
+    /// each boundary edge's ends exchanged, so that orientations stay counter-clockwise.
+    pub fn reflected(self, r: Reflection) -> Mesh {
+        let swap = |[a, b, c]: [u32; 3]| [a, c, b];
+        Mesh {
+            vertices: self.vertices.par_iter().map(|&v| r.point(v)).collect(),
+            vertex_input: self.vertex_input,
+            triangles: self.triangles.into_par_iter().map(swap).collect(),
+            neighbours: self.neighbours.into_par_iter().map(swap).collect(),
+            boundary: self
+                .boundary
+                .into_par_iter()
+                .map(|e| BoundaryEdge {
+                    vertices: [e.vertices[1], e.vertices[0]],
+                    side: r.side(e.side),
+                })
+                .collect(),
+            domain: self.domain.reflected(r),
+        }
+    }
 }
 
 /// Angles of a triangle in degrees, at its corners in order.

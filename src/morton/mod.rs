@@ -68,8 +68,21 @@ pub enum Morton {
 /// # Complexity
 /// O(n) work for encoding plus the sort's; all steps run on the current rayon pool.
 pub fn morton_order(points: &[DVec2], sort: SortAlgorithm) -> Result<Morton, Error> {
+    morton_order_on(points, None, sort)
+}
+
+/// [`morton_order`] on the root of [`Grid::on_domain`] for `domain` (its lower-left and
+/// upper-right corners, holding every point), or around the points without one.
+///
+/// # Errors
+/// As [`morton_order`].
+pub fn morton_order_on(
+    points: &[DVec2],
+    domain: Option<(DVec2, DVec2)>,
+    sort: SortAlgorithm,
+) -> Result<Morton, Error> {
     let (lo, hi) = validate(points)?;
-    let grid = Grid::around(lo, hi, u64::AXIS_BITS)?;
+    let grid = grid_of(lo, hi, domain, u64::AXIS_BITS)?;
     if !sample_collides(points, &grid) {
         let mut narrow: Vec<Pair<u64>> = interleave::encode_all(points, &grid);
         u64::sort_pairs(&mut narrow, sort);
@@ -80,28 +93,44 @@ pub fn morton_order(points: &[DVec2], sort: SortAlgorithm) -> Result<Morton, Err
     }
     // A fresh radix sort of wide keys, encoded in input order, is faster than refining the
     // narrow order: that needs a random gather of the points, which measured slower here.
-    wide_order(points, lo, hi, sort).map(Morton::Wide)
+    wide_order(points, lo, hi, domain, sort).map(Morton::Wide)
 }
 
-/// Puts `points` into Morton order on the 64-bit-per-axis grid, whatever they need.
+/// The grid around points with bounding box `[lo, hi]`, or on `domain`.
+fn grid_of(
+    lo: DVec2,
+    hi: DVec2,
+    domain: Option<(DVec2, DVec2)>,
+    axis_bits: u32,
+) -> Result<Grid, Error> {
+    match domain {
+        Some((lo, hi)) => Grid::on_domain(lo, hi, axis_bits),
+        None => Grid::around(lo, hi, axis_bits),
+    }
+}
+
+/// Puts `points` into Morton order on the 64-bit-per-axis grid (on `domain` if given), whatever
+/// they need.
 ///
 /// # Errors
 /// As [`morton_order`].
 pub fn morton_order_wide(
     points: &[DVec2],
+    domain: Option<(DVec2, DVec2)>,
     sort: SortAlgorithm,
 ) -> Result<MortonOrder<u128>, Error> {
     let (lo, hi) = validate(points)?;
-    wide_order(points, lo, hi, sort)
+    wide_order(points, lo, hi, domain, sort)
 }
 
 fn wide_order(
     points: &[DVec2],
     lo: DVec2,
     hi: DVec2,
+    domain: Option<(DVec2, DVec2)>,
     sort: SortAlgorithm,
 ) -> Result<MortonOrder<u128>, Error> {
-    let grid = Grid::around(lo, hi, u128::AXIS_BITS)?;
+    let grid = grid_of(lo, hi, domain, u128::AXIS_BITS)?;
     let mut wide: Vec<Pair<u128>> = interleave::encode_all(points, &grid);
     u128::sort_pairs(&mut wide, sort);
     let runs = equal_key_runs(&wide);
@@ -136,6 +165,14 @@ fn sample_collides(points: &[DVec2], grid: &Grid) -> bool {
     sample
         .windows(2)
         .any(|w| w[0].0 == w[1].0 && points[w[0].1] != points[w[1].1])
+}
+
+/// Refuses empty input, too many points and non-finite coordinates.
+///
+/// # Errors
+/// [`Error::Empty`], [`Error::TooManyPoints`], [`Error::NonFinite`].
+pub fn validate_points(points: &[DVec2]) -> Result<(), Error> {
+    validate(points).map(|_| ())
 }
 
 /// Refuses empty input, too many points and non-finite coordinates; returns the bounding box.

@@ -11,8 +11,10 @@ pub const GUARD_LEVELS: u32 = 4;
 
 /// The root square in input coordinates and the map from input coordinates to grid coordinates.
 ///
-/// The root's side is twice the points' extent, centred on their bounding box, so every point lies
-/// in the central half of the root (the neighbourhood blocks of later stages stay inside it).
+/// Around points ([`Grid::around`]) the root's side is twice the points' extent, centred on their
+/// bounding box, so every point lies in the central half of the root (the neighbourhood blocks of
+/// later stages stay inside it). On a given domain ([`Grid::on_domain`]) the root shares the
+/// domain's lower-left corner and larger side, and points may lie on the domain's sides.
 /// Quantization keeps `axis_bits - GUARD_LEVELS` bits per axis; it is monotone, so it only orders
 /// and locates points and never changes their coordinates.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -21,7 +23,14 @@ pub struct Grid {
     side: f64,
     axis_bits: u32,
     scale: f64,
-    max_cell: u64,
+    /// The last cell along each axis that can hold a point.
+    max_cell: [u64; 2],
+    /// A given domain's upper-right corner.
+    far: Option<DVec2>,
+    /// The grid line of each axis whose vertices take the domain's far coordinate exactly: the
+    /// root's side where the domain's side is the root's, the row moved onto a shorter domain's
+    /// top side once the mesh has chosen it.
+    far_line: [Option<u128>; 2],
 }
 
 impl Grid {
@@ -37,24 +46,94 @@ impl Grid {
         };
         let side = 2.0 * half;
         let origin = centre - DVec2::splat(half);
-        let precision = axis_bits - GUARD_LEVELS;
-        // Dividing by the side first, then scaling by a power of two (exact), works for sides
-        // down to the smallest subnormal.
-        let scale = (2.0f64).powi(precision as i32);
         if !(side.is_finite() && origin.is_finite()) {
             return Err(Error::CoordinateRange {
                 lo: lo.into(),
                 hi: hi.into(),
             });
         }
-        let max_cell = (1u64 << (precision - 1) << 1).wrapping_sub(1);
-        Ok(Grid {
+        Ok(Grid::square(origin, side, axis_bits))
+    }
+
+    /// The grid on the rectangle `[lo, hi]`: the root's lower-left corner is `lo` and its side
+    /// the rectangle's larger one, so the left and bottom sides of the domain are the root's,
+    /// and so is the right (top) side when the domain is at least as wide (tall) as it is tall
+    /// (wide). Points on the domain's right or top side fall in the cells below that side.
+    ///
+    /// # Errors
+    /// [`Error::CoordinateRange`] unless `[lo, hi]` is finite with a positive side.
+    pub fn on_domain(lo: DVec2, hi: DVec2, axis_bits: u32) -> Result<Grid, Error> {
+        let extent = hi - lo;
+        let side = extent.max_element();
+        if !(lo.is_finite() && hi.is_finite() && side.is_finite() && side > 0.0) {
+            return Err(Error::CoordinateRange {
+                lo: lo.into(),
+                hi: hi.into(),
+            });
+        }
+        let mut grid = Grid::square(lo, side, axis_bits);
+        let full = 1u128 << axis_bits;
+        grid.far = Some(hi);
+        grid.max_cell = [grid.last_cell(extent.x), grid.last_cell(extent.y)];
+        grid.far_line = [
+            (extent.x == side).then_some(full),
+            (extent.y == side).then_some(full),
+        ];
+        Ok(grid)
+    }
+
+    fn square(origin: DVec2, side: f64, axis_bits: u32) -> Grid {
+        let precision = axis_bits - GUARD_LEVELS;
+        // Dividing by the side first, then scaling by a power of two (exact), works for sides
+        // down to the smallest subnormal.
+        let scale = (2.0f64).powi(precision as i32);
+        let last = (1u64 << (precision - 1) << 1).wrapping_sub(1);
+        Grid {
             origin,
             side,
             axis_bits,
             scale,
-            max_cell,
-        })
+            max_cell: [last; 2],
+            far: None,
+            far_line: [None; 2],
+        }
+    }
+
+    /// The last cell before a domain side `extent` from the origin: a point on the side belongs
+    /// to it even when the side is a grid line.
+    fn last_cell(&self, extent: f64) -> u64 {
+        let far = extent / self.side * self.scale;
+        (far.ceil() as u64).saturating_sub(1).min(self.max_cell[0])
+    }
+
+    /// The domain's top side in grid units (fractional), when the domain is shorter than the
+    /// root: then it may cut through cells, and the mesh moves a grid row onto it.
+    pub fn inner_top(&self) -> Option<f64> {
+        let far = self.far?;
+        let height = far.y - self.origin.y;
+        (height < self.side)
+            .then(|| height / self.side * self.scale * (2.0f64).powi(GUARD_LEVELS as i32))
+    }
+
+    /// The domain given to [`Grid::on_domain`], if any.
+    pub fn given_domain(&self) -> Option<(DVec2, DVec2)> {
+        self.far.map(|far| (self.origin, far))
+    }
+
+    /// The grid row moved onto a short domain's top side, once chosen.
+    pub fn inner_top_row(&self) -> Option<u128> {
+        self.inner_top().and(self.far_line[1])
+    }
+
+    /// Makes the vertices of grid row `row` lie on the domain's top side.
+    pub fn set_top_row(&mut self, row: u128) {
+        self.far_line[1] = Some(row);
+    }
+
+    /// The region the mesh covers: the given domain, or the root square.
+    pub fn domain(&self) -> (DVec2, DVec2) {
+        let full = 1u128 << self.axis_bits;
+        (self.origin, self.far.unwrap_or(self.vertex(full, full)))
     }
 
     /// A grid on the unit square with the given bits per axis (for tests and benches).
@@ -83,17 +162,27 @@ impl Grid {
     pub fn quantize(&self, p: DVec2) -> (u64, u64) {
         let q = (p - self.origin) / self.side * self.scale;
         // `as` saturates: negatives go to 0, and the clamp catches rounding past the top.
-        let x = (q.x as u64).min(self.max_cell);
-        let y = (q.y as u64).min(self.max_cell);
+        let x = (q.x as u64).min(self.max_cell[0]);
+        let y = (q.y as u64).min(self.max_cell[1]);
         (x << GUARD_LEVELS, y << GUARD_LEVELS)
     }
 
     /// The input coordinates of grid vertex `(gx, gy)` (up to `2^axis_bits` on the root's top and
     /// right sides). Monotone in each coordinate, so vertices on one grid line share their
-    /// coordinate bit for bit, and the root's sides are exactly `origin` and `origin + side`.
+    /// coordinate bit for bit; the root's sides are exactly `origin` and `origin + side`, and a
+    /// domain's right and top sides exactly its own coordinates.
     pub fn vertex(&self, gx: u128, gy: u128) -> DVec2 {
         let unit = self.side / (2.0f64).powi(self.axis_bits as i32);
-        self.origin + DVec2::new(gx as f64 * unit, gy as f64 * unit)
+        let mut p = self.origin + DVec2::new(gx as f64 * unit, gy as f64 * unit);
+        if let Some(far) = self.far {
+            if self.far_line[0] == Some(gx) {
+                p.x = far.x;
+            }
+            if self.far_line[1] == Some(gy) {
+                p.y = far.y;
+            }
+        }
+        p
     }
 
     /// Lower-left corner and side, in input coordinates, of the cell at grid corner `(gx, gy)`

@@ -100,16 +100,8 @@ impl RefineOptions {
                 message: format!("{a} is not an angle in [0, {MAX_MIN_ANGLE_DEG}] degrees"),
             });
         }
-        if let Some(d) = self.domain
-            && !(d.lo.is_finite() && d.hi.is_finite() && d.lo.x < d.hi.x && d.lo.y < d.hi.y)
-        {
-            return Err(Error::InvalidOption {
-                option: "domain",
-                message: format!(
-                    "[{}, {}] x [{}, {}] is not a rectangle of positive area",
-                    d.lo.x, d.hi.x, d.lo.y, d.hi.y
-                ),
-            });
+        if let Some(d) = self.domain {
+            d.check()?;
         }
         if let Some(area) = self.max_area
             && !(area > 0.0 && area.is_finite())
@@ -152,7 +144,7 @@ pub fn refine_points(
     let mut times = StageTimes::default();
     let morton = times.time("morton", || morton_order(points, options.sort))?;
     if let Some(domain) = options.domain {
-        check_inside(points, domain)?;
+        domain.check_holds(points)?;
     }
     match morton {
         Morton::Narrow(m) => refine_order(m, points, options, times),
@@ -225,18 +217,6 @@ fn refine(
     let mut work = Work::new();
     work.queue_all(&bad, &edges);
     Refiner::new(t, &mut work, *bounds, budget).run()
-}
-
-/// Refuses the first point outside `domain`.
-fn check_inside(points: &[DVec2], domain: Domain) -> Result<(), Error> {
-    match points.par_iter().position_first(|&p| !domain.contains(p)) {
-        Some(index) => Err(Error::OutsideDomain {
-            index,
-            x: points[index].x,
-            y: points[index].y,
-        }),
-        None => Ok(()),
-    }
 }
 
 /// Inserts the distinct points in Morton order, each walk starting from the last new triangle,

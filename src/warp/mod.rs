@@ -7,8 +7,11 @@
 //! triangles by prefix sums over the leaves in Morton order, so the mesh does not depend on the
 //! thread count.
 
+mod cut;
 mod templates;
 mod vertices;
+
+pub use cut::leaves_below;
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -94,21 +97,23 @@ pub fn warp<K: MortonKey>(
         })
     });
     let (boundary, quality) = times.time("warp boundary", || {
+        let inexact = |leaf: usize| !geometry.exact_square(leaf);
+        let measured = measured_quality(&kinds, &offsets, (&triangles, &vertices), inexact);
         (
             boundary_edges(&geometry, &kinds, &triangles, &offsets),
-            unmoved_quality(&kinds).merge(moved_quality),
+            unmoved_quality(&kinds, inexact)
+                .merge(moved_quality)
+                .merge(measured),
         )
     });
+    let (lo, hi) = grid.domain();
     let mesh = Mesh {
         vertices,
         vertex_input,
         triangles,
         neighbours,
         boundary,
-        domain: Domain {
-            lo: grid.vertex(0, 0),
-            hi: grid.vertex(1 << K::AXIS_BITS, 1 << K::AXIS_BITS),
-        },
+        domain: Domain { lo, hi },
     };
     Ok((mesh, quality))
 }
@@ -166,15 +171,20 @@ pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>) -> Option<usi
 
 /// The angles of the leaves without a moved corner, from their templates: such a leaf is a
 /// square, so its angles are the template's. (The warped leaves' angles are measured as their
-/// diagonals are chosen.)
-fn unmoved_quality(kinds: &[u8]) -> AngleQuality {
+/// diagonals are chosen, and those of the leaves that are not squares to f64's precision, as
+/// [`LeafGeometry::exact_square`] tells, by [`measured_quality`].)
+fn unmoved_quality(kinds: &[u8], inexact: impl Fn(usize) -> bool + Sync) -> AngleQuality {
     let unmoved_per_kind = kinds
         .par_chunks(crate::par::GRAIN)
+        .enumerate()
         .fold(
             || [0u64; templates::KINDS],
-            |mut counts, chunk| {
-                for &k in chunk.iter().filter(|&&k| k & MOVED == 0) {
-                    counts[k as usize] += 1;
+            |mut counts, (c, chunk)| {
+                let first = c * crate::par::GRAIN;
+                for (j, &k) in chunk.iter().enumerate() {
+                    if k & MOVED == 0 && !inexact(first + j) {
+                        counts[k as usize] += 1;
+                    }
                 }
                 counts
             },
@@ -192,6 +202,29 @@ fn unmoved_quality(kinds: &[u8]) -> AngleQuality {
         .filter(|(_, count)| **count > 0)
         .map(|(code, &count)| templates::unit_angles(code as u8).repeated(count))
         .fold(AngleQuality::empty(), AngleQuality::merge)
+}
+
+/// The angles of the triangles of the unmoved `inexact` leaves, measured.
+fn measured_quality(
+    kinds: &[u8],
+    offsets: &[u32],
+    (triangles, vertices): (&[[u32; 3]], &[DVec2]),
+    inexact: impl Fn(usize) -> bool + Sync,
+) -> AngleQuality {
+    (0..kinds.len())
+        .into_par_iter()
+        .filter(|&leaf| kinds[leaf] & MOVED == 0 && inexact(leaf))
+        .fold(AngleQuality::empty, |mut quality, leaf| {
+            let range = offsets[leaf] as usize..offsets[leaf + 1] as usize;
+            for t in &triangles[range] {
+                let [a, b, c] = t.map(|v| vertices[v as usize]);
+                angles_deg(a, b, c)
+                    .into_iter()
+                    .for_each(|angle| quality.add(angle, 1));
+            }
+            quality
+        })
+        .reduce(AngleQuality::empty, AngleQuality::merge)
 }
 
 /// A point's moved corner: its leaf and the corner's ring label there.
@@ -297,8 +330,11 @@ fn warped_templates<K: MortonKey>(
     // A block's angles go straight into its chunk's summary: a block that fails fails the call.
     let warped_block = |m: Move, quality: &mut AngleQuality| {
         let block = block_around(geometry, m)?;
-        let mut out: WarpedBlock = [(0, 0); 4];
+        let mut out: WarpedBlock = [(NONE, 0); 4];
         for (slot, (leaf, corner)) in out.iter_mut().zip(block) {
+            if leaf == NONE {
+                continue;
+            }
             let labels = labels(leaf as usize);
             if geometry.midpoint_mask(leaf as usize) != 0 {
                 return None;
@@ -327,7 +363,11 @@ fn warped_templates<K: MortonKey>(
         let vertex = labels(leaf)[moves[bad].corner as usize] as usize;
         return Err(unresolvable(vertices[vertex], vertex_input[vertex]));
     }
-    for &(leaf, kind) in blocks().flatten().flatten() {
+    for &(leaf, kind) in blocks()
+        .flatten()
+        .flatten()
+        .filter(|(leaf, _)| *leaf != NONE)
+    {
         kinds[leaf as usize] = kind;
     }
     let quality = parts.iter().map(|(_, q)| *q);
@@ -335,8 +375,9 @@ fn warped_templates<K: MortonKey>(
 }
 
 /// The four leaves around a moved corner, each with the corner's ring label in it: the point's
-/// leaf, its neighbours across the two sides at the corner, and the leaf diagonally across.
-/// `None` unless all are single leaves of the same size (as separation guarantees).
+/// leaf, its neighbours across the two sides at the corner, and the leaf diagonally across;
+/// [`NONE`] for those beyond the domain's boundary when the corner lies on it. `None` unless
+/// the others are single leaves of the same size (as separation guarantees).
 fn block_around<K: MortonKey>(geometry: &LeafGeometry<K>, m: Move) -> Option<[(u32, u8); 4]> {
     let (horizontal, vertical) = match m.corner {
         0 => (Side::West, Side::South),
@@ -345,15 +386,23 @@ fn block_around<K: MortonKey>(geometry: &LeafGeometry<K>, m: Move) -> Option<[(u
         _ => (Side::West, Side::North),
     };
     let same_size = |leaf: u32, side: Side| {
-        let [next, second] = geometry.across(leaf as usize, side);
-        (next != NONE
-            && second == NONE
-            && geometry.level(next as usize) == geometry.level(leaf as usize))
-        .then_some(next)
+        if leaf == NONE {
+            return Some(NONE);
+        }
+        match geometry.across(leaf as usize, side) {
+            [NONE, _] => Some(NONE),
+            [next, NONE] if geometry.level(next as usize) == geometry.level(leaf as usize) => {
+                Some(next)
+            }
+            _ => None,
+        }
     };
     let beside = same_size(m.leaf, horizontal)?;
     let below = same_size(m.leaf, vertical)?;
     let diagonal = same_size(beside, vertical)?;
+    if beside != NONE && (below == NONE) != (diagonal == NONE) {
+        return None;
+    }
     // Mirroring across a vertical side swaps LL↔LR and UL↔UR; across a horizontal side LL↔UL
     // and LR↔UR.
     let mirror_x = |c: u8| [2, 0, 0, 0, 6, 0, 4][c as usize];

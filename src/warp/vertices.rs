@@ -116,6 +116,15 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
         lo.x < mid.x && mid.x < hi.x && lo.y < mid.y && mid.y < hi.y
     }
 
+    /// Whether the leaf is a square up to f64 rounding of at most 2^-11 of its side, so that its
+    /// triangles have its template's angles to about 0.01°: it is coarse enough, and its top
+    /// side is not the grid row moved onto a short domain's top side (which makes it a
+    /// rectangle).
+    pub fn exact_square(&self, leaf: usize) -> bool {
+        let (_, y, size) = self.grid_square(leaf);
+        self.level(leaf) <= self.resolved_level && self.grid.inner_top_row() != Some(y + size)
+    }
+
     /// A point of the grid in input coordinates.
     fn vertex(&self, x: u128, y: u128) -> DVec2 {
         self.grid.vertex(x, y)

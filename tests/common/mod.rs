@@ -2,8 +2,10 @@
 #![allow(dead_code, unused_macros, unused_imports)]
 
 use proptest::prelude::*;
-use quadmesh::DVec2;
 use quadmesh::generate::Distribution2d;
+use quadmesh::mesh::{AngleBounds, angles_deg};
+use quadmesh::warp::ANGLE_BOUNDS;
+use quadmesh::{DVec2, Mesh, MeshReport};
 
 /// Every generated input family.
 pub const FAMILIES: [Distribution2d; 4] = Distribution2d::ALL;
@@ -54,4 +56,65 @@ pub fn distinct_count(points: &[DVec2]) -> usize {
         .map(|p| ((p.x + 0.0).to_bits(), (p.y + 0.0).to_bits()))
         .collect();
     distinct.len()
+}
+
+/// The angles every warped mesh keeps.
+pub const WARP: AngleBounds = AngleBounds {
+    min_deg: ANGLE_BOUNDS.0,
+    max_deg: ANGLE_BOUNDS.1,
+};
+
+/// Checks a warped mesh of `points` and its report: the mesh passes `Mesh::validate` with the
+/// warp's bounds, and the report's counts and angles are the mesh's.
+pub fn check_warped(points: &[DVec2], mesh: &Mesh, report: &MeshReport) {
+    if let Err(fault) = mesh.validate(points, WARP) {
+        panic!("invalid mesh of {} points: {fault}", points.len());
+    }
+    assert_eq!(report.triangles, mesh.triangles.len());
+    assert_eq!(report.vertices, mesh.vertices.len());
+    assert!(
+        report.min_angle >= WARP.min_deg - 1e-9,
+        "{}",
+        report.min_angle
+    );
+    assert!(
+        report.max_angle <= WARP.max_deg + 1e-9,
+        "{}",
+        report.max_angle
+    );
+    let angles: u64 = report.histogram.iter().sum();
+    assert_eq!(angles, 3 * mesh.triangles.len() as u64);
+    assert_report_measures(mesh, report);
+}
+
+/// The report's angles, taken from templates and from the diagonals' choice, are those of the
+/// mesh's triangles. The templates give the angles of ideal squares, and a leaf's f64 corners
+/// far from the origin make a square only to about 1e-4 of its size, so the report may differ
+/// from the measure by that much: its extremes by up to `TOLERANCE_DEG`, its histogram only by
+/// angles that close to a bin's edge.
+fn assert_report_measures(mesh: &Mesh, report: &MeshReport) {
+    const TOLERANCE_DEG: f64 = 0.01;
+    let (mut min, mut max, mut histogram) = (f64::INFINITY, f64::NEG_INFINITY, [0u64; 18]);
+    let mut near_edges = 0;
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
+        for angle in angles_deg(a, b, c) {
+            min = min.min(angle);
+            max = max.max(angle);
+            histogram[((angle / 10.0) as usize).min(17)] += 1;
+            let edge = (angle / 10.0).round() * 10.0;
+            near_edges += u64::from((angle - edge).abs() < TOLERANCE_DEG);
+        }
+    }
+    let close = |reported: f64, measured: f64| (reported - measured).abs() < TOLERANCE_DEG;
+    assert!(close(report.min_angle, min), "{} {min}", report.min_angle);
+    assert!(close(report.max_angle, max), "{} {max}", report.max_angle);
+    let moved: u64 = (report.histogram.iter().zip(histogram))
+        .map(|(&r, m)| r.abs_diff(m))
+        .sum();
+    assert!(
+        moved <= 2 * near_edges,
+        "report {:?}, measured {histogram:?}",
+        report.histogram
+    );
 }

@@ -1,0 +1,71 @@
+//! The leaves a given domain keeps: those below the grid row that the band along a short
+//! domain's top side moves onto that side (see [`crate::balance::Band`]).
+
+use rayon::prelude::*;
+
+use crate::balance::{BalancedTree, Links};
+use crate::mesh::NONE;
+use crate::morton::{MortonKey, Side};
+use crate::par::{collect_indexed, exclusive_scan_u32_by};
+use crate::quadtree::{Leaf, Quadtree};
+
+/// The leaves of `tree` whose tops lie at or below the finest-unit row `row`, in their order,
+/// with links across the row removed: the row is then the mesh's boundary. A point whose leaf
+/// lies above the row (it is on the domain's top side, in the band's crossing row when the row
+/// is that row's bottom) moves to the leaf of the same size below, whose top side it lies on.
+///
+/// No leaf straddles `row`, as the band's leaves line it; so two smaller neighbours of a kept
+/// leaf are both kept, and a kept pair stays consecutive.
+pub fn leaves_below<K: MortonKey>(tree: BalancedTree<K>, row: u128) -> BalancedTree<K> {
+    let leaves = &tree.tree.leaves;
+    let kept: Vec<bool> = leaves.par_iter().map(|l| top_of(l) <= row).collect();
+    let index = exclusive_scan_u32_by(leaves.len(), |j| usize::from(kept[j]))
+        .expect("fewer leaves than 32-bit indices");
+    let renumber = |j: u32| {
+        if j != NONE && kept[j as usize] {
+            index[j as usize]
+        } else {
+            NONE
+        }
+    };
+    let old_of: Vec<u32> = (0..leaves.len() as u32)
+        .into_par_iter()
+        .filter(|&j| kept[j as usize])
+        .collect();
+    let mut new_leaves: Vec<Leaf<K>> =
+        collect_indexed(old_of.len(), |j| leaves[old_of[j] as usize]);
+    let links = collect_indexed(old_of.len(), |j| {
+        let old = &tree.links[old_of[j] as usize];
+        Links::new(Side::ALL.map(|side| old.across(side).map(renumber)))
+    });
+    let point_leaf: Vec<u32> = tree
+        .point_leaf
+        .par_iter()
+        .map(|&j| {
+            let below = if kept[j as usize] {
+                j
+            } else {
+                tree.links[j as usize].across(Side::South)[0]
+            };
+            renumber(below)
+        })
+        .collect();
+    for (p, &j) in point_leaf.iter().enumerate() {
+        debug_assert_ne!(j, NONE, "point {p} lost its leaf");
+        new_leaves[j as usize].point = p as u32;
+    }
+    BalancedTree {
+        tree: Quadtree {
+            leaves: new_leaves,
+            internal: Vec::new(),
+        },
+        links,
+        point_leaf,
+    }
+}
+
+/// The finest-unit row of a leaf's top side.
+fn top_of<K: MortonKey>(leaf: &Leaf<K>) -> u128 {
+    let (_, y) = leaf.cell.anchor.decode();
+    u128::from(y) + (1u128 << (K::AXIS_BITS - leaf.cell.level as u32))
+}

@@ -1,0 +1,324 @@
+//! Warped meshes of a given rectangle: points may lie on its sides and corners, its sides need
+//! not lie on the quadtree's grid, and every mesh keeps the warp's angle bounds and passes
+//! `Mesh::validate`.
+
+mod common;
+
+use common::{FAMILIES, check_warped, distinct_count, mixed_point_sets, on_threads};
+use proptest::prelude::*;
+use quadmesh::generate::{self, Distribution2d};
+use quadmesh::mesh::{BoundarySide, Domain, Reflection};
+use quadmesh::morton::bounding_box;
+use quadmesh::pipeline::separated_tree;
+use quadmesh::{DVec2, Error, Mesh, MeshOptions, MeshReport, Tree, mesh_points};
+
+fn options(domain: Domain) -> MeshOptions {
+    MeshOptions {
+        domain: Some(domain),
+        ..MeshOptions::default()
+    }
+}
+
+/// The mesh of `points` on `domain`, checked: valid with the warp's bounds, covering exactly the
+/// domain, and every point on a side a vertex of boundary edges on that side.
+fn mesh_in(points: &[DVec2], domain: Domain) -> (Mesh, MeshReport) {
+    let (mesh, report) = mesh_points(points, &options(domain)).unwrap();
+    check_warped(points, &mesh, &report);
+    assert_eq!(mesh.domain, domain);
+    for (v, &input) in mesh.vertex_input.iter().enumerate() {
+        if input == u32::MAX {
+            continue;
+        }
+        let p = points[input as usize];
+        for side in sides_of(p, domain) {
+            let on_edge = mesh
+                .boundary
+                .iter()
+                .any(|e| e.side == side && e.vertices.contains(&(v as u32)));
+            assert!(
+                on_edge,
+                "point {input} {p} is on the {side:?} side but no edge there"
+            );
+        }
+    }
+    (mesh, report)
+}
+
+fn sides_of(p: DVec2, d: Domain) -> Vec<BoundarySide> {
+    [
+        (p.y == d.lo.y, BoundarySide::Bottom),
+        (p.x == d.hi.x, BoundarySide::Right),
+        (p.y == d.hi.y, BoundarySide::Top),
+        (p.x == d.lo.x, BoundarySide::Left),
+    ]
+    .into_iter()
+    .filter_map(|(on, side)| on.then_some(side))
+    .collect()
+}
+
+/// The points' bounding box, widened along an axis where it has no extent.
+fn bounding_domain(points: &[DVec2]) -> Domain {
+    let (lo, hi) = bounding_box(points);
+    let extent = match (hi - lo).max_element() {
+        0.0 => 1.0,
+        e => e,
+    };
+    let pad = DVec2::select(
+        (hi - lo).cmpeq(DVec2::ZERO),
+        DVec2::splat(extent),
+        DVec2::ZERO,
+    );
+    Domain { lo, hi: hi + pad }
+}
+
+fn rect(x0: f64, y0: f64, x1: f64, y1: f64) -> Domain {
+    Domain {
+        lo: DVec2::new(x0, y0),
+        hi: DVec2::new(x1, y1),
+    }
+}
+
+#[test]
+fn bounding_boxes_mesh_validly() {
+    for dist in FAMILIES {
+        for n in [2, 10, 200, 3000] {
+            let points = generate::points(dist, n, 5);
+            let (_, report) = mesh_in(&points, bounding_domain(&points));
+            assert_eq!(report.points, distinct_count(&points), "{dist:?}");
+        }
+    }
+}
+
+#[test]
+fn square_wide_and_tall_domains() {
+    let points = generate::points(Distribution2d::Uniform, 500, 3);
+    for domain in [
+        rect(0.0, 0.0, 1.0, 1.0),
+        rect(-0.5, 0.0, 1.5, 1.0),
+        rect(0.0, -0.5, 1.0, 1.5),
+        rect(-3.0, -0.25, 1.25, 1.0),
+        rect(-1e3, -1e3, 1e3, 1e3),
+    ] {
+        mesh_in(&points, domain);
+    }
+}
+
+#[test]
+fn points_on_every_side_and_corner() {
+    let d = rect(-1.0, 2.0, 3.0, 4.5);
+    let mut points = vec![
+        d.lo,
+        d.hi,
+        DVec2::new(d.lo.x, d.hi.y),
+        DVec2::new(d.hi.x, d.lo.y),
+    ];
+    for t in [0.1, 0.37, 0.5, 0.52, 0.9] {
+        let x = d.lo.x + t * (d.hi.x - d.lo.x);
+        let y = d.lo.y + t * (d.hi.y - d.lo.y);
+        points.extend([
+            DVec2::new(x, d.lo.y),
+            DVec2::new(x, d.hi.y),
+            DVec2::new(d.lo.x, y),
+            DVec2::new(d.hi.x, y),
+        ]);
+    }
+    points.extend(
+        generate::points(Distribution2d::Cluster, 300, 9)
+            .iter()
+            .map(|p| d.lo + (d.hi - d.lo) * p.clamp(DVec2::ZERO, DVec2::ONE)),
+    );
+    mesh_in(&points, d);
+    // The same points in the mirrored (tall) domain.
+    let mirrored: Vec<DVec2> = points.iter().map(|p| DVec2::new(p.y, p.x)).collect();
+    mesh_in(&mirrored, d.reflected(Reflection::Diagonal));
+}
+
+#[test]
+fn many_points_on_the_inner_side() {
+    // A domain wider than tall, so its top side cuts through the grid, lined with points.
+    let d = rect(0.0, 0.0, 1.0, 0.3);
+    let mut points: Vec<DVec2> = (0..=200)
+        .map(|i| DVec2::new(i as f64 / 200.0, 0.3))
+        .collect();
+    points.extend(
+        generate::points(Distribution2d::Uniform, 500, 4)
+            .iter()
+            .map(|p| *p * DVec2::new(1.0, 0.29)),
+    );
+    mesh_in(&points, d);
+}
+
+#[test]
+fn thin_domains() {
+    let points: Vec<DVec2> = generate::points(Distribution2d::Uniform, 300, 8)
+        .iter()
+        .map(|p| DVec2::new(p.x * 1000.0, p.y))
+        .collect();
+    mesh_in(&points, bounding_domain(&points));
+    mesh_in(&points, rect(-1.0, -0.5, 1001.0, 1.5));
+}
+
+/// Whether the band along a domain's inner top side keeps the crossed row (its top moves down
+/// onto the side), drops it (the row below stretches up), or needs neither.
+#[derive(Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum BandShape {
+    Keeps,
+    Drops,
+    Exact,
+}
+
+fn band_shape(points: &[DVec2], domain: Domain) -> Option<BandShape> {
+    let (tree, _) = separated_tree(points, &options(domain)).unwrap();
+    let (band, grid) = match &tree {
+        Tree::Narrow(b) => (b.band, b.morton.grid),
+        Tree::Wide(b) => (b.band, b.morton.grid),
+    };
+    let (band, top) = (band?, grid.inner_top()?);
+    Some(match (band.top_row as f64).partial_cmp(&top).unwrap() {
+        std::cmp::Ordering::Greater => BandShape::Keeps,
+        std::cmp::Ordering::Less => BandShape::Drops,
+        std::cmp::Ordering::Equal => BandShape::Exact,
+    })
+}
+
+#[test]
+fn both_band_shapes_occur_and_mesh_validly() {
+    let base = generate::points(Distribution2d::Uniform, 300, 12);
+    let mut shapes = Vec::new();
+    for k in 0..40 {
+        let height = 0.3 + 0.0173 * k as f64;
+        let points: Vec<DVec2> = base.iter().map(|p| *p * DVec2::new(1.0, height)).collect();
+        let d = rect(0.0, 0.0, 1.0, height);
+        shapes.push(band_shape(&points, d).expect("a band"));
+        mesh_in(&points, d);
+    }
+    shapes.sort();
+    shapes.dedup();
+    assert!(shapes.contains(&BandShape::Keeps), "{shapes:?}");
+    assert!(shapes.contains(&BandShape::Drops), "{shapes:?}");
+    // A dyadic height puts the side on a grid line.
+    let d = rect(0.0, 0.0, 1.0, 0.375);
+    let points: Vec<DVec2> = base.iter().map(|p| *p * DVec2::new(1.0, 0.375)).collect();
+    assert_eq!(band_shape(&points, d), Some(BandShape::Exact));
+    mesh_in(&points, d);
+    // A square domain needs no band.
+    assert_eq!(band_shape(&base, rect(0.0, 0.0, 1.0, 1.0)), None);
+}
+
+#[test]
+fn bad_domains_are_typed_errors() {
+    let points = generate::points(Distribution2d::Uniform, 100, 2);
+    let run = |d: Domain| mesh_points(&points, &options(d)).map(|_| ());
+    assert!(matches!(
+        run(rect(0.1, 0.1, 0.9, 0.9)),
+        Err(Error::OutsideDomain { .. })
+    ));
+    for bad in [
+        rect(0.0, 0.0, 0.0, 1.0),
+        rect(0.0, 1.0, 1.0, 0.0),
+        rect(f64::NAN, 0.0, 1.0, 1.0),
+        rect(0.0, 0.0, f64::INFINITY, 1.0),
+    ] {
+        assert!(
+            matches!(
+                run(bad),
+                Err(Error::InvalidOption {
+                    option: "domain",
+                    ..
+                })
+            ),
+            "{bad:?}"
+        );
+    }
+    let mut nan = points.clone();
+    nan[7].x = f64::NAN;
+    assert!(matches!(
+        mesh_points(&nan, &options(rect(0.0, 0.0, 1.0, 1.0))),
+        Err(Error::NonFinite { index: 7, .. })
+    ));
+}
+
+#[test]
+fn a_needle_of_a_domain_is_an_error() {
+    let points = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 1e-7)];
+    let needle = rect(0.0, 0.0, 1.0, 1e-7);
+    assert!(matches!(
+        mesh_points(&points, &options(needle)),
+        Err(Error::ThinDomain { .. })
+    ));
+    let mirrored = [DVec2::new(0.0, 0.0), DVec2::new(1e-7, 1.0)];
+    match mesh_points(&mirrored, &options(needle.reflected(Reflection::Diagonal))) {
+        Err(Error::ThinDomain { width, height }) => assert_eq!((width, height), (1e-7, 1.0)),
+        other => panic!("{:?}", other.map(|_| ())),
+    }
+}
+
+#[test]
+fn points_nearly_on_both_long_sides_are_an_error_naming_one() {
+    let mut points: Vec<DVec2> = generate::points(Distribution2d::Uniform, 100, 6)
+        .iter()
+        .map(|p| DVec2::new(p.x, 0.01 + 0.48 * p.y))
+        .collect();
+    let wide = rect(0.0, 0.0, 1.0, 0.5);
+    // Nearly on the top side only: the mesh lines the bottom side instead.
+    points.push(DVec2::new(0.3, 0.5 - 1e-13));
+    mesh_in(&points, wide);
+    // Nearly on both: the side with the more distant point is lined, and that point named.
+    points.push(DVec2::new(0.6, 2e-13));
+    match mesh_points(&points, &options(wide)) {
+        Err(Error::NearDomainSide { index, side, .. }) => {
+            assert_eq!((index, side), (101, BoundarySide::Bottom));
+        }
+        other => panic!("{:?}", other.map(|_| ())),
+    }
+    let mirrored: Vec<DVec2> = points.iter().map(|p| DVec2::new(p.y, p.x)).collect();
+    match mesh_points(&mirrored, &options(wide.reflected(Reflection::Diagonal))) {
+        Err(Error::NearDomainSide {
+            index, side, x, y, ..
+        }) => {
+            assert_eq!((index, side), (101, BoundarySide::Left));
+            assert_eq!(DVec2::new(x, y), mirrored[101]);
+        }
+        other => panic!("{:?}", other.map(|_| ())),
+    }
+    // On the sides themselves, the points are boundary vertices like any other.
+    points[100].y = 0.5;
+    points[101].y = 0.0;
+    mesh_in(&points, wide);
+}
+
+#[test]
+fn one_and_two_threads_give_the_same_mesh() {
+    for dist in FAMILIES {
+        let points = generate::points(dist, 20_000, 13);
+        let domain = bounding_domain(&points);
+        let one = on_threads(1, || mesh_points(&points, &options(domain)).unwrap().0);
+        let two = on_threads(2, || mesh_points(&points, &options(domain)).unwrap().0);
+        assert!(one == two, "{dist:?}");
+    }
+}
+
+/// A domain around `points`: their bounding box, each side pushed out by its own margin (zero
+/// for some, so that points lie on them).
+fn around(points: &[DVec2], margins: [f64; 4]) -> Domain {
+    let tight = bounding_domain(points);
+    let extent = (tight.hi - tight.lo).max_element();
+    Domain {
+        lo: tight.lo - DVec2::new(margins[0], margins[1]) * extent,
+        hi: tight.hi + DVec2::new(margins[2], margins[3]) * extent,
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn random_point_sets_mesh_validly_in_random_domains(
+        points in mixed_point_sets(),
+        margins in prop::array::uniform4(prop_oneof![Just(0.0), 0.0f64..0.7]),
+    ) {
+        let domain = around(&points, margins);
+        let (_, report) = mesh_in(&points, domain);
+        prop_assert_eq!(report.points, distinct_count(&points));
+    }
+}
