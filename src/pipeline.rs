@@ -7,8 +7,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::balance::{
-    BalancedTree, Band, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, balance,
-    coarsest_band_level, separate, separate_in,
+    BalancedTree, Band, DomainSides, balance, coarsest_band_level, separate, separate_in,
 };
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
@@ -17,7 +16,6 @@ use crate::morton::{
     Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order, morton_order_on,
     morton_order_wide, validate_points,
 };
-use crate::par::collect_indexed;
 use crate::quadtree::{Quadtree, expand};
 use crate::warp::{leaves_below, point_finer_than_grid, unresolvable, warp};
 
@@ -216,12 +214,7 @@ fn separated_build<K: MortonKey>(
     points: &[DVec2],
     times: &mut StageTimes,
 ) -> Result<TreeBuild<K>, Error> {
-    let sides = morton.grid.given_domain().map(|(lo, hi)| DomainSides {
-        on: collect_indexed(morton.order.len(), |i| {
-            sides_touched(points[morton.order[i] as usize], lo, hi)
-        }),
-        inner_top: morton.grid.inner_top(),
-    });
+    let sides = DomainSides::of(points, &morton.order, &morton.grid);
     let keys = &morton.keys;
     let limit = band_level_limit::<K>(keys.len());
     if let Some(top) = morton.grid.inner_top()
@@ -261,19 +254,6 @@ fn separated_build<K: MortonKey>(
     })
 }
 
-/// The sides of the domain `[lo, hi]` that `p` lies on.
-fn sides_touched(p: DVec2, lo: DVec2, hi: DVec2) -> u8 {
-    [
-        (p.x == lo.x, ON_LEFT),
-        (p.y == lo.y, ON_BOTTOM),
-        (p.x == hi.x, ON_RIGHT),
-        (p.y == hi.y, ON_TOP),
-    ]
-    .into_iter()
-    .filter(|&(on, _)| on)
-    .fold(0, |bits, (_, side)| bits | side)
-}
-
 /// The finest band along a domain's top side allowed for `points` points: at most 64 cells per
 /// point or 2^20 cells, whichever is more, and within the grid.
 fn band_level_limit<K: MortonKey>(points: usize) -> u8 {
@@ -301,7 +281,7 @@ pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, Mes
     domain.check_holds(points)?;
     // The mesher lines one side with equal cells (the top of a domain at least as wide as
     // tall): it works in the mirror image that makes that side the better one.
-    let reflections = reflections_for(points, domain);
+    let reflections = domain_reflections(points, domain);
     if reflections.is_empty() {
         return mesh_on(points, options);
     }
@@ -320,8 +300,9 @@ pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, Mes
 
 /// The mirror images, in order, that turn `domain` into one at least as wide as tall whose top
 /// side is the better of its two long sides to line with equal cells: the one whose nearest
-/// point not on it, and closest two points on it, are further apart.
-fn reflections_for(points: &[DVec2], domain: Domain) -> Vec<Reflection> {
+/// point not on it, and closest two points on it, are further apart. [`mesh_points`] meshes
+/// that image and maps the mesh back.
+pub fn domain_reflections(points: &[DVec2], domain: Domain) -> Vec<Reflection> {
     let extent = domain.hi - domain.lo;
     let mut reflections = Vec::new();
     let mut image = domain;

@@ -6,11 +6,13 @@ mod common;
 
 use common::{FAMILIES, check_warped, distinct_count, mixed_point_sets, on_threads};
 use proptest::prelude::*;
+use quadmesh::balance::{DomainSides, check_separated_in};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::mesh::{BoundarySide, Domain, Reflection};
+use quadmesh::morton::MortonKey;
 use quadmesh::morton::bounding_box;
-use quadmesh::pipeline::separated_tree;
-use quadmesh::{DVec2, Error, Mesh, MeshOptions, MeshReport, Tree, mesh_points};
+use quadmesh::pipeline::{domain_reflections, separated_tree};
+use quadmesh::{DVec2, Error, Mesh, MeshOptions, MeshReport, Tree, TreeBuild, mesh_points};
 
 fn options(domain: Domain) -> MeshOptions {
     MeshOptions {
@@ -42,6 +44,24 @@ fn mesh_in(points: &[DVec2], domain: Domain) -> (Mesh, MeshReport) {
         }
     }
     (mesh, report)
+}
+
+/// Checks the well-separated tree of `points` on a domain at least as wide as tall: balanced,
+/// linked, every point located, its block cut only at the sides the point lies on, and the band
+/// along the top side (when that cuts the grid) of one level.
+fn check_tree_in(points: &[DVec2], domain: Domain) {
+    fn check<K: MortonKey>(build: &TreeBuild<K>, points: &[DVec2]) {
+        let m = &build.morton;
+        let tree = build.balanced.as_ref().unwrap();
+        tree.check(&m.keys).unwrap();
+        let sides = DomainSides::of(points, &m.order, &m.grid);
+        check_separated_in(&tree.tree, &m.keys, sides.as_ref(), build.band).unwrap();
+        assert_eq!(build.band.is_some(), m.grid.inner_top().is_some());
+    }
+    match separated_tree(points, &options(domain)).unwrap().0 {
+        Tree::Narrow(b) => check(&b, points),
+        Tree::Wide(b) => check(&b, points),
+    }
 }
 
 fn sides_of(p: DVec2, d: Domain) -> Vec<BoundarySide> {
@@ -83,8 +103,13 @@ fn bounding_boxes_mesh_validly() {
     for dist in FAMILIES {
         for n in [2, 10, 200, 3000] {
             let points = generate::points(dist, n, 5);
-            let (_, report) = mesh_in(&points, bounding_domain(&points));
+            let domain = bounding_domain(&points);
+            let (_, report) = mesh_in(&points, domain);
             assert_eq!(report.points, distinct_count(&points), "{dist:?}");
+            let extent = domain.hi - domain.lo;
+            if extent.x >= extent.y {
+                check_tree_in(&points, domain);
+            }
         }
     }
 }
@@ -191,6 +216,7 @@ fn both_band_shapes_occur_and_mesh_validly() {
         let d = rect(0.0, 0.0, 1.0, height);
         shapes.push(band_shape(&points, d).expect("a band"));
         mesh_in(&points, d);
+        check_tree_in(&points, d);
     }
     shapes.sort();
     shapes.dedup();
@@ -320,5 +346,12 @@ proptest! {
         let domain = around(&points, margins);
         let (_, report) = mesh_in(&points, domain);
         prop_assert_eq!(report.points, distinct_count(&points));
+        // The tree of the mirror image the mesh was made in.
+        let reflections = domain_reflections(&points, domain);
+        let image: Vec<DVec2> = points
+            .iter()
+            .map(|&p| reflections.iter().fold(p, |p, r| r.point(p)))
+            .collect();
+        check_tree_in(&image, reflections.iter().fold(domain, |d, &r| d.reflected(r)));
     }
 }

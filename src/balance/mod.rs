@@ -15,7 +15,7 @@ pub use closure::{balance_closure, forced_by};
 pub use links::{Links, cross_links, point_leaves};
 pub use separate::{
     Band, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
-    coarsest_band_level, separate, separate_in,
+    check_separated_in, coarsest_band_level, separate, separate_in,
 };
 
 use crate::framework::NONE;

@@ -30,8 +30,10 @@ use super::split_set::{
 };
 use super::{BalancedTree, linked_tree};
 use crate::framework::NONE;
-use crate::morton::{Cell, GUARD_LEVELS, MortonKey};
+use crate::morton::{Cell, GUARD_LEVELS, Grid, MortonKey};
+use crate::par::collect_indexed;
 use crate::quadtree::Quadtree;
+use glam::DVec2;
 
 /// The well-separated refinement of `tree`, with links and point location.
 ///
@@ -135,6 +137,30 @@ pub struct DomainSides {
     pub on: Vec<u8>,
     /// The domain's top side in finest-grid units when it lies inside the root.
     pub inner_top: Option<f64>,
+}
+
+impl DomainSides {
+    /// The sides each of `points` (in Morton order, `order[i]` the input index of the `i`-th)
+    /// lies on, for a grid on a given domain; `None` for a grid around the points.
+    pub fn of(points: &[DVec2], order: &[u32], grid: &Grid) -> Option<DomainSides> {
+        let (lo, hi) = grid.given_domain()?;
+        let on = collect_indexed(order.len(), |i| {
+            let p = points[order[i] as usize];
+            [
+                (p.x == lo.x, ON_LEFT),
+                (p.y == lo.y, ON_BOTTOM),
+                (p.x == hi.x, ON_RIGHT),
+                (p.y == hi.y, ON_TOP),
+            ]
+            .into_iter()
+            .filter(|&(on, _)| on)
+            .fold(0, |bits, (_, side)| bits | side)
+        });
+        Some(DomainSides {
+            on,
+            inner_top: grid.inner_top(),
+        })
+    }
 }
 
 /// The point lies on the domain's left side.
@@ -645,15 +671,31 @@ fn square_offsets(radius: i64) -> impl Iterator<Item = (i64, i64)> {
 /// lies in the root and consists of leaves of its size holding no other point, and every split
 /// square holding a point has its 8 neighbours split.
 pub fn check_separated<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> Result<(), String> {
+    check_separated_in(tree, keys, None, None)
+}
+
+/// [`check_separated`] in a given domain: each point leaf's block is cut at the domain's sides
+/// the point lies on and must not cross any other; and with a band, every leaf that the band's
+/// row meets below the domain's top side is of the band's level.
+pub fn check_separated_in<K: MortonKey>(
+    tree: &Quadtree<K>,
+    keys: &[K],
+    sides: Option<&DomainSides>,
+    band: Option<Band>,
+) -> Result<(), String> {
     use std::collections::{HashMap, HashSet};
+    let rules = Rules::new(sides);
     let split: HashSet<Cell<K>> = tree.internal.iter().map(|s| s.cell).collect();
     let leaf_point: HashMap<Cell<K>, u32> = tree.leaves.iter().map(|l| (l.cell, l.point)).collect();
     for leaf in tree.leaves.iter().filter(|l| l.point != NONE) {
         let cell = leaf.cell;
-        for square in block(leaf.cell) {
-            let Some(square) = square else {
-                return Err(format!("block of {cell:?} leaves the root"));
-            };
+        let Some(window) = rules.window(leaf.point as usize, cell) else {
+            return Err(format!("block of {cell:?} leaves the domain"));
+        };
+        let (columns, rows) = (window.columns, window.rows);
+        let squares = (columns.0..=columns.1)
+            .flat_map(|x| (rows.0..=rows.1).map(move |y| at_position(x, y, cell.level)));
+        for square in squares.filter(|&c| c != cell) {
             match leaf_point.get(&square) {
                 Some(&NONE) => {}
                 Some(_) => return Err(format!("block of {cell:?} holds another point")),
@@ -671,5 +713,72 @@ pub fn check_separated<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> Result<(
             ));
         }
     }
+    if let (Some(band), Some(top)) = (band, rules.top) {
+        let side = 1u128 << (K::AXIS_BITS - band.level as u32);
+        let row = u128::from(band.row) * side..(u128::from(band.row) + 1) * side;
+        for leaf in &tree.leaves {
+            let shift = K::AXIS_BITS - leaf.cell.level as u32;
+            let bottom = u128::from(grid_position(leaf.cell).1) << shift;
+            let upper = bottom + (1u128 << shift);
+            let meets = bottom < top.ceil && bottom < row.end && upper > row.start;
+            if meets && leaf.cell.level != band.level {
+                let cell = leaf.cell;
+                return Err(format!("{cell:?} meets the band at level {}", band.level));
+            }
+        }
+    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const BITS: u32 = 32;
+
+    /// The band at `level` for a top side `kept` of the way up the row at `row`.
+    fn band_with(level: u8, row: u128, kept: f64) -> Band {
+        let side = (1u128 << (BITS - level as u32)) as f64;
+        band_at(InnerTop::new((row as f64 + kept) * side), level, BITS)
+    }
+
+    #[test]
+    fn the_side_keeps_a_row_if_it_keeps_half_and_drops_it_if_it_keeps_a_sixteenth() {
+        let side = 1u128 << (BITS - 10);
+        for (kept, top_row) in [
+            (0.5, 21 * side),
+            (0.99, 21 * side),
+            (1.0, 21 * side),
+            (0.06, 20 * side),
+            (0.001, 20 * side),
+            (0.07, u128::MAX),
+            (0.49, u128::MAX),
+        ] {
+            assert_eq!(band_with(10, 20, kept).top_row, top_row, "{kept}");
+        }
+        // With no row below, the row cannot go.
+        assert_eq!(band_with(10, 0, 0.01).top_row, u128::MAX);
+    }
+
+    #[test]
+    fn an_allowed_shape_is_at_most_three_levels_finer() {
+        for i in 1..2000 {
+            let top = InnerTop::new((i as f64 * 0.618_033_988_7).fract() * (1u64 << 31) as f64);
+            // From levels whose rows are no taller than the domain, so one lies below the row.
+            let first = (2u8..20).find(|&l| top.exact >= (1u64 << (BITS - l as u32)) as f64);
+            for level in first.unwrap_or(20)..20 {
+                let band = allowed_from(top, level, BITS);
+                assert!(band.level <= level + 3, "{top:?} from {level}: {band:?}");
+                assert_ne!(band.top_row, u128::MAX);
+            }
+        }
+    }
+
+    #[test]
+    fn the_coarsest_band_fits_the_domains_height() {
+        // A domain a thousandth as tall as wide needs rows at most about twice that tall.
+        let top = (1u64 << 32) as f64 / 1000.0;
+        let level = coarsest_band_level(top, BITS);
+        assert!((9..=12).contains(&level), "{level}");
+    }
 }

@@ -23,7 +23,7 @@ use quadmesh::io::{
     write_triangle_files, write_vtu,
 };
 use quadmesh::mesh::{AngleBounds, Domain};
-use quadmesh::morton::MortonKey;
+use quadmesh::morton::{MortonKey, bounding_box, validate_points};
 use quadmesh::pipeline::StageTimes;
 use quadmesh::refine::{GUARANTEED_MIN_ANGLE_DEG, RefineOptions, refine_points};
 use quadmesh::warp::ANGLE_BOUNDS;
@@ -125,15 +125,49 @@ struct QualityArgs {
     /// angle bound).
     #[arg(long, value_name = "X", allow_negative_numbers = true)]
     max_area: Option<f64>,
-    /// Mesh this rectangle instead of the square around the points; it must hold every point
-    /// (points on its sides become boundary vertices with the same angle bounds), e.g. their
-    /// bounding box.
-    #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_rectangle, allow_hyphen_values = true)]
-    domain: Option<[f64; 4]>,
+    /// Mesh this rectangle instead of the square around the points: `X0,Y0,X1,Y1`, holding
+    /// every point (points on its sides become boundary vertices with the same angle bounds),
+    /// or `bbox` for the points' bounding box.
+    #[arg(long, value_name = "X0,Y0,X1,Y1|bbox", value_parser = parse_domain, allow_hyphen_values = true)]
+    domain: Option<DomainArg>,
     /// Refinement stops with an error past N vertices, input points included [default: 100 per
     /// point + 10000].
     #[arg(long, value_name = "N")]
     max_vertices: Option<usize>,
+}
+
+/// The rectangle `--domain` asks for.
+#[derive(Clone, Copy, Debug)]
+enum DomainArg {
+    /// Given by its corners.
+    Rectangle(Domain),
+    /// The points' bounding box.
+    BoundingBox,
+}
+
+impl DomainArg {
+    /// The rectangle for `points`.
+    fn of(self, points: &[DVec2]) -> Domain {
+        match self {
+            DomainArg::Rectangle(d) => d,
+            DomainArg::BoundingBox => {
+                let (lo, hi) = bounding_box(points);
+                Domain { lo, hi }
+            }
+        }
+    }
+}
+
+/// `x0,y0,x1,y1` as a rectangle, or `bbox`.
+fn parse_domain(text: &str) -> Result<DomainArg, String> {
+    if text.trim() == "bbox" {
+        return Ok(DomainArg::BoundingBox);
+    }
+    let [x0, y0, x1, y1] = parse_rectangle(text)?;
+    Ok(DomainArg::Rectangle(Domain {
+        lo: DVec2::new(x0, y0),
+        hi: DVec2::new(x1, y1),
+    }))
 }
 
 /// `x0,y0,x1,y1` as four numbers.
@@ -149,7 +183,7 @@ fn parse_rectangle(text: &str) -> Result<[f64; 4], String> {
 }
 
 impl QualityArgs {
-    /// The refinement asked for, if any.
+    /// The refinement asked for, if any, without its domain (see [`QualityArgs::mesh`]).
     fn refinement(&self) -> Option<RefineOptions> {
         if self.min_angle.is_none() && self.max_area.is_none() {
             return None;
@@ -158,16 +192,7 @@ impl QualityArgs {
             min_angle_deg: self.min_angle.unwrap_or(0.0),
             max_area: self.max_area,
             max_vertices: self.max_vertices,
-            domain: self.domain(),
             ..RefineOptions::default()
-        })
-    }
-
-    /// The rectangle asked for, if any.
-    fn domain(&self) -> Option<Domain> {
-        self.domain.map(|d| Domain {
-            lo: DVec2::new(d[0], d[1]),
-            hi: DVec2::new(d[2], d[3]),
         })
     }
 
@@ -179,12 +204,10 @@ impl QualityArgs {
                 self.max_vertices.is_none(),
                 "--max-vertices applies to refinement only (--min-angle or --max-area)"
             );
-            if let Some(domain) = self.domain() {
-                domain.check()?;
-            }
-            return Ok(());
+            return self.check_domain();
         };
         options.check()?;
+        self.check_domain()?;
         if options.min_angle_deg > GUARANTEED_MIN_ANGLE_DEG {
             let _ = writeln!(
                 io::stderr(),
@@ -192,6 +215,14 @@ impl QualityArgs {
                  refinement may stop with an error",
                 options.min_angle_deg
             );
+        }
+        Ok(())
+    }
+
+    /// Refuses a rectangle that is not one, before reading the points.
+    fn check_domain(&self) -> Result<()> {
+        if let Some(DomainArg::Rectangle(d)) = self.domain {
+            d.check()?;
         }
         Ok(())
     }
@@ -212,12 +243,18 @@ impl QualityArgs {
 
     /// Meshes `points` the way these arguments ask.
     fn mesh(&self, points: &[DVec2]) -> Result<(Mesh, MeshReport), quadmesh::Error> {
+        // The bounding box of points the meshers refuse (none, or not finite) is left out, so
+        // that they say what is wrong with the points.
+        let domain = self
+            .domain
+            .filter(|_| validate_points(points).is_ok())
+            .map(|d| d.of(points));
         match self.refinement() {
-            Some(options) => refine_points(points, &options),
+            Some(options) => refine_points(points, &RefineOptions { domain, ..options }),
             None => mesh_points(
                 points,
                 &MeshOptions {
-                    domain: self.domain(),
+                    domain,
                     ..MeshOptions::default()
                 },
             ),
