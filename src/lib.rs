@@ -18,6 +18,22 @@
 //! # Ok::<(), quadmesh::Error>(())
 //! ```
 //!
+//! A given rectangle, here the points' bounding box: the points on its sides become boundary
+//! vertices, with the same angle bounds.
+//!
+//! ```
+//! use quadmesh::mesh::{AngleBounds, Domain};
+//! use quadmesh::{DVec2, MeshOptions, mesh_points};
+//!
+//! let points = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.5), DVec2::new(0.25, 0.75)];
+//! let domain = Domain { lo: DVec2::new(0.0, 0.0), hi: DVec2::new(1.0, 0.75) };
+//! let options = MeshOptions { domain: Some(domain), ..MeshOptions::default() };
+//! let (mesh, _) = mesh_points(&points, &options)?;
+//! mesh.validate(&points, AngleBounds { min_deg: 22.5, max_deg: 112.5 }).expect("a valid mesh");
+//! assert_eq!(mesh.domain, domain);
+//! # Ok::<(), quadmesh::Error>(())
+//! ```
+//!
 //! The trees alone:
 //!
 //! ```

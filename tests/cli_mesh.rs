@@ -29,6 +29,54 @@ fn mesh_files_read_back_as_a_valid_mesh() {
 }
 
 #[test]
+fn a_given_domain_is_meshed_exactly() {
+    let dir = TempDir::new("domain");
+    let (input, points) = generate(&dir, 300, "uniform");
+    let prefix = dir.file("out");
+    let (lo, hi) = quadmesh::morton::bounding_box(&points);
+    let wider = format!("{},{},{},{}", lo.x - 0.5, lo.y, hi.x, hi.y + 2.0);
+    for (domain, bounds) in [
+        ("bbox", WARP),
+        (wider.as_str(), WARP),
+        (
+            "bbox",
+            AngleBounds {
+                min_deg: 25.0,
+                max_deg: 130.0,
+            },
+        ),
+    ] {
+        let mut args = vec![
+            "mesh",
+            s(&input),
+            "-o",
+            s(&prefix),
+            "--check",
+            "--domain",
+            domain,
+        ];
+        if bounds.min_deg == 25.0 {
+            args.extend(["--min-angle", "25"]);
+        }
+        let out = quadmesh(&args);
+        assert!(out.status.success(), "{domain}: {}", stderr(&out));
+        let mesh = read_triangle_files(&prefix);
+        if let Err(fault) = mesh.validate(&points, bounds) {
+            panic!("{domain}: mesh read back from files is invalid: {fault}");
+        }
+        let expected = if domain == "bbox" {
+            (lo, hi)
+        } else {
+            (
+                lo - quadmesh::DVec2::new(0.5, 0.0),
+                hi + quadmesh::DVec2::new(0.0, 2.0),
+            )
+        };
+        assert_eq!((mesh.domain.lo, mesh.domain.hi), expected, "{domain}");
+    }
+}
+
+#[test]
 fn every_format_is_written_and_one_and_two_threads_agree() {
     let dir = TempDir::new("formats");
     let (input, _) = generate(&dir, 2000, "kuzmin");

@@ -64,7 +64,7 @@ enum Command {
     /// Mesh a point file: every angle in [22.5°, 112.5°] by warping a quadtree, or a Delaunay
     /// mesh with every angle at least `--min-angle`; every input point a vertex with its exact
     /// coordinates, the domain the square around the points with room to spare (the points'
-    /// bounding box centred in a square twice its larger side).
+    /// bounding box centred in a square twice its larger side) or the `--domain` rectangle.
     Mesh {
         /// Points: Triangle `.node` / `.poly` (its vertices), or text with one `x y` or `x,y`
         /// per line.
