@@ -172,71 +172,93 @@ pub enum Error {
 
 impl Error {
     /// The same error for the input's mirror image `r`: coordinates and sides mapped.
-    pub fn reflected(self, r: Reflection) -> Error {
-        let at = |x: f64, y: f64| r.point(DVec2::new(x, y));
-        let pair = |p: [f64; 2]| r.point(DVec2::from(p)).into();
-        match self {
-            Error::NonFinite { index, x, y } => {
-                let p = at(x, y);
-                Error::NonFinite {
-                    index,
-                    x: p.x,
-                    y: p.y,
-                }
-            }
-            Error::Inseparable { a, pa, b, pb } => Error::Inseparable {
-                a,
-                pa: pair(pa),
-                b,
-                pb: pair(pb),
-            },
-            Error::Unresolvable { index, x, y } => {
-                let p = at(x, y);
-                Error::Unresolvable {
-                    index,
-                    x: p.x,
-                    y: p.y,
-                }
-            }
-            Error::OutsideDomain { index, x, y } => {
-                let p = at(x, y);
-                Error::OutsideDomain {
-                    index,
-                    x: p.x,
-                    y: p.y,
-                }
-            }
-            Error::NearDomainSide {
-                index,
-                x,
-                y,
-                side,
-                cells,
-            } => {
-                let p = at(x, y);
-                Error::NearDomainSide {
-                    index,
-                    x: p.x,
-                    y: p.y,
-                    side: r.side(side),
-                    cells,
-                }
-            }
-            Error::ThinDomain { width, height } => match r {
-                Reflection::Diagonal => Error::ThinDomain {
-                    width: height,
-                    height: width,
-                },
-                Reflection::Horizontal => Error::ThinDomain { width, height },
-            },
+    pub fn reflected(mut self, r: Reflection) -> Error {
+        let image = |p: [f64; 2]| <[f64; 2]>::from(r.point(DVec2::from(p)));
+        match &mut self {
+            Error::NonFinite { x, y, .. }
+            | Error::Unresolvable { x, y, .. }
+            | Error::OutsideDomain { x, y, .. }
+            | Error::NearDomainSide { x, y, .. } => [*x, *y] = image([*x, *y]),
+            Error::Inseparable { pa, pb, .. } => (*pa, *pb) = (image(*pa), image(*pb)),
             Error::CoordinateRange { lo, hi } => {
-                let (a, b) = (r.point(DVec2::from(lo)), r.point(DVec2::from(hi)));
-                Error::CoordinateRange {
-                    lo: a.min(b).into(),
-                    hi: a.max(b).into(),
-                }
+                let (a, b) = (DVec2::from(image(*lo)), DVec2::from(image(*hi)));
+                (*lo, *hi) = (a.min(b).into(), a.max(b).into());
             }
-            other => other,
+            Error::ThinDomain { width, height } if r == Reflection::Diagonal => {
+                std::mem::swap(width, height);
+            }
+            _ => {}
         }
+        if let Error::NearDomainSide { side, .. } = &mut self {
+            *side = r.side(*side);
+        }
+        self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_reflected_error_names_the_mirrored_point_and_side() {
+        let near = Error::NearDomainSide {
+            index: 3,
+            x: 1.0,
+            y: -2.0,
+            side: BoundarySide::Top,
+            cells: 9,
+        };
+        let Error::NearDomainSide { x, y, side, .. } = near.clone().reflected(Reflection::Diagonal)
+        else {
+            unreachable!()
+        };
+        assert_eq!((x, y, side), (-2.0, 1.0, BoundarySide::Right));
+        let errors = [
+            near,
+            Error::NonFinite {
+                index: 1,
+                x: 1.0,
+                y: f64::INFINITY,
+            },
+            Error::Unresolvable {
+                index: 1,
+                x: 1.0,
+                y: 2.0,
+            },
+            Error::OutsideDomain {
+                index: 1,
+                x: 1.0,
+                y: 2.0,
+            },
+            Error::Inseparable {
+                a: 1,
+                pa: [1.0, 2.0],
+                b: 2,
+                pb: [3.0, 4.0],
+            },
+            Error::CoordinateRange {
+                lo: [1.0, -3.0],
+                hi: [2.0, 4.0],
+            },
+            Error::ThinDomain {
+                width: 1.0,
+                height: 1e-9,
+            },
+            Error::Empty,
+        ];
+        for e in errors {
+            for r in [Reflection::Diagonal, Reflection::Horizontal] {
+                assert_eq!(e.clone().reflected(r).reflected(r), e, "{r:?}");
+            }
+        }
+        let Error::CoordinateRange { lo, hi } = Error::CoordinateRange {
+            lo: [1.0, -3.0],
+            hi: [2.0, 4.0],
+        }
+        .reflected(Reflection::Horizontal) else {
+            unreachable!()
+        };
+        assert_eq!((lo, hi), ([1.0, -4.0], [2.0, 3.0]));
     }
 }
