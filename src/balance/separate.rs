@@ -10,6 +10,11 @@
 //! * R3a, c, d: a point's leaf is split if its 5×5 block holds a split square, another point, or
 //!   sticks out of the root.
 //!
+//! On a given domain ([`DomainSides`]) the block of a point on a side is cut at that side, and
+//! only there may it reach the root's edge; the top side of a domain shorter than the root lies
+//! inside it, and no other block may cross it. Once the points settle, a [`Band`] of equal leaves
+//! lines that side (their parents split), and the points near it settle again.
+//!
 //! Every rule only adds splits, so their least fixed point is unique. The split squares holding
 //! a point are the squares of its path above its leaf, so the state is each point's leaf level
 //! and the set of split squares, found in incremental rounds:
