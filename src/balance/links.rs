@@ -18,7 +18,7 @@ use crate::quadtree::{Quadtree, leaf_starts, with_gap_leaves};
 ///
 /// 24 bytes instead of 32: the two half-size leaves west or east of a leaf are siblings in
 /// consecutive quadrants (the east or west children of one square), so they are consecutive
-/// leaves and one index flagged [`PAIR`] stands for both. South and north pairs are not
+/// leaves and one index flagged `PAIR` stands for both. South and north pairs are not
 /// consecutive (a sibling's subtree may lie between them) and keep two slots.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Links([u32; 6]);
