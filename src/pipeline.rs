@@ -7,7 +7,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::balance::{
-    BalancedTree, Band, DomainSides, balance, coarsest_band_level, separate, separate_in,
+    BalancedTree, Band, BandError, DomainSides, balance, coarsest_band_level, separate, separate_in,
 };
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
@@ -181,14 +181,37 @@ pub fn separated_tree(
     points: &[DVec2],
     options: &MeshOptions,
 ) -> Result<(Tree, StageTimes), Error> {
+    let graded = options.domain.and_then(|d| graded_columns(points, d));
+    if let Some(columns) = graded {
+        let mut times = StageTimes::default();
+        if let Some(tree) = separated_tree_on(points, options, Some(columns), &mut times)? {
+            return Ok((tree, times));
+        }
+    }
     let mut times = StageTimes::default();
-    let domain = options.domain.map(|d| (d.lo, d.hi));
+    let tree = separated_tree_on(points, options, None, &mut times)?;
+    Ok((tree.expect("a uniform band needs no grading"), times))
+}
+
+/// [`separated_tree`] with the domain's right side on the grid line `columns` gives, if any;
+/// `None` when the band along its top side turns out finer than that choice allows.
+fn separated_tree_on(
+    points: &[DVec2],
+    options: &MeshOptions,
+    columns: Option<GradedColumns>,
+    times: &mut StageTimes,
+) -> Result<Option<Tree>, Error> {
+    let domain = options
+        .domain
+        .map(|d| (d.lo, d.hi, columns.map(|c| (c.level, c.columns))));
     let morton = times.time("morton", || morton_order_on(points, domain, options.sort))?;
     let m = match morton {
         Morton::Narrow(m) => {
-            let build = separated_build(m, points, &mut times)?;
+            let Some(build) = separated_build(m, points, columns, times)? else {
+                return Ok(None);
+            };
             if deepest_point_leaf(&build).is_none() {
-                return Ok((Tree::Narrow(build), times));
+                return Ok(Some(Tree::Narrow(build)));
             }
             // Points so close that their leaves are finer than the narrow grid resolves the
             // points: the wide grid places them exactly enough.
@@ -198,23 +221,77 @@ pub fn separated_tree(
         }
         Morton::Wide(m) => m,
     };
-    let build = separated_build(m, points, &mut times)?;
+    let Some(build) = separated_build(m, points, columns, times)? else {
+        return Ok(None);
+    };
     if let Some(p) = deepest_point_leaf(&build) {
         let index = build.morton.order[p];
         return Err(unresolvable(points[index as usize], index));
     }
-    Ok((Tree::Wide(build), times))
+    Ok(Some(Tree::Wide(build)))
 }
+
+/// A root for a domain shorter than wide whose top side lies just above a grid line of
+/// `level`: the domain is `columns` cells of `level` wide, and the side keeps less than 1/16
+/// of the cells it crosses at every level down to `finest`. Leaves of those levels can then meet
+/// the side side by side, graded like the rest of the tree, all with their bottoms on that line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct GradedColumns {
+    level: u32,
+    columns: u64,
+    finest: u32,
+}
+
+/// The root that lets leaves meet a short domain's top side graded (see [`GradedColumns`]):
+/// the coarsest level whose number of columns puts the side just above a grid line, for leaves
+/// as fine as the points near the side (within about an eighth of their clearance) need.
+fn graded_columns(points: &[DVec2], domain: Domain) -> Option<GradedColumns> {
+    let extent = domain.hi - domain.lo;
+    if extent.y >= extent.x {
+        return None;
+    }
+    let clearance = side_clearance(points, |p| p, domain, BoundarySide::Top);
+    // Leaves meeting the side near a point are about an eighth of its clearance or larger, on
+    // a root at most twice as wide as the domain.
+    let finest = (16.0 * extent.x / clearance.min(extent.y))
+        .log2()
+        .ceil()
+        .max(2.0) as u32;
+    let ratio = extent.y / extent.x;
+    (2..=MAX_GRADED_LEVEL.min(finest)).find_map(|level| {
+        let limit = (2.0f64).powi(level as i32 - finest as i32 - 4);
+        let first = (1u64 << (level - 1)) + 1;
+        (first..=1u64 << level).find_map(|columns| {
+            let rows = columns as f64 * ratio;
+            (rows >= 1.0 && rows.fract() < limit).then_some(GradedColumns {
+                level,
+                columns,
+                finest,
+            })
+        })
+    })
+}
+
+/// The finest level of the grid line a domain's right side is put on: past it, the search for
+/// columns costs more than the uniform band saves.
+const MAX_GRADED_LEVEL: u32 = 22;
 
 /// The framework, the unbalanced tree and the well-separated tree on `morton`'s grid, with the
 /// band along the domain's top side if it has one inside the root (the grid then moves the
-/// band's top row onto that side).
+/// band's top row onto that side); graded as `columns` says if given, `None` if that fails.
 fn separated_build<K: MortonKey>(
     mut morton: MortonOrder<K>,
     points: &[DVec2],
+    columns: Option<GradedColumns>,
     times: &mut StageTimes,
-) -> Result<TreeBuild<K>, Error> {
-    let sides = DomainSides::of(points, &morton.order, &morton.grid);
+) -> Result<Option<TreeBuild<K>>, Error> {
+    let mut sides = DomainSides::of(points, &morton.order, &morton.grid);
+    if let (Some(sides), Some(c)) = (sides.as_mut(), columns) {
+        if !graded_on(&morton.grid, c, K::AXIS_BITS) {
+            return Ok(None);
+        }
+        sides.graded_top = Some((c.level as u8, c.finest as u8));
+    }
     let keys = &morton.keys;
     let limit = band_level_limit::<K>(keys.len());
     if let Some(top) = morton.grid.inner_top()
@@ -231,27 +308,43 @@ fn separated_build<K: MortonKey>(
     let separated = times.time("separate", || {
         separate_in(&quadtree, keys, sides.as_ref(), limit)
     });
-    let (balanced, band) = separated.map_err(|(level, p)| {
-        let index = morton.order[p];
-        let point = points[index as usize];
-        Error::NearDomainSide {
-            index: index as usize,
-            x: point.x,
-            y: point.y,
-            side: BoundarySide::Top,
-            cells: 1u128 << level,
+    let (balanced, band) = match separated {
+        Ok(tree) => tree,
+        Err(BandError::NotGraded) => return Ok(None),
+        Err(BandError::TooFine { level, point }) => {
+            let index = morton.order[point];
+            let p = points[index as usize];
+            return Err(Error::NearDomainSide {
+                index: index as usize,
+                x: p.x,
+                y: p.y,
+                side: BoundarySide::Top,
+                cells: 1u128 << level,
+            });
         }
-    })?;
+    };
     if let Some(band) = band {
         morton.grid.set_top_row(band.top_row);
     }
-    Ok(TreeBuild {
+    Ok(Some(TreeBuild {
         morton,
         framework,
         quadtree,
         balanced: Some(balanced),
         band,
-    })
+    }))
+}
+
+/// Whether `grid`, built for `columns`, puts the domain's top side within 1/16 of a cell of
+/// `columns.finest` above a grid line of `columns.level` (f64 may round the choice away).
+fn graded_on(grid: &Grid, columns: GradedColumns, axis_bits: u32) -> bool {
+    let (Some(top), Some(_)) = (grid.inner_top(), grid.inner_right()) else {
+        return false;
+    };
+    let cell = (2.0f64).powi((axis_bits - columns.level) as i32);
+    let finest = (2.0f64).powi((axis_bits - columns.finest) as i32);
+    let above = top - (top / cell).floor() * cell;
+    top >= cell && above < finest / 16.0
 }
 
 /// The finest band along a domain's top side allowed for `points` points: at most 64 cells per
@@ -409,7 +502,8 @@ fn warp_build<K: MortonKey>(
     let mut tree = balanced.expect("a separated tree");
     tree.tree.internal = Vec::new();
     if let Some(band) = band {
-        tree = times.time("warp band", || leaves_below(tree, band.top_row));
+        let right = morton.grid.inner_right();
+        tree = times.time("warp band", || leaves_below(tree, band.top_row, right));
     }
     let (mesh, quality) = warp(&tree, &morton.order, &morton.grid, points, times)?;
     Ok((mesh, quality, morton.duplicates.count))

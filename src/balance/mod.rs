@@ -14,7 +14,7 @@ use std::collections::HashSet;
 pub use closure::{balance_closure, forced_by};
 pub use links::{Links, cross_links, point_leaves};
 pub use separate::{
-    Band, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
+    Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
     check_separated_in, coarsest_band_level, separate, separate_in,
 };
 

@@ -63,17 +63,21 @@ pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K>
 /// `max_band_level`.
 ///
 /// # Errors
-/// The band level needed when it is finer than `max_band_level`, with the Morton position of a
-/// point whose leaf near the side is that fine.
+/// [`BandError::TooFine`] when the band must be finer than `max_band_level`, and
+/// [`BandError::NotGraded`] when the sides' graded levels do not hold.
 pub fn separate_in<K: MortonKey>(
     tree: &Quadtree<K>,
     keys: &[K],
     sides: Option<&DomainSides>,
     max_band_level: u8,
-) -> Result<(BalancedTree<K>, Option<Band>), (u8, usize)> {
+) -> Result<(BalancedTree<K>, Option<Band>), BandError> {
     let rules = Rules::new(sides);
     let mut set = SplitSet::new();
     set.insert_closed(tree.internal.iter().map(|s| Squares::one(s.cell)));
+    let graded = sides.and_then(|s| s.graded_top).zip(rules.top);
+    if let Some(((coarsest, _), top)) = graded {
+        set.insert_closed(side_squares::<K>(top, rules.right, coarsest - 1));
+    }
     let mut leaves = PointLeaves::new(keys.len());
     let mut moves = first_moves(&set, &rules, tree, keys);
     let mut band = None;
@@ -102,9 +106,28 @@ pub fn separate_in<K: MortonKey>(
         let Some(top) = rules.top.filter(|_| band.is_none()) else {
             break;
         };
+        if let Some(((coarsest, finest), _)) = graded {
+            if crossed_finer_than(&set, top, rules.right, finest) {
+                return Err(BandError::NotGraded);
+            }
+            // The grid line at or just below the side, which every crossing leaf starts on.
+            let side = 1u128 << (K::AXIS_BITS - coarsest as u32);
+            let row = top.floor / side;
+            band = Some(Band {
+                level: coarsest,
+                finest,
+                top_row: row * side,
+                row: u64::try_from(row).unwrap_or(u64::MAX),
+            });
+            break;
+        }
         let chosen = band_for(&set, top);
         if chosen.level > max_band_level {
-            return Err((chosen.level, finest_near(keys, &leaves.level, top)));
+            let point = finest_near(keys, &leaves.level, top);
+            return Err(BandError::TooFine {
+                level: chosen.level,
+                point,
+            });
         }
         band = Some(chosen);
         let added = set.insert_closed(chosen.parents::<K>());
@@ -112,6 +135,72 @@ pub fn separate_in<K: MortonKey>(
         moves = settle_all(&set, &rules, keys, &leaves.level, &candidates);
     }
     Ok((linked_tree(&set.preorder(), keys), band))
+}
+
+/// Why [`separate_in`] gave no band.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BandError {
+    /// The band would be of `level`, finer than allowed; the Morton position of a point whose
+    /// leaf near the side is that fine.
+    TooFine {
+        /// The band's level.
+        level: u8,
+        /// The point.
+        point: usize,
+    },
+    /// A leaf finer than the sides' graded levels allow meets the top side.
+    NotGraded,
+}
+
+/// The squares of `level` that the top side crosses or touches from below, and those on either
+/// side of the right side's line: split, they keep leaves meeting the sides at finer levels.
+fn side_squares<K: MortonKey>(top: InnerTop, right: Option<u128>, level: u8) -> Vec<Squares<K>> {
+    let shift = K::AXIS_BITS - level as u32;
+    let last = last_position(level);
+    let row = u64::try_from(top.ceil.div_ceil(1 << shift).saturating_sub(1)).unwrap_or(last);
+    let column = right.map_or(last, |line| {
+        u64::try_from(line.div_ceil(1 << shift))
+            .unwrap_or(last)
+            .min(last)
+    });
+    let mut squares = rect_squares(
+        level,
+        Rect {
+            columns: (0, column),
+            rows: (row, row),
+        },
+    );
+    if right.is_some() {
+        squares.extend(rect_squares(
+            level,
+            Rect {
+                columns: (column.saturating_sub(1), column),
+                rows: (0, row),
+            },
+        ));
+    }
+    squares
+}
+
+/// Whether a split square of level `finest` or finer crosses the top side left of the right
+/// side's line, so that leaves finer than `finest` meet the side in the domain.
+fn crossed_finer_than<K: MortonKey>(
+    set: &SplitSet<K>,
+    top: InnerTop,
+    right: Option<u128>,
+    finest: u8,
+) -> bool {
+    let right = right.unwrap_or(u128::MAX);
+    (finest..=K::AXIS_BITS as u8).any(|level| {
+        let shift = K::AXIS_BITS - level as u32;
+        set.squares_at(level).any(|cell| {
+            let (x, y) = grid_position(cell);
+            let bottom = u128::from(y) << shift;
+            (u128::from(x) << shift) < right
+                && bottom < top.ceil
+                && bottom + (1u128 << shift) > top.floor
+        })
+    })
 }
 
 /// The Morton position of the point with the finest leaf among those whose leaf lies within
@@ -142,6 +231,12 @@ pub struct DomainSides {
     pub on: Vec<u8>,
     /// The domain's top side in finest-grid units when it lies inside the root.
     pub inner_top: Option<f64>,
+    /// The domain's right side, a grid line (finest units), when it lies inside the root.
+    pub inner_right: Option<u128>,
+    /// The levels from which to which leaves may meet the top side, all of them with their
+    /// bottoms on one grid line just below it (see [`Band`]), when the grid was chosen so; a
+    /// uniform band lines the side otherwise.
+    pub graded_top: Option<(u8, u8)>,
 }
 
 impl DomainSides {
@@ -164,6 +259,8 @@ impl DomainSides {
         Some(DomainSides {
             on,
             inner_top: grid.inner_top(),
+            inner_right: grid.inner_right(),
+            graded_top: None,
         })
     }
 }
@@ -205,8 +302,10 @@ impl InnerTop {
 /// those holds and no leaf is finer in the row; the leaves below it are graded as usual.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Band {
-    /// The level of the band's leaves.
+    /// The level of the band's leaves (the coarsest of them when graded).
     pub level: u8,
+    /// The finest level of the band's leaves: `level` unless graded.
+    pub finest: u8,
     /// The grid row (finest units) that lies on the domain's top side.
     pub top_row: u128,
     /// The band's row among the rows of `level`.
@@ -285,6 +384,7 @@ fn band_at(top: InnerTop, level: u8, axis_bits: u32) -> Band {
     };
     Band {
         level,
+        finest: level,
         top_row,
         row: u64::try_from(row).unwrap_or(u64::MAX),
     }
@@ -323,12 +423,14 @@ fn finest_meeting<K: MortonKey>(cell: Cell<K>, top: InnerTop, from: u8) -> Optio
 struct Rules<'a> {
     sides: Option<&'a DomainSides>,
     top: Option<InnerTop>,
+    right: Option<u128>,
 }
 
 impl<'a> Rules<'a> {
     fn new(sides: Option<&'a DomainSides>) -> Self {
         let top = sides.and_then(|s| s.inner_top).map(InnerTop::new);
-        Rules { sides, top }
+        let right = sides.and_then(|s| s.inner_right);
+        Rules { sides, top, right }
     }
 
     /// The squares of point `i`'s 5×5 block around `cell` that the rules look at: all of them,
@@ -346,16 +448,24 @@ impl<'a> Rules<'a> {
             Some(c) => Some(c),
             None => on_side.then_some(last),
         };
-        let columns = (low(x, on & ON_LEFT != 0)?, high(x, on & ON_RIGHT != 0)?);
+        let shift = K::AXIS_BITS - cell.level as u32;
+        let right = match self.right {
+            None => high(x, on & ON_RIGHT != 0)?,
+            // The columns beyond a point on the side lie outside the domain.
+            // The point's square must not straddle the side's line.
+            Some(line) if on & ON_RIGHT != 0 => {
+                let whole = line.trailing_zeros() >= shift;
+                u64::try_from((line >> shift) - 1).ok().filter(|_| whole)?
+            }
+            Some(line) => ((u128::from(x) + 3) << shift <= line).then_some(x + 2)?,
+        };
+        let columns = (low(x, on & ON_LEFT != 0)?, right);
         let bottom = low(y, on & ON_BOTTOM != 0)?;
         let top = match self.top {
             None => high(y, on & ON_TOP != 0)?,
             // The rows above a point on the side lie outside the domain.
             Some(_) if on & ON_TOP != 0 => y,
-            Some(t) => {
-                let shift = K::AXIS_BITS - cell.level as u32;
-                ((u128::from(y) + 3) << shift <= t.floor).then_some(y + 2)?
-            }
+            Some(t) => ((u128::from(y) + 3) << shift <= t.floor).then_some(y + 2)?,
         };
         Some(Rect {
             columns,
@@ -718,14 +828,38 @@ pub fn check_separated_in<K: MortonKey>(
             ));
         }
     }
-    if let (Some(band), Some(top)) = (band, rules.top) {
-        let side = 1u128 << (K::AXIS_BITS - band.level as u32);
-        let row = u128::from(band.row) * side..(u128::from(band.row) + 1) * side;
+    if let (Some(band), Some(top)) = (band, rules.top)
+        && band.finest > band.level
+    {
+        // Graded: every leaf the side crosses in the domain starts on the band's row, at a
+        // level in range.
+        let right = rules.right.unwrap_or(u128::MAX);
         for leaf in &tree.leaves {
             let shift = K::AXIS_BITS - leaf.cell.level as u32;
-            let bottom = u128::from(grid_position(leaf.cell).1) << shift;
+            let (x, y) = grid_position(leaf.cell);
+            let (left, bottom) = (u128::from(x) << shift, u128::from(y) << shift);
+            let size = 1u128 << shift;
+            let crosses =
+                left < right && (bottom as f64) < top.exact && ((bottom + size) as f64) > top.exact;
+            let level = leaf.cell.level;
+            if crosses && (bottom != band.top_row || !(band.level..=band.finest).contains(&level)) {
+                let cell = leaf.cell;
+                return Err(format!(
+                    "{cell:?} crosses the side outside the graded band {band:?}"
+                ));
+            }
+        }
+    } else if let (Some(band), Some(top)) = (band, rules.top) {
+        let side = 1u128 << (K::AXIS_BITS - band.level as u32);
+        let row = u128::from(band.row) * side..(u128::from(band.row) + 1) * side;
+        let right = rules.right.unwrap_or(u128::MAX);
+        for leaf in &tree.leaves {
+            let shift = K::AXIS_BITS - leaf.cell.level as u32;
+            let (x, y) = grid_position(leaf.cell);
+            let bottom = u128::from(y) << shift;
             let upper = bottom + (1u128 << shift);
-            let meets = bottom < top.ceil && bottom < row.end && upper > row.start;
+            let inside = (u128::from(x) << shift) < right && bottom < top.ceil;
+            let meets = inside && bottom < row.end && upper > row.start;
             if meets && leaf.cell.level != band.level {
                 let cell = leaf.cell;
                 return Err(format!("{cell:?} meets the band at level {}", band.level));

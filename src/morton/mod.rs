@@ -25,6 +25,10 @@ pub use sort::{Pair, SortAlgorithm, SortPairs, equal_key_runs};
 use crate::error::Error;
 use crate::par::collect_indexed;
 
+/// A given domain's lower-left and upper-right corners, and optionally the level and column of
+/// the grid line its right side is to lie on.
+pub type DomainFrame = (DVec2, DVec2, Option<(u32, u64)>);
+
 /// How many duplicate pairs a report keeps as examples.
 pub const DUPLICATE_EXAMPLES: usize = 8;
 
@@ -72,13 +76,15 @@ pub fn morton_order(points: &[DVec2], sort: SortAlgorithm) -> Result<Morton, Err
 }
 
 /// [`morton_order`] on the root of [`Grid::on_domain`] for `domain` (its lower-left and
-/// upper-right corners, holding every point), or around the points without one.
+/// upper-right corners, holding every point, and optionally the level and column of the grid
+/// line its right side is to lie on, see [`Grid::on_domain_columns`]), or around the points
+/// without one.
 ///
 /// # Errors
 /// As [`morton_order`].
 pub fn morton_order_on(
     points: &[DVec2],
-    domain: Option<(DVec2, DVec2)>,
+    domain: Option<DomainFrame>,
     sort: SortAlgorithm,
 ) -> Result<Morton, Error> {
     let (lo, hi) = validate(points)?;
@@ -100,11 +106,12 @@ pub fn morton_order_on(
 fn grid_of(
     lo: DVec2,
     hi: DVec2,
-    domain: Option<(DVec2, DVec2)>,
+    domain: Option<DomainFrame>,
     axis_bits: u32,
 ) -> Result<Grid, Error> {
     match domain {
-        Some((lo, hi)) => Grid::on_domain(lo, hi, axis_bits),
+        Some((lo, hi, None)) => Grid::on_domain(lo, hi, axis_bits),
+        Some((lo, hi, Some(columns))) => Grid::on_domain_columns(lo, hi, axis_bits, columns),
         None => Grid::around(lo, hi, axis_bits),
     }
 }
@@ -116,7 +123,7 @@ fn grid_of(
 /// As [`morton_order`].
 pub fn morton_order_wide(
     points: &[DVec2],
-    domain: Option<(DVec2, DVec2)>,
+    domain: Option<DomainFrame>,
     sort: SortAlgorithm,
 ) -> Result<MortonOrder<u128>, Error> {
     let (lo, hi) = validate(points)?;
@@ -127,7 +134,7 @@ fn wide_order(
     points: &[DVec2],
     lo: DVec2,
     hi: DVec2,
-    domain: Option<(DVec2, DVec2)>,
+    domain: Option<DomainFrame>,
     sort: SortAlgorithm,
 ) -> Result<MortonOrder<u128>, Error> {
     let grid = grid_of(lo, hi, domain, u128::AXIS_BITS)?;

@@ -82,6 +82,39 @@ impl Grid {
         Ok(grid)
     }
 
+    /// The grid on the rectangle `[lo, hi]`, at least as wide as tall, whose root is `2^level /
+    /// columns` times as wide as the rectangle (`columns` at most `2^level`): the rectangle's
+    /// right side is then the grid line of column `columns` at `level`, and its top side lies
+    /// where that choice puts it.
+    ///
+    /// # Errors
+    /// As [`Grid::on_domain`].
+    pub fn on_domain_columns(
+        lo: DVec2,
+        hi: DVec2,
+        axis_bits: u32,
+        (level, columns): (u32, u64),
+    ) -> Result<Grid, Error> {
+        let mut grid = Grid::on_domain(lo, hi, axis_bits)?;
+        let extent = hi - lo;
+        if columns >= 1 << level || extent.y >= extent.x {
+            return Ok(grid);
+        }
+        grid.side = extent.x * (2.0f64).powi(level as i32) / columns as f64;
+        if !grid.side.is_finite() {
+            return Err(Error::CoordinateRange {
+                lo: lo.into(),
+                hi: hi.into(),
+            });
+        }
+        let line = u128::from(columns) << (axis_bits - level);
+        grid.far_line[0] = Some(line);
+        // Points on the right side fall in the column left of its line, whatever f64 rounds.
+        let before_line = u64::try_from((line >> GUARD_LEVELS) - 1).unwrap_or(u64::MAX);
+        grid.max_cell = [before_line, grid.last_cell(extent.y)];
+        Ok(grid)
+    }
+
     fn square(origin: DVec2, side: f64, axis_bits: u32) -> Grid {
         let precision = axis_bits - GUARD_LEVELS;
         // Dividing by the side first, then scaling by a power of two (exact), works for sides
@@ -113,6 +146,11 @@ impl Grid {
         let height = far.y - self.origin.y;
         (height < self.side)
             .then(|| height / self.side * self.scale * (2.0f64).powi(GUARD_LEVELS as i32))
+    }
+
+    /// The grid line of a domain's right side when that lies inside the root (finest units).
+    pub fn inner_right(&self) -> Option<u128> {
+        self.far_line[0].filter(|&line| line < 1u128 << self.axis_bits)
     }
 
     /// The domain given to [`Grid::on_domain`], if any.

@@ -9,16 +9,28 @@ use crate::morton::{MortonKey, Side};
 use crate::par::{collect_indexed, exclusive_scan_u32_by};
 use crate::quadtree::{Leaf, Quadtree};
 
-/// The leaves of `tree` whose tops lie at or below the finest-unit row `row`, in their order,
-/// with links across the row removed: the row is then the mesh's boundary. A point whose leaf
+/// The leaves of `tree` whose tops lie at or below the finest-unit row `row` and, if given,
+/// whose right sides lie at or left of the finest-unit column `right`, in their order, with
+/// links across the row and column removed: they are then the mesh's boundary. A point whose leaf
 /// lies above the row (it is on the domain's top side, in the band's crossing row when the row
 /// is that row's bottom) moves to the leaf of the same size below, whose top side it lies on.
 ///
 /// No leaf straddles `row`, as the band's leaves line it; so two smaller neighbours of a kept
 /// leaf are both kept, and a kept pair stays consecutive.
-pub fn leaves_below<K: MortonKey>(tree: BalancedTree<K>, row: u128) -> BalancedTree<K> {
+pub fn leaves_below<K: MortonKey>(
+    tree: BalancedTree<K>,
+    row: u128,
+    right: Option<u128>,
+) -> BalancedTree<K> {
     let leaves = &tree.tree.leaves;
-    let kept: Vec<bool> = leaves.par_iter().map(|l| top_of(l) <= row).collect();
+    let column = right.unwrap_or(u128::MAX);
+    let kept: Vec<bool> = leaves
+        .par_iter()
+        .map(|l| {
+            let (x, y, size) = square_of(l);
+            y + size <= row && x + size <= column
+        })
+        .collect();
     let index = exclusive_scan_u32_by(leaves.len(), |j| usize::from(kept[j]))
         .expect("fewer leaves than 32-bit indices");
     let renumber = |j: u32| {
@@ -64,8 +76,9 @@ pub fn leaves_below<K: MortonKey>(tree: BalancedTree<K>, row: u128) -> BalancedT
     }
 }
 
-/// The finest-unit row of a leaf's top side.
-fn top_of<K: MortonKey>(leaf: &Leaf<K>) -> u128 {
-    let (_, y) = leaf.cell.anchor.decode();
-    u128::from(y) + (1u128 << (K::AXIS_BITS - leaf.cell.level as u32))
+/// A leaf's lower-left corner and side, in finest units.
+fn square_of<K: MortonKey>(leaf: &Leaf<K>) -> (u128, u128, u128) {
+    let (x, y) = leaf.cell.anchor.decode();
+    let size = 1u128 << (K::AXIS_BITS - leaf.cell.level as u32);
+    (u128::from(x), u128::from(y), size)
 }

@@ -106,6 +106,12 @@ pub fn warp<K: MortonKey>(
                 .merge(measured),
         )
     });
+    if !(quality.min >= ANGLE_BOUNDS.0 - ROUNDING_SLACK_DEG
+        && quality.max <= ANGLE_BOUNDS.1 + ROUNDING_SLACK_DEG)
+    {
+        let bent = bent_leaf(&geometry, &offsets, (&triangles, &vertices));
+        return Err(point_near(&geometry, bent, order, points));
+    }
     let (lo, hi) = grid.domain();
     let mesh = Mesh {
         vertices,
@@ -293,17 +299,51 @@ fn unmoved_templates<K: MortonKey>(
         .collect();
     match kinds.par_iter().position_first(|&k| k == UNRESOLVED) {
         None => Ok(kinds),
-        Some(leaf) => {
-            // Leaves that small only surround points that close: name the nearest in Morton
-            // order.
-            let holding = |j: &usize| geometry.point(*j) != NONE;
-            let after = (leaf..geometry.leaves()).find(holding);
-            let before = (0..leaf).rev().find(holding);
-            let p = after.or(before).map_or(0, |j| geometry.point(j) as usize);
-            let input = order[p];
-            Err(unresolvable(points[input as usize], input))
-        }
+        Some(leaf) => Err(point_near(geometry, leaf, order, points)),
     }
+}
+
+/// How far f64 rounding may take an angle past the bounds, as [`crate::mesh::validate`]
+/// allows.
+const ROUNDING_SLACK_DEG: f64 = 1e-9;
+
+/// The first leaf with a triangle whose angles f64 rounding of the vertices bent past the
+/// bounds (leaves so small that rounding moves their corners by a fair part of their side).
+fn bent_leaf<K: MortonKey>(
+    geometry: &LeafGeometry<K>,
+    offsets: &[u32],
+    (triangles, vertices): (&[[u32; 3]], &[DVec2]),
+) -> usize {
+    let (lo, hi) = (
+        ANGLE_BOUNDS.0 - ROUNDING_SLACK_DEG,
+        ANGLE_BOUNDS.1 + ROUNDING_SLACK_DEG,
+    );
+    (0..geometry.leaves())
+        .into_par_iter()
+        .position_first(|leaf| {
+            let range = offsets[leaf] as usize..offsets[leaf + 1] as usize;
+            triangles[range].iter().any(|t| {
+                let [a, b, c] = t.map(|v| vertices[v as usize]);
+                angles_deg(a, b, c).iter().any(|&x| !(lo..=hi).contains(&x))
+            })
+        })
+        .unwrap_or(0)
+}
+
+/// The error for a `leaf` f64 cannot mesh: leaves that small only surround points that close,
+/// so it names the point nearest the leaf in Morton order.
+fn point_near<K: MortonKey>(
+    geometry: &LeafGeometry<K>,
+    leaf: usize,
+    order: &[u32],
+    points: &[DVec2],
+) -> Error {
+    let holding = |j: &usize| geometry.point(*j) != NONE;
+    let after = (leaf..geometry.leaves()).find(holding);
+    let before = (0..leaf).rev().find(holding);
+    let p = after.or(before).map_or(0, |j| geometry.point(j) as usize);
+    let input = order[p];
+    unresolvable(points[input as usize], input)
 }
 
 /// The error for input point `input` at `point`.
