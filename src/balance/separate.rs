@@ -292,14 +292,19 @@ impl InnerTop {
     }
 }
 
-/// The row of uniform leaves along a domain's top side that lies inside the root.
+/// The leaves along a domain's top side that lies inside the root, and the grid row `top_row`
+/// (in finest units) that moves onto it for every column at once.
 ///
-/// Every leaf the side crosses (or touches from below) is of `level`, so the grid row `top_row`
-/// (in finest units) moves onto the side for every column at once: that row's top when the side
-/// keeps at least half of it (its leaves become rectangles at least half as tall as wide), its
-/// bottom when the side keeps less than 1/16 of it (those leaves go, and the leaves below, of
-/// at least half their size, stretch by less than 1/8). `level` is the coarsest where one of
-/// those holds and no leaf is finer in the row; the leaves below it are graded as usual.
+/// Graded (`finest > level`, see [`DomainSides::graded_top`]): the side lies less than 1/16 of
+/// a `finest` leaf above a grid line of `level`, so every leaf it crosses, of a level from
+/// `level` to `finest`, starts on that line, `top_row`; those leaves go, and the leaves below, of
+/// at least half their size, stretch by less than 1/8.
+///
+/// Uniform: every leaf the side crosses (or touches from below) is of `level`, and `top_row` is
+/// that row's top when the side keeps at least half of it (its leaves become rectangles at least
+/// half as tall as wide), its bottom when the side keeps less than 1/16 of it (those leaves go,
+/// and the leaves below stretch by less than 1/8). `level` is the coarsest where one of those
+/// holds and no leaf is finer in the row; the leaves below it are graded as usual.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Band {
     /// The level of the band's leaves (the coarsest of them when graded).
