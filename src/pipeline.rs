@@ -181,14 +181,14 @@ pub fn separated_tree(
     points: &[DVec2],
     options: &MeshOptions,
 ) -> Result<(Tree, StageTimes), Error> {
-    let graded = options.domain.and_then(|d| graded_columns(points, d));
-    if let Some(columns) = graded {
-        let mut times = StageTimes::default();
-        if let Some(tree) = separated_tree_on(points, options, Some(columns), &mut times)? {
-            return Ok((tree, times));
-        }
-    }
+    // A failed graded attempt's stages stay in the times: they were spent.
     let mut times = StageTimes::default();
+    let graded = options.domain.and_then(|d| graded_columns(points, d));
+    if let Some(columns) = graded
+        && let Some(tree) = separated_tree_on(points, options, Some(columns), &mut times)?
+    {
+        return Ok((tree, times));
+    }
     let tree = separated_tree_on(points, options, None, &mut times)?;
     Ok((tree.expect("a uniform band needs no grading"), times))
 }
@@ -338,7 +338,7 @@ fn separated_build<K: MortonKey>(
 /// Whether `grid`, built for `columns`, puts the domain's top side within 1/16 of a cell of
 /// `columns.finest` above a grid line of `columns.level` (f64 may round the choice away).
 fn graded_on(grid: &Grid, columns: GradedColumns, axis_bits: u32) -> bool {
-    let (Some(top), Some(_)) = (grid.inner_top(), grid.inner_right()) else {
+    let Some(top) = grid.inner_top() else {
         return false;
     };
     let cell = (2.0f64).powi((axis_bits - columns.level) as i32);

@@ -312,13 +312,16 @@ fn a_needle_of_a_domain_is_an_error() {
 
 #[test]
 fn points_nearly_on_both_long_sides_are_an_error_naming_one() {
+    // A height no choice of root puts near a grid line to within 1e-13 (the golden ratio's
+    // multiples keep away from integers), so the side needs a row of equal leaves.
+    let height = (5f64.sqrt() - 1.0) / 4.0;
     let mut points: Vec<DVec2> = generate::points(Distribution2d::Uniform, 100, 6)
         .iter()
-        .map(|p| DVec2::new(p.x, 0.01 + 0.48 * p.y))
+        .map(|p| DVec2::new(p.x, 0.01 + (height - 0.02) * p.y))
         .collect();
-    let wide = rect(0.0, 0.0, 1.0, 0.5);
+    let wide = rect(0.0, 0.0, 1.0, height);
     // Nearly on the top side only: the mesh lines the bottom side instead.
-    points.push(DVec2::new(0.3, 0.5 - 1e-13));
+    points.push(DVec2::new(0.3, height - 1e-13));
     mesh_in(&points, wide);
     // Nearly on both: the side with the more distant point is lined, and that point named.
     points.push(DVec2::new(0.6, 2e-13));
@@ -339,9 +342,22 @@ fn points_nearly_on_both_long_sides_are_an_error_naming_one() {
         other => panic!("{:?}", other.map(|_| ())),
     }
     // On the sides themselves, the points are boundary vertices like any other.
-    points[100].y = 0.5;
+    points[100].y = height;
     points[101].y = 0.0;
     mesh_in(&points, wide);
+}
+
+#[test]
+fn a_side_on_a_grid_line_needs_no_row_of_equal_leaves() {
+    // Half as tall as wide: the top side is a grid line, and points nearly on it only refine
+    // locally.
+    let mut points: Vec<DVec2> = generate::points(Distribution2d::Uniform, 100, 6)
+        .iter()
+        .map(|p| DVec2::new(p.x, 0.01 + 0.48 * p.y))
+        .collect();
+    points.extend([DVec2::new(0.3, 0.5 - 1e-13), DVec2::new(0.6, 2e-13)]);
+    let (_, report) = mesh_in(&points, rect(0.0, 0.0, 1.0, 0.5));
+    assert!(report.triangles < 100 * 1000, "{}", report.triangles);
 }
 
 #[test]
