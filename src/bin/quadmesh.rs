@@ -522,10 +522,17 @@ fn bench(
     print_report(&mut out, &report, &mesh);
     let _ = writeln!(out, "{:<24}{}", "time total", millis(wall));
     if json {
-        let stages: Vec<String> = report
-            .stages
+        // A stage that ran twice (a domain's graded attempt given up) counts once, summed.
+        let mut totals: Vec<(&str, f64)> = Vec::new();
+        for (stage, d) in &report.stages {
+            match totals.iter_mut().find(|(name, _)| name == stage) {
+                Some((_, total)) => *total += d.as_secs_f64(),
+                None => totals.push((stage, d.as_secs_f64())),
+            }
+        }
+        let stages: Vec<String> = totals
             .iter()
-            .map(|(stage, d)| format!("\"{}_s\":{}", stage.replace(' ', "_"), d.as_secs_f64()))
+            .map(|(stage, s)| format!("\"{}_s\":{s}", stage.replace(' ', "_")))
             .collect();
         writeln!(
             out,
