@@ -256,7 +256,7 @@ fn graded_columns(points: &[DVec2], domain: Domain) -> Option<GradedColumns> {
     let finest = (16.0 * extent.x / clearance.min(extent.y))
         .log2()
         .ceil()
-        .max(2.0) as u32;
+        .clamp(2.0, 64.0) as u32;
     let ratio = extent.y / extent.x;
     (2..=MAX_GRADED_LEVEL.min(finest)).find_map(|level| {
         let limit = (2.0f64).powi(level as i32 - finest as i32 - 4);
@@ -290,7 +290,7 @@ fn separated_build<K: MortonKey>(
         if !graded_on(&morton.grid, c, K::AXIS_BITS) {
             return Ok(None);
         }
-        sides.graded_top = Some((c.level as u8, c.finest as u8));
+        sides.graded_top = Some((c.level as u8, c.finest.min(K::AXIS_BITS) as u8));
     }
     let keys = &morton.keys;
     let limit = band_level_limit::<K>(keys.len());
@@ -341,8 +341,8 @@ fn graded_on(grid: &Grid, columns: GradedColumns, axis_bits: u32) -> bool {
     let Some(top) = grid.inner_top() else {
         return false;
     };
-    let cell = (2.0f64).powi((axis_bits - columns.level) as i32);
-    let finest = (2.0f64).powi((axis_bits - columns.finest) as i32);
+    let cell = (2.0f64).powi(axis_bits as i32 - columns.level as i32);
+    let finest = (2.0f64).powi(axis_bits as i32 - columns.finest as i32);
     let above = top - (top / cell).floor() * cell;
     top >= cell && above < finest / 16.0
 }
