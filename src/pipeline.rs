@@ -503,7 +503,12 @@ fn warp_build<K: MortonKey>(
     tree.tree.internal = Vec::new();
     if let Some(band) = band {
         let right = morton.grid.inner_right();
-        tree = times.time("warp band", || leaves_below(tree, band.top_row, right));
+        tree = times
+            .time("warp band", || leaves_below(tree, band.top_row, right))
+            .map_err(|p| {
+                let index = morton.order[p];
+                unresolvable(points[index as usize], index)
+            })?;
     }
     let (mesh, quality) = warp(&tree, &morton.order, &morton.grid, points, times)?;
     Ok((mesh, quality, morton.duplicates.count))

@@ -17,11 +17,14 @@ use crate::quadtree::{Leaf, Quadtree};
 ///
 /// No leaf straddles `row`, as the band's leaves line it; so two smaller neighbours of a kept
 /// leaf are both kept, and a kept pair stays consecutive.
+///
+/// # Errors
+/// The Morton position of a point left without a leaf, which separation rules out.
 pub fn leaves_below<K: MortonKey>(
     tree: BalancedTree<K>,
     row: u128,
     right: Option<u128>,
-) -> BalancedTree<K> {
+) -> Result<BalancedTree<K>, usize> {
     let leaves = &tree.tree.leaves;
     let column = right.unwrap_or(u128::MAX);
     let kept: Vec<bool> = leaves
@@ -63,17 +66,19 @@ pub fn leaves_below<K: MortonKey>(
         })
         .collect();
     for (p, &j) in point_leaf.iter().enumerate() {
-        debug_assert_ne!(j, NONE, "point {p} lost its leaf");
+        if j == NONE {
+            return Err(p);
+        }
         new_leaves[j as usize].point = p as u32;
     }
-    BalancedTree {
+    Ok(BalancedTree {
         tree: Quadtree {
             leaves: new_leaves,
             internal: Vec::new(),
         },
         links,
         point_leaf,
-    }
+    })
 }
 
 /// A leaf's lower-left corner and side, in finest units.
