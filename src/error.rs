@@ -83,8 +83,9 @@ pub enum Error {
         /// Its y coordinate.
         y: f64,
     },
-    /// Points so close to a given domain's top (or right) side, or so close together on it,
-    /// that the row of equal cells the mesh keeps along that side would be too many.
+    /// Points so close to a given domain's long side (the one the mesh lines), or so close
+    /// together on it, that the row of equal cells the mesh keeps along that side would be too
+    /// many.
     #[error(
         "point {index} ({x}, {y}) needs cells so small near the domain's {side} side, which the \
          mesh lines with equal cells, that it would take {cells} of them; move points that are \

@@ -175,8 +175,9 @@ pub struct MeshOptions {
 ///
 /// # Errors
 /// Whatever [`morton_order`] refuses, [`Error::Unresolvable`] for points too close together
-/// relative to the extent for even the wide grid, and [`Error::NearDomainSide`] when a domain's
-/// top side needs too fine a band of leaves.
+/// relative to the extent for even the wide grid, [`Error::NearDomainSide`] when a domain's
+/// top side needs too fine a band of leaves, and [`Error::ThinDomain`] for a domain too
+/// elongated for one.
 pub fn separated_tree(
     points: &[DVec2],
     options: &MeshOptions,
@@ -257,12 +258,13 @@ fn graded_columns(points: &[DVec2], domain: Domain) -> Option<GradedColumns> {
         .log2()
         .ceil()
         .clamp(2.0, 64.0) as u32;
-    let ratio = extent.y / extent.x;
     (2..=MAX_GRADED_LEVEL.min(finest)).find_map(|level| {
         let limit = (2.0f64).powi(level as i32 - finest as i32 - 4);
         let first = (1u64 << (level - 1)) + 1;
         (first..=1u64 << level).find_map(|columns| {
-            let rows = columns as f64 * ratio;
+            // The top side in cells of `level`, rounded as `Grid::on_domain_columns` rounds it.
+            let side = extent.x * (2.0f64).powi(level as i32) / columns as f64;
+            let rows = extent.y / side * (2.0f64).powi(level as i32);
             (rows >= 1.0 && rows.fract() < limit).then_some(GradedColumns {
                 level,
                 columns,
@@ -362,9 +364,9 @@ fn band_level_limit<K: MortonKey>(points: usize) -> u8 {
 /// Whatever [`morton_order`] refuses, [`Error::Unresolvable`] for points too close together
 /// relative to the extent for either grid or for f64, [`Error::TooLarge`] past 32-bit indices;
 /// with a domain, [`Error::InvalidOption`] unless it is a finite rectangle,
-/// [`Error::OutsideDomain`] for a point outside it and [`Error::NearDomainSide`] for a point
+/// [`Error::OutsideDomain`] for a point outside it, [`Error::NearDomainSide`] for a point
 /// so close to a side (or points so close together on it) that the cells along it would be too
-/// many.
+/// many, and [`Error::ThinDomain`] for a domain too elongated for its cells.
 pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport), Error> {
     let Some(domain) = options.domain else {
         return mesh_on(points, options);

@@ -222,8 +222,9 @@ fn finest_near<K: MortonKey>(keys: &[K], level: &[u8], top: InnerTop) -> usize {
 
 /// Which sides of a given domain each point lies on, and where the domain's top side lies when
 /// it is not the root's: what the separation rules need of a domain that points may touch. The
-/// domain must be at least as wide as it is tall, so that its left, bottom and right sides are
-/// the root's (see [`crate::morton::Grid::on_domain`]).
+/// domain must be at least as wide as it is tall, so that its left and bottom sides are the
+/// root's and its right side the root's or a grid line inside it (see
+/// [`crate::morton::Grid::on_domain_columns`]).
 #[derive(Clone, Debug, Default)]
 pub struct DomainSides {
     /// Per point in Morton order, a bit per side it lies on: [`ON_LEFT`], [`ON_BOTTOM`],
@@ -460,7 +461,8 @@ impl<'a> Rules<'a> {
             // The point's square must not straddle the side's line.
             Some(line) if on & ON_RIGHT != 0 => {
                 let whole = line.trailing_zeros() >= shift;
-                u64::try_from((line >> shift) - 1).ok().filter(|_| whole)?
+                let before = (line >> shift).checked_sub(1)?;
+                u64::try_from(before).ok().filter(|_| whole)?
             }
             Some(line) => ((u128::from(x) + 3) << shift <= line).then_some(x + 2)?,
         };
