@@ -280,7 +280,8 @@ const MAX_GRADED_LEVEL: u32 = 22;
 
 /// The framework, the unbalanced tree and the well-separated tree on `morton`'s grid, with the
 /// band along the domain's top side if it has one inside the root (the grid then moves the
-/// band's top row onto that side); graded as `columns` says if given, `None` if that fails.
+/// band's top row onto that side); graded as `columns` says if given, `None` if leaves finer
+/// than that allows meet the side.
 fn separated_build<K: MortonKey>(
     mut morton: MortonOrder<K>,
     points: &[DVec2],
@@ -288,10 +289,8 @@ fn separated_build<K: MortonKey>(
     times: &mut StageTimes,
 ) -> Result<Option<TreeBuild<K>>, Error> {
     let mut sides = DomainSides::of(points, &morton.order, &morton.grid);
+    // `graded_columns` rounded the top side as this grid does, so the choice holds here.
     if let (Some(sides), Some(c)) = (sides.as_mut(), columns) {
-        if !graded_on(&morton.grid, c, K::AXIS_BITS) {
-            return Ok(None);
-        }
         sides.graded_top = Some((c.level as u8, c.finest.min(K::AXIS_BITS) as u8));
     }
     let keys = &morton.keys;
@@ -335,18 +334,6 @@ fn separated_build<K: MortonKey>(
         balanced: Some(balanced),
         band,
     }))
-}
-
-/// Whether `grid`, built for `columns`, puts the domain's top side within 1/16 of a cell of
-/// `columns.finest` above a grid line of `columns.level` (f64 may round the choice away).
-fn graded_on(grid: &Grid, columns: GradedColumns, axis_bits: u32) -> bool {
-    let Some(top) = grid.inner_top() else {
-        return false;
-    };
-    let cell = (2.0f64).powi(axis_bits as i32 - columns.level as i32);
-    let finest = (2.0f64).powi(axis_bits as i32 - columns.finest as i32);
-    let above = top - (top / cell).floor() * cell;
-    top >= cell && above < finest / 16.0
 }
 
 /// The finest band along a domain's top side allowed for `points` points: at most 64 cells per

@@ -26,6 +26,8 @@ pub struct LeafGeometry<'a, K: Copy> {
     grid: &'a Grid,
     /// Leaves at this level or coarser are far larger than f64's spacing anywhere in the root.
     resolved_level: u8,
+    /// The grid row moved onto a short domain's top side, if any (asked once, not per leaf).
+    inner_top_row: Option<u128>,
 }
 
 impl<'a, K: MortonKey> LeafGeometry<'a, K> {
@@ -36,6 +38,7 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
             point_leaf: &tree.point_leaf,
             grid,
             resolved_level: resolved_level(grid, K::AXIS_BITS),
+            inner_top_row: grid.inner_top_row(),
         }
     }
 
@@ -122,7 +125,7 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
     /// rectangle).
     pub fn exact_square(&self, leaf: usize) -> bool {
         let (_, y, size) = self.grid_square(leaf);
-        self.level(leaf) <= self.resolved_level && self.grid.inner_top_row() != Some(y + size)
+        self.level(leaf) <= self.resolved_level && self.inner_top_row != Some(y + size)
     }
 
     /// A point of the grid in input coordinates.
