@@ -6,11 +6,13 @@ mod common;
 use common::{FAMILIES, on_threads};
 
 use proptest::prelude::*;
+use quadmesh::balance::point_leaves;
 use quadmesh::framework::{self, Framework, NONE};
 use quadmesh::generate::{Distribution2d, points};
 use quadmesh::morton::{Morton, MortonKey, SortAlgorithm, morton_order};
+use quadmesh::quadtree::index::{LEAF, children};
 use quadmesh::quadtree::reference::build_reference;
-use quadmesh::quadtree::{Cell, Quadtree, expand, points_in};
+use quadmesh::quadtree::{Cell, Quadtree, expand, indexed_from_internal, points_in};
 use quadmesh::{DVec2, Tree, TreeOptions, build_tree};
 
 /// The framework read off the reference tree: internal squares with two or more non-empty
@@ -61,11 +63,40 @@ fn assert_matches_reference<K: MortonKey>(keys: &[K]) {
     let reference = build_reference(keys);
     reference.check_unbalanced(keys).unwrap();
     assert_eq!(tree, reference, "quadtree differs from the reference");
+    assert_index_matches(&tree, keys);
     assert_eq!(
         framework_pairs(&fw),
         reference_framework(&reference, keys),
         "framework differs"
     );
+}
+
+/// The children and point location written with the leaves equal those found from the tree
+/// afterwards, and say what they claim: each child lies in its quadrant of its parent, each
+/// point in its leaf.
+fn assert_index_matches<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) {
+    let indexed = indexed_from_internal(tree.internal.clone(), keys);
+    assert_eq!(&indexed.tree, tree);
+    assert_eq!(indexed.point_leaf, point_leaves(tree));
+    if tree.internal.is_empty() {
+        assert!(indexed.children.is_empty());
+        return;
+    }
+    assert_eq!(indexed.children, children(tree));
+    for (i, row) in indexed.children.iter().enumerate() {
+        let parent = tree.internal[i].cell;
+        for (q, &child) in row.iter().enumerate() {
+            let cell = if child & LEAF != 0 {
+                tree.leaves[(child & !LEAF) as usize].cell
+            } else {
+                tree.internal[child as usize].cell
+            };
+            assert_eq!(cell, parent.child(q as u32), "child {q} of square {i}");
+        }
+    }
+    for (p, &j) in indexed.point_leaf.iter().enumerate() {
+        assert!(tree.leaves[j as usize].cell.contains(keys[p]), "point {p}");
+    }
 }
 
 fn check_points(pts: &[DVec2]) {

@@ -76,11 +76,18 @@ impl Links {
 /// # Complexity
 /// O(k) work for k leaves, in parallel over chunks of squares.
 pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
+    if tree.internal.is_empty() {
+        return vec![Links::NONE; tree.leaves.len()];
+    }
+    cross_links_by(tree, &children(tree))
+}
+
+/// As [`cross_links`], given the tree's [`children`] index.
+pub fn cross_links_by<K: MortonKey>(tree: &Quadtree<K>, children: &[[u32; 4]]) -> Vec<Links> {
     let internal = &tree.internal;
     if internal.is_empty() {
         return vec![Links::NONE; tree.leaves.len()];
     }
-    let children = &children(tree);
     let chunks = chunk_offsets(internal.len(), GRAIN);
     let offsets = leaf_starts(internal, &chunks);
     collect_segments_by(&offsets, |c, out| {
@@ -95,13 +102,15 @@ pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
 }
 
 /// The internal squares on the path from the root to the current one, by level, each with the
-/// entries of the same-size squares across its sides: an internal index, a leaf index tagged
-/// [`LEAF`] for a leaf that covers that square (of the same or a larger size), or [`NONE`]
-/// outside the root.
+/// entries of the same-size squares across the four sides of each of its four children: an
+/// internal index, a leaf index tagged [`LEAF`] for a leaf that covers that square (of the same
+/// or a larger size), or [`NONE`] outside the root. A square's children are met several times
+/// (internal ones once, leaves once each), so their entries are worked out once, on entering it.
 struct NeighbourPath<'a> {
     children: &'a [[u32; 4]],
-    squares: Vec<u32>,
-    beside: Vec<[u32; 4]>,
+    /// By level: for each quadrant of the path's square there, the entries across West, East,
+    /// South and North of that child.
+    beside_children: Vec<[[u32; 4]; 4]>,
 }
 
 impl<'a> NeighbourPath<'a> {
@@ -110,64 +119,67 @@ impl<'a> NeighbourPath<'a> {
         let squares = path_to(tree, i);
         let mut path = NeighbourPath {
             children,
-            beside: vec![[NONE; 4]; squares.len()],
-            squares,
+            beside_children: vec![[[NONE; 4]; 4]; squares.len()],
         };
         let cell = tree.internal[i].cell;
-        for level in 1..cell.level {
-            let ancestor = Cell::containing(cell.anchor, level);
-            path.beside[level as usize] = path.child_beside(level, ancestor.quadrant());
+        for level in 0..cell.level {
+            path.enter(
+                squares[level as usize],
+                Cell::containing(cell.anchor, level),
+            );
         }
         path
     }
 
     /// Makes internal square `index`, `cell`, the path's square at its level.
+    #[inline]
     fn enter<K: MortonKey>(&mut self, index: u32, cell: Cell<K>) {
         let level = cell.level as usize;
-        self.squares[level] = index;
-        self.beside[level] = match level {
+        let beside = match level {
             0 => [NONE; 4],
-            _ => self.child_beside(cell.level, cell.quadrant()),
+            _ => self.beside_children[level - 1][cell.quadrant() as usize],
         };
-        // The children of split neighbours are read next, for this square's children.
-        for e in self.beside[level] {
-            if e & LEAF == 0 {
-                prefetch(&self.children[e as usize]);
+        let children = self.children;
+        // The row of children across each side: those of a split neighbour, or the entry itself
+        // for every quadrant (a leaf covers them all; none stays none).
+        let row = |e: u32| {
+            if e == NONE || e & LEAF != 0 {
+                [e; 4]
+            } else {
+                children[e as usize]
+            }
+        };
+        let [west, east, south, north] = beside.map(row);
+        let own = children[index as usize];
+        self.beside_children[level] = std::array::from_fn(|q| {
+            let (x_mirror, y_mirror) = (q ^ 2, q ^ 1);
+            let (w, e) = if q & 2 == 0 {
+                (west[x_mirror], own[x_mirror])
+            } else {
+                (own[x_mirror], east[x_mirror])
+            };
+            let (s, n) = if q & 1 == 0 {
+                (south[y_mirror], own[y_mirror])
+            } else {
+                (own[y_mirror], north[y_mirror])
+            };
+            [w, e, s, n]
+        });
+        // The children of split squares beside the children are read next, for their links.
+        for entries in &self.beside_children[level] {
+            for &e in entries {
+                if e & LEAF == 0 {
+                    prefetch(&children[e as usize]);
+                }
             }
         }
     }
 
-    /// The neighbour entries of the child in quadrant `q` (`2 * xbit + ybit`) of the path's
-    /// square at `level - 1`: a sibling across the sides inside the parent; across the parent's
-    /// own sides, the parent's neighbour if that is a leaf (or [`NONE`]), else its child.
-    fn child_beside(&self, level: u8, q: u32) -> [u32; 4] {
-        let parent = level as usize - 1;
-        let siblings = self.children[self.squares[parent] as usize];
-        let beside = self.beside[parent];
-        let across = |e: u32, quadrant: u32| {
-            if e == NONE || e & LEAF != 0 {
-                e
-            } else {
-                self.children[e as usize][quadrant as usize]
-            }
-        };
-        let (x_mirror, y_mirror) = (q ^ 2, q ^ 1);
-        let (west, east) = if q & 2 == 0 {
-            (across(beside[0], x_mirror), siblings[x_mirror as usize])
-        } else {
-            (siblings[x_mirror as usize], across(beside[1], x_mirror))
-        };
-        let (south, north) = if q & 1 == 0 {
-            (across(beside[2], y_mirror), siblings[y_mirror as usize])
-        } else {
-            (siblings[y_mirror as usize], across(beside[3], y_mirror))
-        };
-        [west, east, south, north]
-    }
-
     /// The links of a leaf whose parent is on the path.
+    #[inline]
     fn leaf_links<K: MortonKey>(&self, cell: Cell<K>) -> Links {
-        let [west, east, south, north] = self.child_beside(cell.level, cell.quadrant());
+        let [west, east, south, north] =
+            self.beside_children[cell.level as usize - 1][cell.quadrant() as usize];
         Links::new([
             leaves_facing(self.children, west, Side::West),
             leaves_facing(self.children, east, Side::East),

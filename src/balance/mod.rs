@@ -12,7 +12,7 @@ mod split_set;
 use std::collections::HashSet;
 
 pub use closure::{balance_closure, forced_by};
-pub use links::{Links, cross_links, point_leaves};
+pub use links::{Links, cross_links, cross_links_by, point_leaves};
 pub use separate::{
     Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
     check_separated_in, coarsest_band_level, separate, separate_in,
@@ -21,7 +21,7 @@ pub use separate::{
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
 use crate::par::collect_indexed;
-use crate::quadtree::{Quadtree, from_internal, with_first_points};
+use crate::quadtree::{IndexedTree, Quadtree, indexed_from_internal, with_first_points};
 
 /// A balanced quadtree with cross links and point location.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -45,9 +45,12 @@ pub fn balance<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K> 
 
 /// The tree with split squares `split` (in preorder, balanced), its links and point location.
 pub fn linked_tree<K: MortonKey>(split: &[Cell<K>], keys: &[K]) -> BalancedTree<K> {
-    let tree = from_internal(with_first_points(split, keys), keys);
-    let links = cross_links(&tree);
-    let point_leaf = point_leaves(&tree);
+    let IndexedTree {
+        tree,
+        children,
+        point_leaf,
+    } = indexed_from_internal(with_first_points(split, keys), keys);
+    let links = cross_links_by(&tree, &children);
     BalancedTree {
         tree,
         links,

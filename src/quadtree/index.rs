@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::morton::{Cell, MortonKey};
 use crate::par::{DisjointWrites, GRAIN, chunk_offsets};
 
-use super::{Quadtree, with_gap_leaves};
+use super::{Internal, Quadtree, with_gap_leaves};
 
 /// Tag of a child entry that is a leaf index rather than an internal-square index.
 pub const LEAF: u32 = 1 << 31;
@@ -60,7 +60,11 @@ pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
 /// The internal squares from the root down to the parent of internal square `i`, by level, with
 /// room below for a path down to the finest level.
 pub fn path_to<K: MortonKey>(tree: &Quadtree<K>, i: usize) -> Vec<u32> {
-    let internal = &tree.internal;
+    path_in(&tree.internal, i)
+}
+
+/// As [`path_to`], in the internal squares alone (in preorder).
+pub(crate) fn path_in<K: MortonKey>(internal: &[Internal<K>], i: usize) -> Vec<u32> {
     let cell = internal[i].cell;
     let mut path = vec![0u32; K::AXIS_BITS as usize + 1];
     for level in 0..cell.level {

@@ -16,8 +16,10 @@ use std::ops::Range;
 use crate::framework::{Framework, NONE};
 use crate::morton::MortonKey;
 use crate::par::{
-    GRAIN, chunk_offsets, collect_indexed, collect_segments, collect_segments_by, exclusive_scan_by,
+    DisjointWrites, GRAIN, chunk_offsets, collect_indexed, collect_segments, collect_segments_by,
+    exclusive_scan_by,
 };
+use index::LEAF;
 
 /// A leaf and the point in it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -61,15 +63,96 @@ pub fn expand<K: MortonKey>(fw: &Framework<K>, keys: &[K]) -> Quadtree<K> {
 /// with the first point at or after its corner), with its leaves and their points.
 pub fn from_internal<K: MortonKey>(internal: Vec<Internal<K>>, keys: &[K]) -> Quadtree<K> {
     if internal.is_empty() {
-        let point = if keys.is_empty() { NONE } else { 0 };
-        let leaves = vec![Leaf {
-            cell: Cell::root(),
-            point,
-        }];
-        return Quadtree { internal, leaves };
+        return root_leaf(internal, keys);
     }
-    let leaves = leaves_of(&internal, keys);
+    let leaves = leaves_of(&internal, keys, None);
     Quadtree { internal, leaves }
+}
+
+/// A quadtree with its navigation: the children of each internal square (see
+/// [`index::children`]) and the leaf of each point, by Morton position.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct IndexedTree<K: Copy> {
+    /// The tree.
+    pub tree: Quadtree<K>,
+    /// The children of each internal square by quadrant, leaves tagged [`index::LEAF`].
+    pub children: Vec<[u32; 4]>,
+    /// The leaf of each point.
+    pub point_leaf: Vec<u32>,
+}
+
+/// As [`from_internal`], with the children and the point location written in the same pass
+/// as the leaves, instead of two more passes over them.
+pub fn indexed_from_internal<K: MortonKey>(
+    internal: Vec<Internal<K>>,
+    keys: &[K],
+) -> IndexedTree<K> {
+    if internal.is_empty() {
+        return IndexedTree {
+            tree: root_leaf(internal, keys),
+            children: Vec::new(),
+            point_leaf: vec![0; keys.len()],
+        };
+    }
+    assert!(
+        3 * internal.len() + 1 < index::LEAF as usize,
+        "too many leaves to index"
+    );
+    let mut children = vec![[0u32; 4]; internal.len()];
+    let mut point_leaf = vec![NONE; keys.len()];
+    let leaves = leaves_of(
+        &internal,
+        keys,
+        Some(&IndexWrites {
+            children: DisjointWrites::new(children.as_flattened_mut()),
+            point_leaf: DisjointWrites::new(&mut point_leaf),
+        }),
+    );
+    IndexedTree {
+        tree: Quadtree { internal, leaves },
+        children,
+        point_leaf,
+    }
+}
+
+/// The tree of no internal square: the root as a leaf, with the point if there is one.
+fn root_leaf<K: MortonKey>(internal: Vec<Internal<K>>, keys: &[K]) -> Quadtree<K> {
+    let point = if keys.is_empty() { NONE } else { 0 };
+    let leaves = vec![Leaf {
+        cell: Cell::root(),
+        point,
+    }];
+    Quadtree { internal, leaves }
+}
+
+/// Where the leaf pass writes the children index and the point location.
+struct IndexWrites<'a> {
+    children: DisjointWrites<'a, u32>,
+    point_leaf: DisjointWrites<'a, u32>,
+}
+
+impl IndexWrites<'_> {
+    /// Square `child` (an internal index, or a leaf index tagged [`index::LEAF`]) is in
+    /// `quadrant` of internal square `parent`.
+    #[inline]
+    fn child(&self, parent: u32, quadrant: u32, child: u32) {
+        // SAFETY: a square has one parent and one quadrant, so each slot has one writer.
+        #[allow(unsafe_code)]
+        unsafe {
+            self.children
+                .write(4 * parent as usize + quadrant as usize, child)
+        };
+    }
+
+    /// Leaf `j` holds point `p`.
+    #[inline]
+    fn point(&self, p: u32, j: u32) {
+        // SAFETY: each point is in one leaf, so its slot has one writer.
+        #[allow(unsafe_code)]
+        unsafe {
+            self.point_leaf.write(p as usize, j)
+        };
+    }
 }
 
 /// Squares in preorder with the first point at or after each one's corner: one binary search
@@ -127,15 +210,45 @@ fn internal_squares<K: MortonKey>(fw: &Framework<K>) -> Vec<Internal<K>> {
 /// ancestors of `i` closes a subtree with three more leaves than internal squares, and the path
 /// from the root to `i` passes `digit_sum_i` earlier sibling subtrees. The leaves between two
 /// consecutive internal squares tile the key interval between their corners.
-fn leaves_of<K: MortonKey>(internal: &[Internal<K>], keys: &[K]) -> Vec<Leaf<K>> {
+///
+/// With `index`, each square's parent is the square one level up on the path from the root
+/// (kept per chunk), and each square and point is written there too.
+fn leaves_of<K: MortonKey>(
+    internal: &[Internal<K>],
+    keys: &[K],
+    index: Option<&IndexWrites>,
+) -> Vec<Leaf<K>> {
     // Leaf counts come from the formula at each end, so only chunk ends need a table.
     let chunks = chunk_offsets(internal.len(), GRAIN);
     collect_segments_by(&leaf_starts(internal, &chunks), |c, out| {
+        let mut path = match index {
+            Some(_) => index::path_in(internal, chunks[c]),
+            None => Vec::new(),
+        };
         for (i, gap) in with_gap_leaves(internal, chunks[c]..chunks[c + 1]) {
+            let cell = internal[i].cell;
+            if let Some(index) = index {
+                if cell.level > 0 {
+                    index.child(path[cell.level as usize - 1], cell.quadrant(), i as u32);
+                }
+                path[cell.level as usize] = i as u32;
+            }
             let end = internal.get(i + 1).map(|s| s.cell.anchor);
             let mut tiles = GapTiles::new(&internal[i], end, keys);
-            for _ in gap {
-                out.push(tiles.next_leaf());
+            for j in gap {
+                let leaf = tiles.next_leaf();
+                if let Some(index) = index {
+                    let cell = leaf.cell;
+                    index.child(
+                        path[cell.level as usize - 1],
+                        cell.quadrant(),
+                        LEAF | j as u32,
+                    );
+                    if leaf.point != NONE {
+                        index.point(leaf.point, j as u32);
+                    }
+                }
+                out.push(leaf);
             }
         }
     })
