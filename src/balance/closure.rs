@@ -195,15 +195,15 @@ pub(crate) fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
 
 /// For sorted squares at `level` in whole families: their parents (sorted, distinct), and the
 /// neighbours the families force that were not found among the parents nearby.
+///
+/// Which sides a family touches is close to random, so the loops select and count instead of
+/// branching on it.
 fn forced_by_families<K: MortonKey>(anchors: &[K], level: u8) -> (Vec<K>, Vec<K>) {
     let mut parents: Vec<K> = Vec::with_capacity(anchors.len() / 2 + 1);
     let mut touched: Vec<u8> = Vec::with_capacity(anchors.len() / 2 + 1);
     for &anchor in anchors {
-        let cell = Cell { anchor, level };
         let parent = anchor.cell_anchor(level - 1);
-        let sides = touched_sides(cell)
-            .into_iter()
-            .fold(0u8, |m, side| m | 1 << side as u8);
+        let sides = touched_mask(Cell { anchor, level });
         if parents.last() == Some(&parent) {
             *touched.last_mut().expect("one per parent") |= sides;
         } else {
@@ -211,35 +211,76 @@ fn forced_by_families<K: MortonKey>(anchors: &[K], level: u8) -> (Vec<K>, Vec<K>
             touched.push(sides);
         }
     }
-    let mut others = Vec::new();
+    let mut others = vec![K::default(); 4 * parents.len()];
+    let mut count = 0;
     for (f, (&anchor, &sides)) in parents.iter().zip(&touched).enumerate() {
-        let parent = Cell {
+        let (beside, inside) = all_beside(Cell {
             anchor,
             level: level - 1,
-        };
+        });
+        let forced = sides & inside;
         for side in Side::ALL {
-            if sides & 1 << side as u8 == 0 {
-                continue;
-            }
-            let Some(beside) = parent.neighbour(side) else {
-                continue;
-            };
-            if !among_near(&parents, f, beside.anchor) {
-                others.push(beside.anchor);
-            }
+            let a = beside[side as usize];
+            // West and south neighbours come before the parent in Morton order.
+            let before = matches!(side, Side::West | Side::South);
+            let new = forced & 1 << side as u8 != 0 && !among_near(&parents, f, a, before);
+            others[count] = a;
+            count += usize::from(new);
         }
     }
+    others.truncate(count);
     (parents, others)
 }
 
-/// Whether `anchor` is within [`NEAR_PARENTS`] places of `parents[f]` (either way).
-fn among_near<K: MortonKey>(parents: &[K], f: usize, anchor: K) -> bool {
-    let near = if anchor > parents[f] {
-        &parents[f + 1..(f + 1 + NEAR_PARENTS).min(parents.len())]
-    } else {
-        &parents[f.saturating_sub(NEAR_PARENTS)..f]
-    };
-    near.contains(&anchor)
+/// Whether `anchor` is among the [`NEAR_PARENTS`] parents before `parents[f]`, or after it;
+/// places past the ends repeat the end, which is a parent too.
+#[inline]
+fn among_near<K: MortonKey>(parents: &[K], f: usize, anchor: K, before: bool) -> bool {
+    let last = parents.len() - 1;
+    (1..=NEAR_PARENTS).fold(false, |found, d| {
+        let place = if before {
+            f.saturating_sub(d)
+        } else {
+            (f + d).min(last)
+        };
+        found | (parents[place] == anchor)
+    })
+}
+
+/// The anchors of the same-size squares across the sides of `cell`, in [`Side::ALL`] order,
+/// and the mask of the sides (`1 << side`) that have one inside the root: [`Cell::neighbour`]
+/// for all four at once, without branches.
+#[inline]
+fn all_beside<K: MortonKey>(cell: Cell<K>) -> ([K; 4], u8) {
+    if cell.level == 0 {
+        return ([K::default(); 4], 0);
+    }
+    let all = u128::MAX >> (128 - 2 * K::AXIS_BITS);
+    let y_bits = K::from_u128(all / 3);
+    let x_bits = K::from_u128(all - all / 3);
+    let unit_y = K::pow2(cell.span_bits());
+    let unit_x = K::pow2(cell.span_bits() + 1);
+    let k = cell.anchor;
+    let (x, y) = (k & x_bits, k & y_bits);
+    // Moving up, the carry runs through the other axis's bits set to ones, and wraps past the
+    // top; moving down, a borrow past zero wraps.
+    let east = (k | y_bits).wrapping_add(unit_x) & x_bits;
+    let north = (k | x_bits).wrapping_add(unit_y) & y_bits;
+    let west = x.wrapping_sub(unit_x) & x_bits;
+    let south = y.wrapping_sub(unit_y) & y_bits;
+    let inside = u8::from(x >= unit_x)
+        | u8::from(east > x) << 1
+        | u8::from(y >= unit_y) << 2
+        | u8::from(north > y) << 3;
+    ([west | y, east | y, south | x, north | x], inside)
+}
+
+/// The two sides of its parent that a square touches, as a mask (`1 << side`).
+#[inline]
+fn touched_mask<K: MortonKey>(cell: Cell<K>) -> u8 {
+    let q = cell.quadrant() as u8;
+    // West (bit 0) or east (bit 1) by the x bit, south (bit 2) or north (bit 3) by the y bit.
+    1 << (q >> 1) | 4 << (q & 1)
 }
 
 /// The two sides of its parent that a square touches.
@@ -300,6 +341,41 @@ fn merge_distinct<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn all_sides_at_once_agree_with_each_neighbour() {
+        let cells = (0..4000u64).flat_map(|i| {
+            let key = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            (0..=32u8).map(move |level| Cell::<u64>::containing(key, level))
+        });
+        // Squares on every side of the root, at every level.
+        let edges = (0..=32u8).flat_map(|level| {
+            let far = (1u64 << 32) - 1;
+            [
+                (0, 0),
+                (far, 0),
+                (0, far),
+                (far, far),
+                (far / 3, far),
+                (far, far / 5),
+            ]
+            .map(|(x, y)| Cell::<u64>::containing(u64::encode(x, y), level))
+        });
+        for cell in cells.chain(edges) {
+            let (beside, inside) = all_beside(cell);
+            for side in Side::ALL {
+                let expected = cell.neighbour(side).map(|n| n.anchor);
+                let got = (inside & 1 << side as u8 != 0).then_some(beside[side as usize]);
+                assert_eq!(got, expected, "{cell:?} {side:?}");
+            }
+            if cell.level > 0 {
+                let mask = touched_sides(cell)
+                    .into_iter()
+                    .fold(0, |m, side| m | 1 << side as u8);
+                assert_eq!(touched_mask(cell), mask, "{cell:?}");
+            }
+        }
+    }
 
     #[test]
     fn union_keeps_one_of_each() {
