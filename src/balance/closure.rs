@@ -16,6 +16,7 @@ use crate::par::{
     DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat,
     exclusive_scan_by,
 };
+use crate::quadtree::Internal;
 
 /// The smallest set of split squares that contains `split`, is closed under parents, and
 /// makes the quadtree balanced; in preorder.
@@ -24,6 +25,20 @@ use crate::par::{
 /// O(k) work for k squares plus a radix sort of the few forced squares that are not parents
 /// already; depth O(L log k) for L levels.
 pub fn balance_closure<K: MortonKey>(split: &[Cell<K>]) -> Vec<Cell<K>> {
+    preorder_of_levels(&closed_levels(split), &[])
+}
+
+/// As [`balance_closure`], each square with the first of the sorted `keys` at or after its
+/// corner (as [`crate::quadtree::with_first_points`] gives, without another pass).
+pub fn balance_closure_with_points<K: MortonKey>(
+    split: &[Cell<K>],
+    keys: &[K],
+) -> Vec<Internal<K>> {
+    preorder_of_levels(&closed_levels(split), keys)
+}
+
+/// The sorted anchors at each level of the balanced closure of `split`.
+fn closed_levels<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
     let mut levels = by_level(split);
     for level in (1..levels.len()).rev() {
         if !levels[level].is_empty() {
@@ -31,17 +46,44 @@ pub fn balance_closure<K: MortonKey>(split: &[Cell<K>]) -> Vec<Cell<K>> {
             levels[level - 1] = union_sorted(&levels[level - 1], &forced);
         }
     }
-    preorder_of_levels(&levels)
+    levels
 }
 
 /// Keys per range of the preorder walk: enough that the binary searches that start a range
 /// cost little beside it.
 const WALK_RANGE: usize = 1 << 15;
 
+/// A square the preorder walk puts out, given the first of its sorted keys at or after the
+/// square's corner.
+pub(crate) trait Walked<K: Copy>: Send {
+    fn walked(cell: Cell<K>, first: usize) -> Self;
+}
+
+impl<K: Copy + Send> Walked<K> for Cell<K> {
+    #[inline]
+    fn walked(cell: Cell<K>, _: usize) -> Self {
+        cell
+    }
+}
+
+impl<K: Copy + Send> Walked<K> for Internal<K> {
+    #[inline]
+    fn walked(cell: Cell<K>, first: usize) -> Self {
+        Internal {
+            cell,
+            first: first as u32,
+        }
+    }
+}
+
 /// The squares of sorted per-level anchor lists, closed under parents, in preorder: the
 /// preorder is the order of (anchor, level), so ranges of anchors are walked depth first in
-/// parallel, each into its own part of the output.
-pub(crate) fn preorder_of_levels<K: MortonKey>(levels: &[Vec<K>]) -> Vec<Cell<K>> {
+/// parallel, each into its own part of the output. Each square's first key at or after its
+/// corner comes from a cursor that moves forward with the corners (none without keys).
+pub(crate) fn preorder_of_levels<K: MortonKey, T: Walked<K>>(
+    levels: &[Vec<K>],
+    keys: &[K],
+) -> Vec<T> {
     let Some(widest) = levels.iter().max_by_key(|l| l.len()) else {
         return Vec::new();
     };
@@ -66,6 +108,8 @@ pub(crate) fn preorder_of_levels<K: MortonKey>(levels: &[Vec<K>]) -> Vec<Cell<K>
             next: levels.iter().map(|list| below(Some(from), list)).collect(),
             from,
             to,
+            keys,
+            key: keys.partition_point(|&k| k < from),
             out,
         };
         if levels[0].first() == Some(&K::default()) {
@@ -76,19 +120,27 @@ pub(crate) fn preorder_of_levels<K: MortonKey>(levels: &[Vec<K>]) -> Vec<Cell<K>
 
 /// A depth-first walk of the squares whose anchors lie in `from..to` (`to` = `None`: to the
 /// end), with the next unread entry of each level at or after `from`.
-struct RangeWalk<'a, 'w, K: Copy> {
+struct RangeWalk<'a, 'w, K: Copy, T> {
     levels: &'a [Vec<K>],
     next: Vec<usize>,
     from: K,
     to: Option<K>,
-    out: &'a mut SegmentWriter<'w, Cell<K>>,
+    keys: &'a [K],
+    /// The first key not below the corners walked so far.
+    key: usize,
+    out: &'a mut SegmentWriter<'w, T>,
 }
 
-impl<K: MortonKey> RangeWalk<'_, '_, K> {
+impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
     /// Visits a square of the set that is in the range or holds its start.
     fn visit(&mut self, cell: Cell<K>) {
         if { cell.anchor } >= self.from {
-            self.out.push(cell);
+            let anchor = cell.anchor;
+            self.key += self.keys[self.key..]
+                .iter()
+                .take_while(|&&k| k < anchor)
+                .count();
+            self.out.push(T::walked(cell, self.key));
         }
         let level = cell.level as usize + 1;
         let Some(list) = self.levels.get(level) else {
@@ -410,7 +462,18 @@ mod tests {
         cells.dedup();
         let levels = by_level(&cells);
         assert!(levels.iter().map(Vec::len).max().unwrap() > 2 * WALK_RANGE);
-        assert_eq!(preorder_of_levels(&levels), cells);
+        assert_eq!(preorder_of_levels::<u64, Cell<u64>>(&levels, &[]), cells);
+        // With keys, each square gets the first at or after its corner.
+        let keys: Vec<u64> = (0..50_000u64)
+            .map(|i| i.wrapping_mul(0xD1B5_4A32_D192_ED03))
+            .collect::<std::collections::BTreeSet<_>>()
+            .into_iter()
+            .collect();
+        let with_points: Vec<Internal<u64>> = preorder_of_levels(&levels, &keys);
+        assert_eq!(
+            with_points,
+            crate::quadtree::with_first_points(&cells, &keys)
+        );
     }
 
     #[test]

@@ -11,7 +11,7 @@ mod split_set;
 
 use std::collections::HashSet;
 
-pub use closure::{balance_closure, forced_by};
+pub use closure::{balance_closure, balance_closure_with_points, forced_by};
 pub use links::{Links, cross_links, cross_links_by, point_leaves};
 pub use separate::{
     Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
@@ -21,7 +21,7 @@ pub use separate::{
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
 use crate::par::collect_indexed;
-use crate::quadtree::{IndexedTree, Quadtree, indexed_from_internal, with_first_points};
+use crate::quadtree::{IndexedTree, Internal, Quadtree, indexed_from_internal, with_first_points};
 
 /// A balanced quadtree with cross links and point location.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -40,16 +40,21 @@ pub struct BalancedTree<K: Copy> {
 /// O(k log k) work for k output squares; the sweep has one parallel step per level.
 pub fn balance<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K> {
     let split: Vec<Cell<K>> = collect_indexed(tree.internal.len(), |i| tree.internal[i].cell);
-    linked_tree(&balance_closure(&split), keys)
+    linked_from_internal(balance_closure_with_points(&split, keys), keys)
 }
 
 /// The tree with split squares `split` (in preorder, balanced), its links and point location.
 pub fn linked_tree<K: MortonKey>(split: &[Cell<K>], keys: &[K]) -> BalancedTree<K> {
+    linked_from_internal(with_first_points(split, keys), keys)
+}
+
+/// As [`linked_tree`], from the split squares with their first points.
+fn linked_from_internal<K: MortonKey>(internal: Vec<Internal<K>>, keys: &[K]) -> BalancedTree<K> {
     let IndexedTree {
         tree,
         children,
         point_leaf,
-    } = indexed_from_internal(with_first_points(split, keys), keys);
+    } = indexed_from_internal(internal, keys);
     let links = cross_links_by(&tree, &children);
     BalancedTree {
         tree,
