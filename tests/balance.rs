@@ -145,12 +145,11 @@ fn checkers_catch_corruption<K: MortonKey>(keys: &[K]) {
     );
     let mut balanced = balance(&tree, keys);
     // Leaf 3 made its own west neighbour.
-    let links = balanced.links[3];
     balanced.links[3] = Links::new([
         [3, NONE],
-        links.across(Side::East),
-        links.across(Side::South),
-        links.across(Side::North),
+        balanced.across(3, Side::East),
+        balanced.across(3, Side::South),
+        balanced.across(3, Side::North),
     ]);
     assert!(balanced.check(keys).is_err(), "corrupted link");
     let mut balanced = balance(&tree, keys);

@@ -16,59 +16,47 @@ use crate::quadtree::{Quadtree, leaf_starts, with_gap_leaves};
 /// A leaf's neighbours across its four sides: one leaf of the same or twice the size, the two
 /// half-size leaves in increasing coordinate along the side, or none on the root's boundary.
 ///
-/// 24 bytes instead of 32: the two half-size leaves west or east of a leaf are siblings in
-/// consecutive quadrants (the east or west children of one square), so they are consecutive
-/// leaves and one index flagged `PAIR` stands for both. South and north pairs are not
-/// consecutive (a sibling's subtree may lie between them) and keep two slots.
+/// One slot per side, 16 bytes. Two half-size leaves across a side are siblings (the children
+/// of one square facing this leaf), so the first one names the second: west or east, they are
+/// in consecutive quadrants, hence consecutive leaves; south or north, the second is the
+/// first's east neighbour, of its own size. A slot holds the first, flagged `PAIR` when there
+/// are two; [`across`] finds the second.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Links([u32; 6]);
+pub struct Links([u32; 4]);
 
-/// On a west or east slot: the leaf there and the next one. Leaf indices stay below it, as the
-/// children index's [`LEAF`] tag already requires.
+/// On a slot: the leaf there is the first of two. Leaf indices stay below it, as the children
+/// index's [`LEAF`] tag already requires.
 const PAIR: u32 = 1 << 31;
 
 impl Links {
     /// A leaf with no neighbour on any side (the root alone).
-    pub const NONE: Links = Links([NONE; 6]);
+    pub const NONE: Links = Links([NONE; 4]);
 
-    /// From the leaves across each side, in [`Side::ALL`] order, as [`Links::across`] gives
-    /// them: a west or east pair must be two consecutive leaves.
-    pub fn new([west, east, south, north]: [[u32; 2]; 4]) -> Links {
-        Links([
-            Self::consecutive(west),
-            Self::consecutive(east),
-            south[0],
-            south[1],
-            north[0],
-            north[1],
-        ])
-    }
-
-    fn consecutive([first, second]: [u32; 2]) -> u32 {
-        if second == NONE {
-            return first;
-        }
-        debug_assert!(second == first + 1 && first < PAIR, "{first} {second}");
-        first | PAIR
-    }
-
-    /// The leaves across `side`: one and [`NONE`], two smaller ones, or two [`NONE`].
+    /// From the leaves across each side, in [`Side::ALL`] order, as [`across`] gives them: a
+    /// pair must be two sibling leaves facing this one, the first west or south of the second.
     #[inline]
-    pub fn across(&self, side: Side) -> [u32; 2] {
-        match side {
-            Side::West | Side::East => {
-                let slot = self.0[side as usize];
-                if slot != NONE && slot & PAIR != 0 {
-                    let first = slot & !PAIR;
-                    [first, first + 1]
-                } else {
-                    [slot, NONE]
-                }
-            }
-            Side::South => [self.0[2], self.0[3]],
-            Side::North => [self.0[4], self.0[5]],
-        }
+    pub fn new(sides: [[u32; 2]; 4]) -> Links {
+        Links(sides.map(|[first, second]| {
+            debug_assert!(second == NONE || first < PAIR, "{first} {second}");
+            if second == NONE { first } else { first | PAIR }
+        }))
     }
+}
+
+/// The leaves across `side` of `leaf`, from the links of all leaves: one and [`NONE`], two
+/// smaller ones, or two [`NONE`].
+#[inline]
+pub fn across(links: &[Links], leaf: usize, side: Side) -> [u32; 2] {
+    let slot = links[leaf].0[side as usize];
+    if slot == NONE || slot & PAIR == 0 {
+        return [slot, NONE];
+    }
+    let first = slot & !PAIR;
+    let second = match side {
+        Side::West | Side::East => first + 1,
+        Side::South | Side::North => links[first as usize].0[Side::East as usize],
+    };
+    [first, second]
 }
 
 /// The cross links of every leaf of a balanced tree.

@@ -12,7 +12,7 @@ mod split_set;
 use std::collections::HashSet;
 
 pub use closure::{balance_closure, balance_closure_with_points, forced_by};
-pub use links::{Links, cross_links, cross_links_by, point_leaves};
+pub use links::{Links, across, cross_links, cross_links_by, point_leaves};
 pub use separate::{
     Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
     check_separated_in, coarsest_band_level, separate, separate_in,
@@ -64,6 +64,12 @@ fn linked_from_internal<K: MortonKey>(internal: Vec<Internal<K>>, keys: &[K]) ->
 }
 
 impl<K: MortonKey> BalancedTree<K> {
+    /// The leaves across `side` of `leaf` (see [`across`]).
+    #[inline]
+    pub fn across(&self, leaf: usize, side: Side) -> [u32; 2] {
+        across(&self.links, leaf, side)
+    }
+
     /// Checks the tree, its balance, its links and its point location; returns what is wrong.
     pub fn check(&self, keys: &[K]) -> Result<(), String> {
         self.tree.check(keys)?;
@@ -76,9 +82,9 @@ impl<K: MortonKey> BalancedTree<K> {
         if self.links.len() != self.tree.leaves.len() {
             return Err("one set of links per leaf expected".into());
         }
-        for (j, links) in self.links.iter().enumerate() {
+        for j in 0..self.links.len() {
             for side in Side::ALL {
-                self.check_side(j, side, links.across(side))?;
+                self.check_side(j, side, self.across(j, side))?;
             }
         }
         Ok(())
@@ -113,7 +119,7 @@ impl<K: MortonKey> BalancedTree<K> {
             ));
         }
         for &i in pair.iter().filter(|&&i| i != NONE) {
-            let back = self.links[i as usize].across(side.opposite());
+            let back = self.across(i as usize, side.opposite());
             if !back.contains(&(j as u32)) {
                 return Err(format!(
                     "leaf {i} does not link back to {j} across {:?}",

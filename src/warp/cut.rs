@@ -50,8 +50,8 @@ pub fn leaves_below<K: MortonKey>(
     let mut new_leaves: Vec<Leaf<K>> =
         collect_indexed(old_of.len(), |j| leaves[old_of[j] as usize]);
     let links = collect_indexed(old_of.len(), |j| {
-        let old = &tree.links[old_of[j] as usize];
-        Links::new(Side::ALL.map(|side| old.across(side).map(renumber)))
+        let old = old_of[j] as usize;
+        Links::new(Side::ALL.map(|side| tree.across(old, side).map(renumber)))
     });
     let point_leaf: Vec<u32> = tree
         .point_leaf
@@ -60,7 +60,7 @@ pub fn leaves_below<K: MortonKey>(
             let below = if kept[j as usize] {
                 j
             } else {
-                tree.links[j as usize].across(Side::South)[0]
+                tree.across(j as usize, Side::South)[0]
             };
             renumber(below)
         })

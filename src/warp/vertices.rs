@@ -11,7 +11,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::{collect_per_leaf, leaf_offsets};
-use crate::balance::{BalancedTree, Links};
+use crate::balance::{BalancedTree, Links, across};
 use crate::error::Error;
 use crate::mesh::NONE;
 use crate::morton::{Grid, MortonKey, Side};
@@ -74,7 +74,7 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
 
     /// The leaves across `side`: one and [`NONE`], two smaller ones, or two [`NONE`].
     pub fn across(&self, leaf: usize, side: Side) -> [u32; 2] {
-        self.links[leaf].across(side)
+        across(self.links, leaf, side)
     }
 
     fn split(&self, leaf: usize, side: Side) -> bool {
