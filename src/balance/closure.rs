@@ -11,10 +11,10 @@ use std::borrow::Cow;
 
 use rayon::prelude::*;
 
-use crate::morton::{Cell, MortonKey, Side};
+use crate::morton::{Cell, MortonKey, Side, SortPairs};
 use crate::par::{
-    DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat,
-    exclusive_scan_by,
+    DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_indexed, collect_segments_by,
+    concat, exclusive_scan_by,
 };
 use crate::quadtree::Internal;
 
@@ -240,8 +240,7 @@ pub(crate) fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
         .unzip();
     let parents = concat(&parents);
     let mut others = concat(&others);
-    K::sort_keys(&mut others);
-    others.dedup();
+    sort_anchors(&mut others, level - 1);
     union_sorted(&parents, &others)
 }
 
@@ -355,6 +354,24 @@ pub fn forced_by<K: MortonKey>(cell: Cell<K>) -> [Option<Cell<K>>; 3] {
     ]
 }
 
+/// Sorts anchors of squares at `level` and drops repeats. Their low bits are zero, so wide
+/// keys down to level 32 sort as 64-bit numbers, in half the radix passes.
+fn sort_anchors<K: MortonKey>(anchors: &mut Vec<K>, level: u8) {
+    if K::AXIS_BITS > 32 && (1..=32).contains(&level) {
+        let shift = 2 * (K::AXIS_BITS - level as u32);
+        let mut narrow: Vec<u64> =
+            collect_indexed(anchors.len(), |i| (anchors[i].to_u128() >> shift) as u64);
+        u64::sort_keys(&mut narrow);
+        narrow.dedup();
+        *anchors = collect_indexed(narrow.len(), |i| {
+            K::from_u128(u128::from(narrow[i]) << shift)
+        });
+    } else {
+        K::sort_keys(anchors);
+        anchors.dedup();
+    }
+}
+
 /// The sorted union of two sorted, distinct lists, merged in parallel: the longer one is cut
 /// into chunks and each takes the shorter one's keys below its end.
 pub(crate) fn union_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
@@ -425,6 +442,27 @@ mod tests {
                     .into_iter()
                     .fold(0, |m, side| m | 1 << side as u8);
                 assert_eq!(touched_mask(cell), mask, "{cell:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn anchors_sort_alike_narrowed_or_not() {
+        let key = |i: u64| {
+            let hi = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            u128::from(hi) << 64 | u128::from(hi.rotate_left(29) ^ i)
+        };
+        for level in [0u8, 1, 7, 20, 32, 33, 50, 64] {
+            // Both sides of the parallel sort's cut-off, with repeats.
+            for n in [3000u64, 70_000] {
+                let mut anchors: Vec<u128> = (0..n)
+                    .map(|i| Cell::<u128>::containing(key(i % (n - 100)), level).anchor)
+                    .collect();
+                let mut expected = anchors.clone();
+                expected.sort_unstable();
+                expected.dedup();
+                sort_anchors(&mut anchors, level);
+                assert_eq!(anchors, expected, "level {level}, {n} keys");
             }
         }
     }

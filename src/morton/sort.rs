@@ -76,7 +76,13 @@ macro_rules! impl_sort_pairs {
             }
 
             fn sort_keys(keys: &mut [$k]) {
-                voracious(keys);
+                // Below the parallel cut-off, the plain LSD radix sort is the quicker one: the
+                // balance sorts many such lists, one per level.
+                if keys.len() < PARALLEL_SORT_CUTOFF {
+                    radsort::sort(keys);
+                } else {
+                    voracious(keys);
+                }
             }
         }
     };
