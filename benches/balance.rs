@@ -5,6 +5,10 @@
 //! `QUADMESH_BENCH_SEPARATE_MAX`, default 1e5). Throughput is the number of output leaves, so
 //! criterion's rate is leaves per second; the unbalanced tree, the keys and the output sizes are
 //! printed to stderr. Sizes and threads come from the same variables as the other benches.
+//!
+//! Each iteration's output is dropped outside the timing, and mimalloc hands large freed arrays
+//! back to the kernel, so every iteration pays for fresh pages. `MIMALLOC_PURGE_DELAY=-1` keeps
+//! them for reuse instead, which times the algorithm without the kernel's page clearing.
 
 mod common;
 
