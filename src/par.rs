@@ -420,6 +420,47 @@ where
     collect_segments(&offsets, |c| (offsets[c]..offsets[c + 1]).map(&f))
 }
 
+/// A `u32` slice that parallel tasks fill by index, for scatters whose targets are distinct
+/// when the input is valid. Each store is atomic (relaxed, a plain store on x86-64), so input
+/// that breaks that (a public caller's malformed tree) leaves one of the values in a slot written
+/// twice, never a data race; and the stores need no `unsafe` at the call site.
+pub struct SharedSlots<'a> {
+    ptr: *mut u32,
+    len: usize,
+    _slice: std::marker::PhantomData<&'a mut [u32]>,
+}
+
+// SAFETY: every access while shared is an atomic store through `store`.
+#[allow(unsafe_code)]
+unsafe impl Sync for SharedSlots<'_> {}
+#[allow(unsafe_code)]
+unsafe impl Send for SharedSlots<'_> {}
+
+impl<'a> SharedSlots<'a> {
+    /// Borrows `slice` for the scatter; its contents stay as they are until written.
+    pub fn new(slice: &'a mut [u32]) -> Self {
+        SharedSlots {
+            ptr: slice.as_mut_ptr(),
+            len: slice.len(),
+            _slice: std::marker::PhantomData,
+        }
+    }
+
+    /// Stores `value` at `i`.
+    ///
+    /// # Panics
+    /// If `i` is out of range.
+    #[inline]
+    pub fn store(&self, i: usize, value: u32) {
+        assert!(i < self.len, "slot {i} of {}", self.len);
+        // SAFETY: `i` is in range of the exclusively borrowed slice, `u32` and `AtomicU32` have
+        // the same size and alignment, and while it is borrowed here every access is atomic.
+        #[allow(unsafe_code)]
+        let slot = unsafe { std::sync::atomic::AtomicU32::from_ptr(self.ptr.add(i)) };
+        slot.store(value, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
 /// A slice that parallel tasks write by index, for scatters whose targets are distinct by
 /// construction (each slot has exactly one writer).
 pub struct DisjointWrites<'a, T> {

@@ -71,8 +71,28 @@ fn kuzmin_million_balances() {
     let tree = unbalanced(&m.keys);
     let balanced = balance(&tree, &m.keys);
     check_balance(&balanced.tree).unwrap();
-    assert_eq!(balanced.point_leaf.len(), m.keys.len());
     assert_eq!(cells(&balanced.tree), ripple_closure(&cells(&tree)));
+    // Links and point location over many chunks; the full check would take too long here.
+    let leaves = &balanced.tree.leaves;
+    for (p, &j) in balanced.point_leaf.iter().enumerate() {
+        assert!(
+            (j as usize) < leaves.len() && leaves[j as usize].point == p as u32,
+            "point {p} located in {j}"
+        );
+    }
+    for j in (0..leaves.len()).step_by(97) {
+        for side in Side::ALL {
+            for i in balanced.across(j, side) {
+                if i != NONE {
+                    assert!(
+                        balanced
+                            .across(i as usize, side.opposite())
+                            .contains(&(j as u32))
+                    );
+                }
+            }
+        }
+    }
 }
 
 fn same_on_one_and_two_threads<K: MortonKey>(keys: &[K]) {
@@ -152,6 +172,18 @@ fn checkers_catch_corruption<K: MortonKey>(keys: &[K]) {
         balanced.across(3, Side::North),
     ]);
     assert!(balanced.check(keys).is_err(), "corrupted link");
+    // Links and locations past the leaves are reported, not followed.
+    let past = balanced.tree.leaves.len() as u32;
+    for pair in [[past, NONE], [past - 1, past], [past + 7, past + 8]] {
+        let mut balanced = balance(&tree, keys);
+        let mut sides = Side::ALL.map(|side| balanced.across(3, side));
+        sides[3] = pair;
+        balanced.links[3] = Links::new(sides);
+        assert!(balanced.check(keys).is_err(), "link to {pair:?}");
+    }
+    let mut balanced = balance(&tree, keys);
+    balanced.point_leaf[1] = NONE;
+    assert!(balanced.check(keys).is_err(), "unlocated point");
     let mut balanced = balance(&tree, keys);
     balanced.point_leaf.swap(0, 1);
     assert!(balanced.check(keys).is_err(), "swapped point location");

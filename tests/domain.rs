@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{FAMILIES, check_warped, distinct_count, mixed_point_sets, on_threads};
+use common::{FAMILIES, beyond_f64, check_warped, distinct_count, mixed_point_sets, on_threads};
 use proptest::prelude::*;
 use quadmesh::balance::{DomainSides, check_separated_in, separate_in};
 use quadmesh::framework::build_framework;
@@ -388,18 +388,6 @@ fn around(points: &[DVec2], margins: [f64; 4]) -> Domain {
     }
 }
 
-/// Whether another point lies closer to point `index` than 2^-30 of the domain's extent: the
-/// mesh's leaves there need about a 2^-40 of it, where f64 rounds vertices by 2^-52 of it.
-fn beyond_f64(points: &[DVec2], index: usize, domain: Domain) -> bool {
-    let extent = (domain.hi - domain.lo)
-        .max_element()
-        .max(domain.lo.abs().max_element());
-    let p = points[index];
-    points
-        .iter()
-        .any(|&q| q != p && (q - p).abs().max_element() < extent * (2.0f64).powi(-30))
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
@@ -412,7 +400,7 @@ proptest! {
         // Points closer together than f64 can place a mesh between, at the domain's scale, are
         // refused, naming one of them.
         if let Err(Error::Unresolvable { index, .. }) = mesh_points(&points, &options(domain)) {
-            prop_assert!(beyond_f64(&points, index, domain), "point {index} refused");
+            prop_assert!(beyond_f64(&points, index, domain.lo, domain.hi), "point {index} refused");
             return Ok(());
         }
         let (_, report) = mesh_in(&points, domain);

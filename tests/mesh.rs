@@ -3,7 +3,9 @@
 
 mod common;
 
-use common::{FAMILIES, WARP, check_warped, distinct_count, mixed_point_sets, on_threads};
+use common::{
+    FAMILIES, WARP, beyond_f64, check_warped, distinct_count, mixed_point_sets, on_threads,
+};
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::mesh::AngleBounds;
@@ -130,6 +132,18 @@ proptest! {
 
     #[test]
     fn random_point_sets_mesh_validly(points in mixed_point_sets()) {
+        // Points closer together than f64 can place a mesh between, at the scale of the square
+        // around them, are refused, naming one of them.
+        if let Err(Error::Unresolvable { index, .. }) = mesh_points(&points, &MeshOptions::default()) {
+            let (lo, hi) = points.iter().fold((points[0], points[0]), |(lo, hi), &p| (lo.min(p), hi.max(p)));
+            let half = (hi - lo).max_element();
+            let centre = (lo + hi) / 2.0;
+            prop_assert!(
+                beyond_f64(&points, index, centre - half, centre + half),
+                "point {index} refused"
+            );
+            return Ok(());
+        }
         let (_, report) = mesh_checked(&points);
         prop_assert_eq!(report.points, distinct_count(&points));
     }

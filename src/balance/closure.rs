@@ -413,13 +413,20 @@ mod tests {
 
     #[test]
     fn all_sides_at_once_agree_with_each_neighbour() {
-        let cells = (0..4000u64).flat_map(|i| {
-            let key = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            (0..=32u8).map(move |level| Cell::<u64>::containing(key, level))
+        all_sides_agree::<u64>(|i| i.wrapping_mul(0x9E37_79B9_7F4A_7C15));
+        all_sides_agree::<u128>(|i| {
+            let hi = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            u128::from(hi) << 64 | u128::from(hi.rotate_left(29) ^ i)
         });
+    }
+
+    fn all_sides_agree<K: MortonKey>(key: fn(u64) -> K) {
+        let finest = K::AXIS_BITS as u8;
+        let cells = (0..4000u64)
+            .flat_map(move |i| (0..=finest).map(move |level| Cell::<K>::containing(key(i), level)));
         // Squares on every side of the root, at every level.
-        let edges = (0..=32u8).flat_map(|level| {
-            let far = (1u64 << 32) - 1;
+        let far = ((1u128 << K::AXIS_BITS) - 1) as u64;
+        let edges = (0..=finest).flat_map(move |level| {
             [
                 (0, 0),
                 (far, 0),
@@ -428,7 +435,7 @@ mod tests {
                 (far / 3, far),
                 (far, far / 5),
             ]
-            .map(|(x, y)| Cell::<u64>::containing(u64::encode(x, y), level))
+            .map(|(x, y)| Cell::<K>::containing(K::encode(x, y), level))
         });
         for cell in cells.chain(edges) {
             let (beside, inside) = all_beside(cell);

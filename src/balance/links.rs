@@ -36,10 +36,24 @@ impl Links {
     /// pair must be two sibling leaves facing this one, the first west or south of the second.
     #[inline]
     pub fn new(sides: [[u32; 2]; 4]) -> Links {
+        for [first, second] in &sides[..2] {
+            debug_assert!(*second == NONE || *second == first + 1, "{first} {second}");
+        }
         Links(sides.map(|[first, second]| {
             debug_assert!(second == NONE || first < PAIR, "{first} {second}");
             if second == NONE { first } else { first | PAIR }
         }))
+    }
+
+    /// The first side whose slot names neither a leaf below `leaves` nor none, as corrupted
+    /// links would; [`across`] follows a south or north slot into the table.
+    pub fn side_out_of(&self, leaves: usize) -> Option<Side> {
+        Side::ALL.into_iter().find(|&side| {
+            let slot = self.0[side as usize];
+            let first = (slot & !PAIR) as usize;
+            let last = first + usize::from(slot & PAIR != 0);
+            slot != NONE && last >= leaves
+        })
     }
 }
 
@@ -89,7 +103,7 @@ pub fn cross_links_by<K: MortonKey>(tree: &Quadtree<K>, children: &[[u32; 4]]) -
     })
 }
 
-/// The internal squares on the path from the root to the current one, by level, each with the
+/// The path from the root to the current internal square: for the square at each level, the
 /// entries of the same-size squares across the four sides of each of its four children: an
 /// internal index, a leaf index tagged [`LEAF`] for a leaf that covers that square (of the same
 /// or a larger size), or [`NONE`] outside the root. A square's children are met several times

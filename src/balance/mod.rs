@@ -79,8 +79,15 @@ impl<K: MortonKey> BalancedTree<K> {
     }
 
     fn check_links(&self) -> Result<(), String> {
-        if self.links.len() != self.tree.leaves.len() {
+        let leaves = self.tree.leaves.len();
+        if self.links.len() != leaves {
             return Err("one set of links per leaf expected".into());
+        }
+        // Every slot names a leaf (or none) before any is followed.
+        for (j, links) in self.links.iter().enumerate() {
+            if let Some(side) = links.side_out_of(leaves) {
+                return Err(format!("leaf {j} links past the leaves across {side:?}"));
+            }
         }
         for j in 0..self.links.len() {
             for side in Side::ALL {
@@ -108,11 +115,16 @@ impl<K: MortonKey> BalancedTree<K> {
                 }
             }
         };
-        let linked: Vec<Cell<K>> = pair
+        let Some(linked) = pair
             .iter()
             .filter(|&&i| i != NONE)
-            .map(|&i| leaves[i as usize].cell)
-            .collect();
+            .map(|&i| leaves.get(i as usize).map(|l| l.cell))
+            .collect::<Option<Vec<Cell<K>>>>()
+        else {
+            return Err(format!(
+                "leaf {j} links {pair:?} across {side:?}, past the leaves"
+            ));
+        };
         if linked != expected {
             return Err(format!(
                 "leaf {j} {cell:?} links {linked:?} across {side:?}, expected {expected:?}"
@@ -139,7 +151,9 @@ impl<K: MortonKey> BalancedTree<K> {
             ));
         }
         for (p, &j) in self.point_leaf.iter().enumerate() {
-            let leaf = self.tree.leaves[j as usize];
+            let Some(&leaf) = self.tree.leaves.get(j as usize) else {
+                return Err(format!("point {p} located in leaf {j}, of none"));
+            };
             if leaf.point != p as u32 || !leaf.cell.contains(keys[p]) {
                 return Err(format!("point {p} located in leaf {j} {leaf:?}"));
             }

@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use crate::morton::{Cell, MortonKey};
-use crate::par::{DisjointWrites, GRAIN, chunk_offsets};
+use crate::par::{GRAIN, SharedSlots, chunk_offsets};
 
 use super::{Internal, Quadtree, with_gap_leaves};
 
@@ -27,7 +27,7 @@ pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
     );
     let internal = &tree.internal;
     let mut children = vec![[0u32; 4]; internal.len()];
-    let slots = DisjointWrites::new(children.as_flattened_mut());
+    let slots = SharedSlots::new(children.as_flattened_mut());
     let slot = |parent: u32, child: Cell<K>| 4 * parent as usize + child.quadrant() as usize;
     let chunks = chunk_offsets(internal.len(), GRAIN);
     (0..chunks.len() - 1).into_par_iter().for_each(|c| {
@@ -36,21 +36,14 @@ pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
             let cell = internal[i].cell;
             if cell.level > 0 {
                 let parent = path[cell.level as usize - 1];
-                // SAFETY: a square has one parent, so its slot has one writer.
-                #[allow(unsafe_code)]
-                unsafe {
-                    slots.write(slot(parent, cell), i as u32)
-                };
+                // A square has one parent, so its slot has one writer.
+                slots.store(slot(parent, cell), i as u32);
             }
             path[cell.level as usize] = i as u32;
             for j in gap {
                 let leaf = tree.leaves[j].cell;
                 let parent = path[leaf.level as usize - 1];
-                // SAFETY: as above, for a leaf.
-                #[allow(unsafe_code)]
-                unsafe {
-                    slots.write(slot(parent, leaf), LEAF | j as u32)
-                };
+                slots.store(slot(parent, leaf), LEAF | j as u32);
             }
         }
     });

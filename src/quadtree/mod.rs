@@ -16,7 +16,7 @@ use std::ops::Range;
 use crate::framework::{Framework, NONE};
 use crate::morton::MortonKey;
 use crate::par::{
-    DisjointWrites, GRAIN, chunk_offsets, collect_indexed, collect_segments, collect_segments_by,
+    GRAIN, SharedSlots, chunk_offsets, collect_indexed, collect_segments, collect_segments_by,
     exclusive_scan_by,
 };
 use index::LEAF;
@@ -104,8 +104,8 @@ pub fn indexed_from_internal<K: MortonKey>(
         &internal,
         keys,
         Some(&IndexWrites {
-            children: DisjointWrites::new(children.as_flattened_mut()),
-            point_leaf: DisjointWrites::new(&mut point_leaf),
+            children: SharedSlots::new(children.as_flattened_mut()),
+            point_leaf: SharedSlots::new(&mut point_leaf),
         }),
     );
     IndexedTree {
@@ -127,8 +127,8 @@ fn root_leaf<K: MortonKey>(internal: Vec<Internal<K>>, keys: &[K]) -> Quadtree<K
 
 /// Where the leaf pass writes the children index and the point location.
 struct IndexWrites<'a> {
-    children: DisjointWrites<'a, u32>,
-    point_leaf: DisjointWrites<'a, u32>,
+    children: SharedSlots<'a>,
+    point_leaf: SharedSlots<'a>,
 }
 
 impl IndexWrites<'_> {
@@ -136,22 +136,16 @@ impl IndexWrites<'_> {
     /// `quadrant` of internal square `parent`.
     #[inline]
     fn child(&self, parent: u32, quadrant: u32, child: u32) {
-        // SAFETY: a square has one parent and one quadrant, so each slot has one writer.
-        #[allow(unsafe_code)]
-        unsafe {
-            self.children
-                .write(4 * parent as usize + quadrant as usize, child)
-        };
+        // A square has one parent and one quadrant, so each slot has one writer.
+        self.children
+            .store(4 * parent as usize + quadrant as usize, child);
     }
 
     /// Leaf `j` holds point `p`.
     #[inline]
     fn point(&self, p: u32, j: u32) {
-        // SAFETY: each point is in one leaf, so its slot has one writer.
-        #[allow(unsafe_code)]
-        unsafe {
-            self.point_leaf.write(p as usize, j)
-        };
+        // Each point is in one leaf, so its slot has one writer.
+        self.point_leaf.store(p as usize, j);
     }
 }
 

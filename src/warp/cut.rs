@@ -16,7 +16,9 @@ use crate::quadtree::{Leaf, Quadtree};
 /// is that row's bottom) moves to the leaf of the same size below, whose top side it lies on.
 ///
 /// No leaf straddles `row`, as the band's leaves line it; so two smaller neighbours of a kept
-/// leaf are both kept, and a kept pair stays consecutive.
+/// leaf are both kept, as they share the coordinate the cut decides on. A kept west or east pair
+/// stays consecutive, and a kept south or north pair's second leaf stays the first's east
+/// neighbour, as [`crate::balance::across`] needs.
 ///
 /// # Errors
 /// The Morton position of a point left without a leaf, which separation rules out.

@@ -118,3 +118,14 @@ fn assert_report_measures(mesh: &Mesh, report: &MeshReport) {
         report.histogram
     );
 }
+
+/// Whether another point lies closer to point `index` than 2^-30 of the extent of the domain
+/// `lo..hi`: the mesh's leaves there need about a 2^-40 of it, where f64 rounds vertices by
+/// 2^-52 of it, so `Error::Unresolvable` naming that point is the right answer.
+pub fn beyond_f64(points: &[DVec2], index: usize, lo: DVec2, hi: DVec2) -> bool {
+    let extent = (hi - lo).max_element().max(lo.abs().max_element());
+    let p = points[index];
+    points
+        .iter()
+        .any(|&q| q != p && (q - p).abs().max_element() < extent * (2.0f64).powi(-30))
+}
