@@ -404,7 +404,8 @@ pub fn domain_reflections(points: &[DVec2], domain: Domain) -> Vec<Reflection> {
 }
 
 /// How far points keep from the top or bottom `side` of `domain` (after `image` maps them into
-/// it): the least distance from the side to a point not on it, or between two points on it.
+/// it): the least distance from the side to a point not on it, or between two points on it, or
+/// from a point on it to the side's ends (the corners; a point on a corner keeps clear of it).
 fn side_clearance(
     points: &[DVec2],
     image: impl Fn(DVec2) -> DVec2 + Sync,
@@ -427,7 +428,12 @@ fn side_clearance(
         .map(|p| p.x)
         .collect();
     on_side.par_sort_unstable_by(f64::total_cmp);
-    let apart = on_side
+    let ends: Vec<f64> = [domain.lo.x]
+        .into_iter()
+        .chain(on_side)
+        .chain([domain.hi.x])
+        .collect();
+    let apart = ends
         .windows(2)
         .map(|w| w[1] - w[0])
         .filter(|&d| d > 0.0)

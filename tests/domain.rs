@@ -388,6 +388,24 @@ fn around(points: &[DVec2], margins: [f64; 4]) -> Domain {
     }
 }
 
+/// A point on the top side (inside the root, for a wide domain) a hair from a corner needs
+/// fine leaves where the side meets the corner; the graded root reckons with them instead of
+/// falling back to a row of equal cells, which would need 2^21 of them here.
+#[test]
+fn a_point_on_the_inner_side_next_to_a_corner() {
+    let points = [
+        DVec2::new(0.2500009153300934, 0.5),
+        DVec2::new(0.6875, 0.25),
+        DVec2::new(0.25, 0.0),
+    ];
+    let domain = Domain {
+        lo: DVec2::new(0.25, 0.0),
+        hi: DVec2::new(0.6875 + 0.18944410957037244 * 0.5, 0.5),
+    };
+    let (_, report) = mesh_in(&points, domain);
+    assert_eq!(report.points, 3);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(200))]
 
