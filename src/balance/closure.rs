@@ -265,10 +265,11 @@ fn forced_by_families<K: MortonKey>(anchors: &[K], level: u8) -> (Vec<K>, Vec<K>
     let mut others = vec![K::default(); 4 * parents.len()];
     let mut count = 0;
     for (f, (&anchor, &sides)) in parents.iter().zip(&touched).enumerate() {
-        let (beside, inside) = all_beside(Cell {
+        let (beside, inside) = Cell {
             anchor,
             level: level - 1,
-        });
+        }
+        .neighbour_anchors();
         let forced = sides & inside;
         for side in Side::ALL {
             let a = beside[side as usize];
@@ -296,34 +297,6 @@ fn among_near<K: MortonKey>(parents: &[K], f: usize, anchor: K, before: bool) ->
         };
         found | (parents[place] == anchor)
     })
-}
-
-/// The anchors of the same-size squares across the sides of `cell`, in [`Side::ALL`] order,
-/// and the mask of the sides (`1 << side`) that have one inside the root: [`Cell::neighbour`]
-/// for all four at once, without branches.
-#[inline]
-fn all_beside<K: MortonKey>(cell: Cell<K>) -> ([K; 4], u8) {
-    if cell.level == 0 {
-        return ([K::default(); 4], 0);
-    }
-    let all = u128::MAX >> (128 - 2 * K::AXIS_BITS);
-    let y_bits = K::from_u128(all / 3);
-    let x_bits = K::from_u128(all - all / 3);
-    let unit_y = K::pow2(cell.span_bits());
-    let unit_x = K::pow2(cell.span_bits() + 1);
-    let k = cell.anchor;
-    let (x, y) = (k & x_bits, k & y_bits);
-    // Moving up, the carry runs through the other axis's bits set to ones, and wraps past the
-    // top; moving down, a borrow past zero wraps.
-    let east = (k | y_bits).wrapping_add(unit_x) & x_bits;
-    let north = (k | x_bits).wrapping_add(unit_y) & y_bits;
-    let west = x.wrapping_sub(unit_x) & x_bits;
-    let south = y.wrapping_sub(unit_y) & y_bits;
-    let inside = u8::from(x >= unit_x)
-        | u8::from(east > x) << 1
-        | u8::from(y >= unit_y) << 2
-        | u8::from(north > y) << 3;
-    ([west | y, east | y, south | x, north | x], inside)
 }
 
 /// The two sides of its parent that a square touches, as a mask (`1 << side`).
@@ -412,39 +385,11 @@ mod tests {
     use super::*;
 
     #[test]
-    fn all_sides_at_once_agree_with_each_neighbour() {
-        all_sides_agree::<u64>(|i| i.wrapping_mul(0x9E37_79B9_7F4A_7C15));
-        all_sides_agree::<u128>(|i| {
-            let hi = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            u128::from(hi) << 64 | u128::from(hi.rotate_left(29) ^ i)
-        });
-    }
-
-    fn all_sides_agree<K: MortonKey>(key: fn(u64) -> K) {
-        let finest = K::AXIS_BITS as u8;
-        let cells = (0..4000u64)
-            .flat_map(move |i| (0..=finest).map(move |level| Cell::<K>::containing(key(i), level)));
-        // Squares on every side of the root, at every level.
-        let far = ((1u128 << K::AXIS_BITS) - 1) as u64;
-        let edges = (0..=finest).flat_map(move |level| {
-            [
-                (0, 0),
-                (far, 0),
-                (0, far),
-                (far, far),
-                (far / 3, far),
-                (far, far / 5),
-            ]
-            .map(|(x, y)| Cell::<K>::containing(K::encode(x, y), level))
-        });
-        for cell in cells.chain(edges) {
-            let (beside, inside) = all_beside(cell);
-            for side in Side::ALL {
-                let expected = cell.neighbour(side).map(|n| n.anchor);
-                let got = (inside & 1 << side as u8 != 0).then_some(beside[side as usize]);
-                assert_eq!(got, expected, "{cell:?} {side:?}");
-            }
-            if cell.level > 0 {
+    fn the_touched_mask_names_the_touched_sides() {
+        for i in 0..4000u64 {
+            let key = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            for level in 1..=32 {
+                let cell = Cell::<u64>::containing(key, level);
                 let mask = touched_sides(cell)
                     .into_iter()
                     .fold(0, |m, side| m | 1 << side as u8);

@@ -100,36 +100,43 @@ impl<K: MortonKey> Cell<K> {
     }
 
     /// The same-size square across `side`, or `None` outside the root.
+    pub fn neighbour(self, side: Side) -> Option<Self> {
+        let (anchors, inside) = self.neighbour_anchors();
+        (inside & 1 << side as u8 != 0).then_some(Cell {
+            anchor: anchors[side as usize],
+            level: self.level,
+        })
+    }
+
+    /// The anchors of the same-size squares across the four sides, in [`Side::ALL`] order, and
+    /// the mask of the sides (`1 << side`) that have one inside the root; all four at once,
+    /// without branches.
     ///
     /// Adds or subtracts one cell in the key's own bits (dilated arithmetic): the other axis's
     /// bits are filled with ones (or cleared) so the carry (or borrow) runs through them.
-    pub fn neighbour(self, side: Side) -> Option<Self> {
+    #[inline]
+    pub fn neighbour_anchors(self) -> ([K; 4], u8) {
         if self.level == 0 {
-            return None;
+            return ([K::default(); 4], 0);
         }
-        let key_bits = 2 * K::AXIS_BITS;
-        let all = u128::MAX >> (128 - key_bits);
+        let all = u128::MAX >> (128 - 2 * K::AXIS_BITS);
         let y_bits = K::from_u128(all / 3); // 0b0101...
         let x_bits = K::from_u128(all - all / 3);
-        let (own, other, unit_shift) = match side {
-            Side::West | Side::East => (x_bits, y_bits, 1),
-            Side::South | Side::North => (y_bits, x_bits, 0),
-        };
+        let unit_y = K::pow2(self.span_bits());
+        let unit_x = K::pow2(self.span_bits() + 1);
         let k = self.anchor;
-        let unit = K::pow2(2 * (K::AXIS_BITS - self.level as u32) + unit_shift);
-        let part = k & own;
-        let (moved, outside) = match side {
-            // The carry runs through the other axis's bits, set to ones; past the top it wraps.
-            Side::East | Side::North => {
-                let moved = (k | other).wrapping_add(unit) & own;
-                (moved, moved < part)
-            }
-            Side::West | Side::South => (part.wrapping_sub(unit) & own, part < unit),
-        };
-        (!outside).then(|| Cell {
-            anchor: moved | (k & other),
-            level: self.level,
-        })
+        let (x, y) = (k & x_bits, k & y_bits);
+        // Moving up, the carry runs through the other axis's bits set to ones, and wraps past
+        // the top; moving down, a borrow past zero wraps.
+        let east = (k | y_bits).wrapping_add(unit_x) & x_bits;
+        let north = (k | x_bits).wrapping_add(unit_y) & y_bits;
+        let west = x.wrapping_sub(unit_x) & x_bits;
+        let south = y.wrapping_sub(unit_y) & y_bits;
+        let inside = u8::from(x >= unit_x)
+            | u8::from(east > x) << 1
+            | u8::from(y >= unit_y) << 2
+            | u8::from(north > y) << 3;
+        ([west | y, east | y, south | x, north | x], inside)
     }
 
     /// The same-size square `dx` columns right and `dy` rows up, or `None` outside the root.

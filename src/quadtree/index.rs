@@ -28,26 +28,61 @@ pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
     let internal = &tree.internal;
     let mut children = vec![[0u32; 4]; internal.len()];
     let slots = SharedSlots::new(children.as_flattened_mut());
-    let slot = |parent: u32, child: Cell<K>| 4 * parent as usize + child.quadrant() as usize;
     let chunks = chunk_offsets(internal.len(), GRAIN);
     (0..chunks.len() - 1).into_par_iter().for_each(|c| {
-        let mut path = path_to(tree, chunks[c]);
+        let mut parents = ChildSlots::starting_at(internal, chunks[c], &slots);
         for (i, gap) in with_gap_leaves(internal, chunks[c]..chunks[c + 1]) {
-            let cell = internal[i].cell;
-            if cell.level > 0 {
-                let parent = path[cell.level as usize - 1];
-                // A square has one parent, so its slot has one writer.
-                slots.store(slot(parent, cell), i as u32);
-            }
-            path[cell.level as usize] = i as u32;
+            parents.square(i, internal[i].cell);
             for j in gap {
-                let leaf = tree.leaves[j].cell;
-                let parent = path[leaf.level as usize - 1];
-                slots.store(slot(parent, leaf), LEAF | j as u32);
+                parents.leaf(j, tree.leaves[j].cell);
             }
         }
     });
     children
+}
+
+/// A preorder scan's writer of the children index: the parent of an internal square, or of a
+/// leaf after it, is the square one level up on the current path from the root, which this
+/// keeps; each child goes into its parent's slot. Each slot has one child, so the writes of
+/// scans over different chunks never meet.
+pub(crate) struct ChildSlots<'s, 'a> {
+    path: Vec<u32>,
+    slots: &'s SharedSlots<'a>,
+}
+
+impl<'s, 'a> ChildSlots<'s, 'a> {
+    /// For a scan that starts at internal square `i`.
+    pub(crate) fn starting_at<K: MortonKey>(
+        internal: &[Internal<K>],
+        i: usize,
+        slots: &'s SharedSlots<'a>,
+    ) -> Self {
+        ChildSlots {
+            path: path_in(internal, i),
+            slots,
+        }
+    }
+
+    /// Internal square `i`, `cell`, is next in preorder.
+    #[inline]
+    pub(crate) fn square<K: MortonKey>(&mut self, i: usize, cell: Cell<K>) {
+        if cell.level > 0 {
+            self.store(cell, i as u32);
+        }
+        self.path[cell.level as usize] = i as u32;
+    }
+
+    /// Leaf `j`, `cell`, is next, in the gap after the last square.
+    #[inline]
+    pub(crate) fn leaf<K: MortonKey>(&self, j: usize, cell: Cell<K>) {
+        self.store(cell, LEAF | j as u32);
+    }
+
+    fn store<K: MortonKey>(&self, cell: Cell<K>, entry: u32) {
+        let parent = self.path[cell.level as usize - 1] as usize;
+        self.slots
+            .store(4 * parent + cell.quadrant() as usize, entry);
+    }
 }
 
 /// The internal squares from the root down to the parent of internal square `i`, by level, with

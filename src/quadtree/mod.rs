@@ -19,7 +19,7 @@ use crate::par::{
     GRAIN, SharedSlots, chunk_offsets, collect_indexed, collect_segments, collect_segments_by,
     exclusive_scan_by,
 };
-use index::LEAF;
+use index::ChildSlots;
 
 /// A leaf and the point in it.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -131,24 +131,6 @@ struct IndexWrites<'a> {
     point_leaf: SharedSlots<'a>,
 }
 
-impl IndexWrites<'_> {
-    /// Square `child` (an internal index, or a leaf index tagged [`index::LEAF`]) is in
-    /// `quadrant` of internal square `parent`.
-    #[inline]
-    fn child(&self, parent: u32, quadrant: u32, child: u32) {
-        // A square has one parent and one quadrant, so each slot has one writer.
-        self.children
-            .store(4 * parent as usize + quadrant as usize, child);
-    }
-
-    /// Leaf `j` holds point `p`.
-    #[inline]
-    fn point(&self, p: u32, j: u32) {
-        // Each point is in one leaf, so its slot has one writer.
-        self.point_leaf.store(p as usize, j);
-    }
-}
-
 /// Squares in preorder with the first point at or after each one's corner: one binary search
 /// per chunk, then a merge (preorder corners never decrease).
 pub fn with_first_points<K: MortonKey>(cells: &[Cell<K>], keys: &[K]) -> Vec<Internal<K>> {
@@ -205,8 +187,8 @@ fn internal_squares<K: MortonKey>(fw: &Framework<K>) -> Vec<Internal<K>> {
 /// from the root to `i` passes `digit_sum_i` earlier sibling subtrees. The leaves between two
 /// consecutive internal squares tile the key interval between their corners.
 ///
-/// With `index`, each square's parent is the square one level up on the path from the root
-/// (kept per chunk), and each square and point is written there too.
+/// With `index`, each square is written into its parent's child slot as
+/// [`index::children`] does, and each point's leaf too.
 fn leaves_of<K: MortonKey>(
     internal: &[Internal<K>],
     keys: &[K],
@@ -215,31 +197,21 @@ fn leaves_of<K: MortonKey>(
     // Leaf counts come from the formula at each end, so only chunk ends need a table.
     let chunks = chunk_offsets(internal.len(), GRAIN);
     collect_segments_by(&leaf_starts(internal, &chunks), |c, out| {
-        let mut path = match index {
-            Some(_) => index::path_in(internal, chunks[c]),
-            None => Vec::new(),
-        };
+        let mut parents =
+            index.map(|index| ChildSlots::starting_at(internal, chunks[c], &index.children));
         for (i, gap) in with_gap_leaves(internal, chunks[c]..chunks[c + 1]) {
-            let cell = internal[i].cell;
-            if let Some(index) = index {
-                if cell.level > 0 {
-                    index.child(path[cell.level as usize - 1], cell.quadrant(), i as u32);
-                }
-                path[cell.level as usize] = i as u32;
+            if let Some(parents) = &mut parents {
+                parents.square(i, internal[i].cell);
             }
             let end = internal.get(i + 1).map(|s| s.cell.anchor);
             let mut tiles = GapTiles::new(&internal[i], end, keys);
             for j in gap {
                 let leaf = tiles.next_leaf();
-                if let Some(index) = index {
-                    let cell = leaf.cell;
-                    index.child(
-                        path[cell.level as usize - 1],
-                        cell.quadrant(),
-                        LEAF | j as u32,
-                    );
+                if let (Some(parents), Some(index)) = (&parents, index) {
+                    parents.leaf(j, leaf.cell);
                     if leaf.point != NONE {
-                        index.point(leaf.point, j as u32);
+                        // Each point is in one leaf, so its slot has one writer.
+                        index.point_leaf.store(leaf.point as usize, j as u32);
                     }
                 }
                 out.push(leaf);
