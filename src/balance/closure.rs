@@ -84,11 +84,19 @@ pub(crate) fn preorder_of_levels<K: MortonKey, T: Walked<K>>(
     levels: &[Vec<K>],
     keys: &[K],
 ) -> Vec<T> {
-    let Some(widest) = levels.iter().max_by_key(|l| l.len()) else {
+    if levels.is_empty() {
         return Vec::new();
-    };
+    }
+    // Every level gives its every WALK_RANGE-th anchor: between two of these, each level has
+    // fewer than WALK_RANGE squares, and the ranges follow wherever the squares are.
+    let mut samples: Vec<K> = levels
+        .iter()
+        .flat_map(|list| list.iter().step_by(WALK_RANGE).skip(1).copied())
+        .collect();
+    samples.sort_unstable();
+    samples.dedup();
     let mut bounds: Vec<Option<K>> = vec![None];
-    bounds.extend(widest.iter().step_by(WALK_RANGE).skip(1).map(|&a| Some(a)));
+    bounds.extend(samples.into_iter().map(Some));
     bounds.push(None);
     let below = |bound: Option<K>, list: &[K]| {
         bound.map_or(list.len(), |b| list.partition_point(|&a| a < b))
@@ -218,93 +226,125 @@ pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
     levels
 }
 
-/// How far along the parents a neighbour is looked for before it is left to the sort.
-const NEAR_PARENTS: usize = 4;
+/// Levels between the forced squares and the blocks they are marked in: a block holds
+/// `4^BLOCK_DEPTH` squares, one bit each, and a square's neighbour leaves its block across one
+/// side in `2^-BLOCK_DEPTH` of cases.
+const BLOCK_DEPTH: u8 = 5;
 
 /// The squares at `level - 1` that the split squares at `level` (sorted, distinct anchors)
-/// force, sorted and distinct. Siblings are adjacent in the sorted list, so each family is
-/// handled once. The parents come out sorted; a parent's neighbour is mostly a parent too,
-/// found a few places along, so only the rest is radix sorted.
+/// force, sorted and distinct. Each block of squares at `level - 1` is a bitmap: parents and
+/// their neighbours inside the block are marked, and read back in Morton order, so only the
+/// few neighbours in other blocks need a sort.
 pub(crate) fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
-    let family_of = |i: usize| anchors[i].cell_anchor(level - 1);
-    // Chunks of whole families: each bound moves on to the next family's start.
+    let depth = BLOCK_DEPTH.min(level - 1);
+    let block_level = level - 1 - depth;
+    let block_of = |i: usize| anchors[i].cell_anchor(block_level);
+    // Chunks of whole blocks: each bound moves on to the next block's start.
     let mut bounds: Vec<usize> = chunk_offsets(anchors.len(), GRAIN);
     for b in &mut bounds[1..] {
-        while *b < anchors.len() && *b > 0 && family_of(*b) == family_of(*b - 1) {
+        while *b < anchors.len() && *b > 0 && block_of(*b) == block_of(*b - 1) {
             *b += 1;
         }
     }
-    let (parents, others): (Vec<Vec<K>>, Vec<Vec<K>>) = (0..bounds.len() - 1)
+    let (inside, others): (Vec<Vec<K>>, Vec<Vec<K>>) = (0..bounds.len() - 1)
         .into_par_iter()
-        .map(|c| forced_by_families(&anchors[bounds[c]..bounds[c + 1]], level))
+        .map(|c| forced_in_blocks(&anchors[bounds[c]..bounds[c + 1]], level, depth))
         .unzip();
-    let parents = concat(&parents);
+    let inside = concat(&inside);
     let mut others = concat(&others);
     sort_anchors(&mut others, level - 1);
-    union_sorted(&parents, &others)
+    union_sorted(&inside, &others)
 }
 
-/// For sorted squares at `level` in whole families: their parents (sorted, distinct), and the
-/// neighbours the families force that were not found among the parents nearby.
+/// For sorted squares at `level` in whole blocks (squares `depth` levels above their parents):
+/// the squares they force inside those blocks, sorted and distinct, and those they force in
+/// other blocks.
 ///
-/// Which sides a family touches is close to random, so the loops select and count instead of
-/// branching on it.
-fn forced_by_families<K: MortonKey>(anchors: &[K], level: u8) -> (Vec<K>, Vec<K>) {
-    let mut parents: Vec<K> = Vec::with_capacity(anchors.len() / 2 + 1);
-    let mut touched: Vec<u8> = Vec::with_capacity(anchors.len() / 2 + 1);
+/// Which sides a square touches is close to random, so the marking selects instead of
+/// branching on it; only a neighbour outside the block takes a branch.
+fn forced_in_blocks<K: MortonKey>(anchors: &[K], level: u8, depth: u8) -> (Vec<K>, Vec<K>) {
+    let block_level = level - 1 - depth;
+    let below = 2 * (K::AXIS_BITS - level as u32);
+    let child_digits = (1u32 << (2 * (depth + 1))) - 1;
+    let y_bits = 0x5555_5555 & ((1u32 << (2 * depth)) - 1);
+    let x_bits = y_bits << 1;
+    let mut bits = vec![0u64; (1usize << (2 * depth)).div_ceil(64)];
+    let mut inside: Vec<K> = Vec::with_capacity(anchors.len());
+    let mut others: Vec<K> = Vec::new();
+    let Some(&first) = anchors.first() else {
+        return (inside, others);
+    };
+    let mut block = first.cell_anchor(block_level);
     for &anchor in anchors {
-        let parent = anchor.cell_anchor(level - 1);
-        let sides = touched_mask(Cell { anchor, level });
-        if parents.last() == Some(&parent) {
-            *touched.last_mut().expect("one per parent") |= sides;
+        let this_block = anchor.cell_anchor(block_level);
+        if this_block != block {
+            read_block(&mut bits, block, below + 2, &mut inside);
+            block = this_block;
+        }
+        let digits = (anchor.to_u128() >> below) as u32 & child_digits;
+        let (parent, quadrant) = (digits >> 2, digits & 3);
+        let (x, y) = (parent & x_bits, parent & y_bits);
+        // East or west by the square's x bit, north or south by its y bit; a carry or borrow
+        // out of the block's bits means the neighbour is in another block.
+        let east = ((parent | y_bits) + 2) & x_bits;
+        let north = ((parent | x_bits) + 1) & y_bits;
+        let west = x.wrapping_sub(2) & x_bits;
+        let south = y.wrapping_sub(1) & y_bits;
+        let to_east = quadrant & 2 != 0;
+        let to_north = quadrant & 1 != 0;
+        let (across_x, in_x) = if to_east {
+            (east, east > x)
         } else {
-            parents.push(parent);
-            touched.push(sides);
-        }
-    }
-    let mut others = vec![K::default(); 4 * parents.len()];
-    let mut count = 0;
-    for (f, (&anchor, &sides)) in parents.iter().zip(&touched).enumerate() {
-        let (beside, inside) = Cell {
-            anchor,
-            level: level - 1,
-        }
-        .neighbour_anchors();
-        let forced = sides & inside;
-        for side in Side::ALL {
-            let a = beside[side as usize];
-            // West and south neighbours come before the parent in Morton order.
-            let before = matches!(side, Side::West | Side::South);
-            let new = forced & 1 << side as u8 != 0 && !among_near(&parents, f, a, before);
-            others[count] = a;
-            count += usize::from(new);
-        }
-    }
-    others.truncate(count);
-    (parents, others)
-}
-
-/// Whether `anchor` is among the [`NEAR_PARENTS`] parents before `parents[f]`, or after it;
-/// places past the ends repeat the end, which is a parent too.
-#[inline]
-fn among_near<K: MortonKey>(parents: &[K], f: usize, anchor: K, before: bool) -> bool {
-    let last = parents.len() - 1;
-    (1..=NEAR_PARENTS).fold(false, |found, d| {
-        let place = if before {
-            f.saturating_sub(d)
-        } else {
-            (f + d).min(last)
+            (west, x != 0)
         };
-        found | (parents[place] == anchor)
-    })
+        let (across_y, in_y) = if to_north {
+            (north, north > y)
+        } else {
+            (south, y != 0)
+        };
+        mark(&mut bits, parent, true);
+        mark(&mut bits, across_x | y, in_x);
+        mark(&mut bits, across_y | x, in_y);
+        if !(in_x && in_y) {
+            let side_x = if to_east { Side::East } else { Side::West };
+            let side_y = if to_north { Side::North } else { Side::South };
+            let parent_cell = Cell {
+                anchor: anchor.cell_anchor(level - 1),
+                level: level - 1,
+            };
+            let (beside, in_root) = parent_cell.neighbour_anchors();
+            for (side, in_block) in [(side_x, in_x), (side_y, in_y)] {
+                if !in_block && in_root & 1 << side as u8 != 0 {
+                    others.push(beside[side as usize]);
+                }
+            }
+        }
+    }
+    read_block(&mut bits, block, below + 2, &mut inside);
+    (inside, others)
 }
 
-/// The two sides of its parent that a square touches, as a mask (`1 << side`).
+/// Sets bit `at` of the bitmap when `set`.
 #[inline]
-fn touched_mask<K: MortonKey>(cell: Cell<K>) -> u8 {
-    let q = cell.quadrant() as u8;
-    // West (bit 0) or east (bit 1) by the x bit, south (bit 2) or north (bit 3) by the y bit.
-    1 << (q >> 1) | 4 << (q & 1)
+fn mark(bits: &mut [u64], at: u32, set: bool) {
+    bits[at as usize / 64] |= u64::from(set) << (at % 64);
+}
+
+/// Appends the squares marked in a block's bitmap in Morton order (the order of their digits
+/// below the block's corner, `below` bits up), and clears it.
+fn read_block<K: MortonKey>(bits: &mut [u64], block: K, below: u32, out: &mut Vec<K>) {
+    let corner = block.to_u128();
+    for (w, word) in bits.iter_mut().enumerate() {
+        let mut rest = std::mem::take(word);
+        while rest != 0 {
+            let digits = (w as u128) << 6 | u128::from(rest.trailing_zeros());
+            // The root's one square has no digits (and a shift as wide as the key).
+            out.push(K::from_u128(
+                corner | digits.checked_shl(below).unwrap_or(0),
+            ));
+            rest &= rest - 1;
+        }
+    }
 }
 
 /// The two sides of its parent that a square touches.
@@ -385,20 +425,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn the_touched_mask_names_the_touched_sides() {
-        for i in 0..4000u64 {
-            let key = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            for level in 1..=32 {
-                let cell = Cell::<u64>::containing(key, level);
-                let mask = touched_sides(cell)
-                    .into_iter()
-                    .fold(0, |m, side| m | 1 << side as u8);
-                assert_eq!(touched_mask(cell), mask, "{cell:?}");
-            }
-        }
-    }
-
-    #[test]
     fn anchors_sort_alike_narrowed_or_not() {
         let key = |i: u64| {
             let hi = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
@@ -464,6 +490,56 @@ mod tests {
             with_points,
             crate::quadtree::with_first_points(&cells, &keys)
         );
+    }
+
+    /// What `forced_above` must give: each square's parent and the parent's neighbours across
+    /// the sides the square touches, sorted and distinct.
+    fn forced_one_by_one<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
+        let mut forced: Vec<K> = anchors
+            .iter()
+            .flat_map(|&anchor| forced_by(Cell { anchor, level }))
+            .flatten()
+            .map(|c| c.anchor)
+            .collect();
+        forced.sort_unstable();
+        forced.dedup();
+        forced
+    }
+
+    fn forced_alike_at_every_level<K: MortonKey>(key: impl Fn(u64) -> K) {
+        for level in 1..=K::AXIS_BITS as u8 {
+            // Dense runs (neighbours inside their blocks), scattered squares (in other blocks),
+            // and the root's corners and sides (none beyond), in more chunks than one.
+            let mut anchors: Vec<K> = (0..30_000u64)
+                .map(|i| Cell::containing(key(i), level).anchor)
+                .chain((0..4000u64).map(|i| {
+                    let side = 1u64 << (K::AXIS_BITS - level as u32).min(63);
+                    let last = (1u128 << K::AXIS_BITS) - 1;
+                    let along = (u128::from(i) * u128::from(side)).min(last) as u64;
+                    let edge = last as u64;
+                    let (x, y) =
+                        [(along, 0), (0, along), (along, edge), (edge, along)][i as usize % 4];
+                    Cell::containing(K::encode(x, y), level).anchor
+                }))
+                .collect();
+            anchors.sort_unstable();
+            anchors.dedup();
+            assert_eq!(
+                forced_above(&anchors, level),
+                forced_one_by_one(&anchors, level),
+                "level {level}"
+            );
+        }
+    }
+
+    #[test]
+    fn blocks_force_what_squares_force_one_by_one() {
+        forced_alike_at_every_level(|i| (i % 20_000).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ i);
+        forced_alike_at_every_level(|i| {
+            let hi = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            let dense = u128::from(i) << 60;
+            (u128::from(hi) << 64 | u128::from(hi.rotate_left(29))) ^ dense
+        });
     }
 
     #[test]
