@@ -231,6 +231,9 @@ pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
 /// side in `2^-BLOCK_DEPTH` of cases.
 const BLOCK_DEPTH: u8 = 5;
 
+// A block's bitmap is whole words, and one bit of a word mask says which it has touched.
+const _: () = assert!(BLOCK_DEPTH >= 3 && BLOCK_DEPTH <= 6);
+
 /// The squares at `level - 1` that the split squares at `level` (sorted, distinct anchors)
 /// force, sorted and distinct. Each block of squares at `level - 1` is a bitmap: parents and
 /// their neighbours inside the block are marked, and read back in Morton order, so only the
@@ -263,25 +266,25 @@ pub(crate) fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
 /// Which sides a square touches is close to random, so the marking selects instead of
 /// branching on it; only a neighbour outside the block takes a branch.
 fn forced_in_blocks<K: MortonKey>(anchors: &[K], level: u8, depth: u8) -> (Vec<K>, Vec<K>) {
-    let block_level = level - 1 - depth;
     let below = 2 * (K::AXIS_BITS - level as u32);
-    let child_digits = (1u32 << (2 * (depth + 1))) - 1;
+    let child_bits = 2 * (u32::from(depth) + 1);
     let y_bits = 0x5555_5555 & ((1u32 << (2 * depth)) - 1);
     let x_bits = y_bits << 1;
-    let mut bits = vec![0u64; (1usize << (2 * depth)).div_ceil(64)];
+    let mut block = Bitmap::default();
     let mut inside: Vec<K> = Vec::with_capacity(anchors.len());
     let mut others: Vec<K> = Vec::new();
     let Some(&first) = anchors.first() else {
         return (inside, others);
     };
-    let mut block = first.cell_anchor(block_level);
+    // Digits from the block's corner down to the squares at `level`; above them, the block.
+    let mut current = first.to_u128() >> below >> child_bits;
     for &anchor in anchors {
-        let this_block = anchor.cell_anchor(block_level);
-        if this_block != block {
-            read_block(&mut bits, block, below + 2, &mut inside);
-            block = this_block;
+        let digits = anchor.to_u128() >> below;
+        if digits >> child_bits != current {
+            block.read(current << (child_bits - 2), below + 2, &mut inside);
+            current = digits >> child_bits;
         }
-        let digits = (anchor.to_u128() >> below) as u32 & child_digits;
+        let digits = digits as u32 & ((1 << child_bits) - 1);
         let (parent, quadrant) = (digits >> 2, digits & 3);
         let (x, y) = (parent & x_bits, parent & y_bits);
         // East or west by the square's x bit, north or south by its y bit; a carry or borrow
@@ -302,9 +305,9 @@ fn forced_in_blocks<K: MortonKey>(anchors: &[K], level: u8, depth: u8) -> (Vec<K
         } else {
             (south, y != 0)
         };
-        mark(&mut bits, parent, true);
-        mark(&mut bits, across_x | y, in_x);
-        mark(&mut bits, across_y | x, in_y);
+        block.mark(parent, true);
+        block.mark(across_x | y, in_x);
+        block.mark(across_y | x, in_y);
         if !(in_x && in_y) {
             let side_x = if to_east { Side::East } else { Side::West };
             let side_y = if to_north { Side::North } else { Side::South };
@@ -320,29 +323,42 @@ fn forced_in_blocks<K: MortonKey>(anchors: &[K], level: u8, depth: u8) -> (Vec<K
             }
         }
     }
-    read_block(&mut bits, block, below + 2, &mut inside);
+    block.read(current << (child_bits - 2), below + 2, &mut inside);
     (inside, others)
 }
 
-/// Sets bit `at` of the bitmap when `set`.
-#[inline]
-fn mark(bits: &mut [u64], at: u32, set: bool) {
-    bits[at as usize / 64] |= u64::from(set) << (at % 64);
+/// One bit for each square of a block, and which of its words have any set, so a block with few
+/// squares is read back in few steps.
+#[derive(Default)]
+struct Bitmap {
+    words: [u64; 1 << (2 * BLOCK_DEPTH - 6)],
+    touched: u64,
 }
 
-/// Appends the squares marked in a block's bitmap in Morton order (the order of their digits
-/// below the block's corner, `below` bits up), and clears it.
-fn read_block<K: MortonKey>(bits: &mut [u64], block: K, below: u32, out: &mut Vec<K>) {
-    let corner = block.to_u128();
-    for (w, word) in bits.iter_mut().enumerate() {
-        let mut rest = std::mem::take(word);
-        while rest != 0 {
-            let digits = (w as u128) << 6 | u128::from(rest.trailing_zeros());
-            // The root's one square has no digits (and a shift as wide as the key).
-            out.push(K::from_u128(
-                corner | digits.checked_shl(below).unwrap_or(0),
-            ));
-            rest &= rest - 1;
+impl Bitmap {
+    /// Sets bit `at` when `set`.
+    #[inline]
+    fn mark(&mut self, at: u32, set: bool) {
+        let word = at as usize / 64;
+        self.words[word] |= u64::from(set) << (at % 64);
+        self.touched |= u64::from(set) << word;
+    }
+
+    /// Appends the squares marked, in Morton order, and clears the bitmap. A square's anchor is
+    /// `corner` (the block's digits, shifted to leave room for the square's own) with its bit's
+    /// index, shifted `below` bits up.
+    fn read<K: MortonKey>(&mut self, corner: u128, below: u32, out: &mut Vec<K>) {
+        let mut touched = std::mem::take(&mut self.touched);
+        while touched != 0 {
+            let w = touched.trailing_zeros() as usize;
+            touched &= touched - 1;
+            let mut rest = std::mem::take(&mut self.words[w]);
+            while rest != 0 {
+                let digits = corner | (w as u128) << 6 | u128::from(rest.trailing_zeros());
+                // The root's one square has no digits (and a shift as wide as the key).
+                out.push(K::from_u128(digits.checked_shl(below).unwrap_or(0)));
+                rest &= rest - 1;
+            }
         }
     }
 }

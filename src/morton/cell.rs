@@ -174,7 +174,9 @@ impl<K: MortonKey> Cell<K> {
         if self.level == 0 {
             return 0;
         }
-        ((self.anchor.to_u128() >> (2 * (K::AXIS_BITS - self.level as u32))) & 3) as u32
+        self.anchor
+            .bits_from(2 * (K::AXIS_BITS - self.level as u32))
+            & 3
     }
 
     /// log2 of the number of grid keys the square spans.

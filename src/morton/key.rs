@@ -64,6 +64,9 @@ pub trait MortonKey:
     fn to_u128(self) -> u128;
     /// The key from a u128 that fits in `2 * AXIS_BITS` bits.
     fn from_u128(v: u128) -> Self;
+    /// The 32 bits of the key from bit `bits` (below `2 * AXIS_BITS`) up, in the key's own
+    /// width rather than through a u128.
+    fn bits_from(self, bits: u32) -> u32;
 
     /// Level of the smallest cell holding both keys (their derived square); `AXIS_BITS` if equal.
     #[inline]
@@ -156,6 +159,10 @@ impl MortonKey for u64 {
         self as u128
     }
     #[inline]
+    fn bits_from(self, bits: u32) -> u32 {
+        (self >> bits) as u32
+    }
+    #[inline]
     fn from_u128(v: u128) -> Self {
         v as u64
     }
@@ -216,6 +223,10 @@ impl MortonKey for u128 {
     #[inline]
     fn to_u128(self) -> u128 {
         self
+    }
+    #[inline]
+    fn bits_from(self, bits: u32) -> u32 {
+        (self >> bits) as u32
     }
     #[inline]
     fn from_u128(v: u128) -> Self {
