@@ -280,22 +280,15 @@ mod tests {
         for i in 0..2000u64 {
             let narrow = i.wrapping_mul(0x9E37_79B9_7F4A_7C15) | (u64::from(i % 7 == 0) * u64::MAX);
             let wide = u128::from(narrow) << 64 | u128::from(narrow.rotate_left(23));
-            for level in 0..=32u8 {
-                let digits = (1..=level).map(|l| Cell::containing(narrow, l).quadrant());
-                assert_eq!(
-                    narrow.digit_sum(level),
-                    digits.sum::<u32>(),
-                    "{narrow:x} {level}"
-                );
-            }
-            for level in 0..=64u8 {
-                let digits = (1..=level).map(|l| Cell::containing(wide, l).quadrant());
-                assert_eq!(
-                    wide.digit_sum(level),
-                    digits.sum::<u32>(),
-                    "{wide:x} {level}"
-                );
-            }
+            digit_sums_match_the_digits(narrow);
+            digit_sums_match_the_digits(wide);
+        }
+    }
+
+    fn digit_sums_match_the_digits<K: MortonKey>(key: K) {
+        for level in 0..=K::AXIS_BITS as u8 {
+            let digits = (1..=level).map(|l| Cell::containing(key, l).quadrant());
+            assert_eq!(key.digit_sum(level), digits.sum::<u32>(), "{key:?} {level}");
         }
     }
 }
