@@ -42,8 +42,7 @@ fn closed_levels<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
     let mut levels = by_level(split);
     for level in (1..levels.len()).rev() {
         if !levels[level].is_empty() {
-            let forced = forced_above(&levels[level], level as u8);
-            levels[level - 1] = union_sorted(&levels[level - 1], &forced);
+            levels[level - 1] = with_forced(&levels[level - 1], &levels[level], level as u8);
         }
     }
     levels
@@ -234,11 +233,13 @@ const BLOCK_DEPTH: u8 = 5;
 // A block's bitmap is whole words, and one bit of a word mask says which it has touched.
 const _: () = assert!(BLOCK_DEPTH >= 3 && BLOCK_DEPTH <= 6);
 
-/// The squares at `level - 1` that the split squares at `level` (sorted, distinct anchors)
-/// force, sorted and distinct. Each block of squares at `level - 1` is a bitmap: parents and
-/// their neighbours inside the block are marked, and read back in Morton order, so only the
-/// few neighbours in other blocks need a sort.
-pub(crate) fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
+/// The squares at `level - 1`: `existing` (sorted, distinct anchors) and those that the split
+/// squares at `level` (sorted, distinct anchors) force, sorted and distinct. Each block of
+/// squares at `level - 1` is a bitmap: parents and their neighbours inside the block are marked,
+/// and read back in Morton order, so only the few neighbours in other blocks need a sort. Each
+/// chunk of blocks then merges in the existing squares and those others that fall among its
+/// blocks, so the level is written once more, not once per union.
+pub(crate) fn with_forced<K: MortonKey>(existing: &[K], anchors: &[K], level: u8) -> Vec<K> {
     let depth = BLOCK_DEPTH.min(level - 1);
     let block_level = level - 1 - depth;
     let block_of = |i: usize| anchors[i].cell_anchor(block_level);
@@ -249,14 +250,36 @@ pub(crate) fn forced_above<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
             *b += 1;
         }
     }
-    let (inside, others): (Vec<Vec<K>>, Vec<Vec<K>>) = (0..bounds.len() - 1)
+    bounds.dedup();
+    let chunks = bounds.len() - 1;
+    let (inside, others): (Vec<Vec<K>>, Vec<Vec<K>>) = (0..chunks)
         .into_par_iter()
         .map(|c| forced_in_blocks(&anchors[bounds[c]..bounds[c + 1]], level, depth))
         .unzip();
-    let inside = concat(&inside);
     let mut others = concat(&others);
     sort_anchors(&mut others, level - 1);
-    union_sorted(&inside, &others)
+    // Chunk c takes the keys from its first block's corner (the first chunk: from the start) to
+    // the next chunk's (the last: to the end).
+    let cut = |list: &[K], c: usize| match c {
+        0 => 0,
+        c if c == chunks => list.len(),
+        c => {
+            let corner = block_of(bounds[c]);
+            list.partition_point(|&a| a < corner)
+        }
+    };
+    let parts: Vec<Vec<K>> = (0..chunks)
+        .into_par_iter()
+        .map(|c| {
+            let existing = &existing[cut(existing, c)..cut(existing, c + 1)];
+            let others = &others[cut(&others, c)..cut(&others, c + 1)];
+            match others {
+                [] => merge_distinct(&inside[c], existing),
+                _ => merge_distinct(&inside[c], &merge_distinct(existing, others)),
+            }
+        })
+        .collect();
+    concat(&parts)
 }
 
 /// For sorted squares at `level` in whole blocks (squares `depth` levels above their parents):
@@ -401,26 +424,6 @@ fn sort_anchors<K: MortonKey>(anchors: &mut Vec<K>, level: u8) {
     }
 }
 
-/// The sorted union of two sorted, distinct lists, merged in parallel: the longer one is cut
-/// into chunks and each takes the shorter one's keys below its end.
-pub(crate) fn union_sorted<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
-    let (long, short) = if a.len() >= b.len() { (a, b) } else { (b, a) };
-    let bounds = chunk_offsets(long.len(), GRAIN);
-    let in_short = |i: usize| match i {
-        0 => 0,
-        i if i == long.len() => short.len(),
-        i => short.partition_point(|&x| x < long[i]),
-    };
-    let parts: Vec<Vec<K>> = (0..bounds.len() - 1)
-        .into_par_iter()
-        .map(|c| {
-            let (from, to) = (bounds[c], bounds[c + 1]);
-            merge_distinct(&long[from..to], &short[in_short(from)..in_short(to)])
-        })
-        .collect();
-    concat(&parts)
-}
-
 /// The sorted union of two sorted, distinct lists.
 fn merge_distinct<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
     let mut out = Vec::with_capacity(a.len() + b.len());
@@ -462,21 +465,14 @@ mod tests {
     }
 
     #[test]
-    fn union_keeps_one_of_each() {
+    fn merging_keeps_one_of_each() {
         assert_eq!(
-            union_sorted::<u64>(&[1, 3, 5], &[2, 3, 6]),
+            merge_distinct::<u64>(&[1, 3, 5], &[2, 3, 6]),
             vec![1, 2, 3, 5, 6]
         );
-        assert_eq!(union_sorted::<u64>(&[], &[2]), vec![2]);
-        assert_eq!(union_sorted::<u64>(&[], &[]), Vec::<u64>::new());
-        // Many chunks of the longer list, with the shorter one's keys before, between and after.
-        let long: Vec<u64> = (0..50_000).map(|i| 3 * i + 10).collect();
-        let short: Vec<u64> = (0..20_000).map(|i| 7 * i).collect();
-        let mut expected: Vec<u64> = long.iter().chain(&short).copied().collect();
-        expected.sort_unstable();
-        expected.dedup();
-        assert_eq!(union_sorted(&long, &short), expected);
-        assert_eq!(union_sorted(&short, &long), expected);
+        assert_eq!(merge_distinct::<u64>(&[], &[2]), vec![2]);
+        assert_eq!(merge_distinct::<u64>(&[4], &[]), vec![4]);
+        assert_eq!(merge_distinct::<u64>(&[], &[]), Vec::<u64>::new());
     }
 
     #[test]
@@ -508,14 +504,15 @@ mod tests {
         );
     }
 
-    /// What `forced_above` must give: each square's parent and the parent's neighbours across
-    /// the sides the square touches, sorted and distinct.
-    fn forced_one_by_one<K: MortonKey>(anchors: &[K], level: u8) -> Vec<K> {
+    /// What `with_forced` must give: the existing squares, and each square's parent and the
+    /// parent's neighbours across the sides the square touches, sorted and distinct.
+    fn forced_one_by_one<K: MortonKey>(existing: &[K], anchors: &[K], level: u8) -> Vec<K> {
         let mut forced: Vec<K> = anchors
             .iter()
             .flat_map(|&anchor| forced_by(Cell { anchor, level }))
             .flatten()
             .map(|c| c.anchor)
+            .chain(existing.iter().copied())
             .collect();
         forced.sort_unstable();
         forced.dedup();
@@ -540,11 +537,21 @@ mod tests {
                 .collect();
             anchors.sort_unstable();
             anchors.dedup();
-            assert_eq!(
-                forced_above(&anchors, level),
-                forced_one_by_one(&anchors, level),
-                "level {level}"
-            );
+            // Squares already at the level above: some forced again, some not, before, among
+            // and after the forced ones.
+            let mut existing: Vec<K> = (0..9000u64)
+                .map(|i| Cell::containing(key(i * 7 + 3), level - 1).anchor)
+                .chain([K::default()])
+                .collect();
+            existing.sort_unstable();
+            existing.dedup();
+            for existing in [&existing[..], &[]] {
+                assert_eq!(
+                    with_forced(existing, &anchors, level),
+                    forced_one_by_one(existing, &anchors, level),
+                    "level {level}"
+                );
+            }
         }
     }
 
