@@ -339,14 +339,9 @@ fn forced_in_blocks<K: MortonKey>(anchors: &[K], level: u8, depth: u8) -> (Vec<K
         block.mark(across_x | y, in_x);
         block.mark(across_y | x, in_y);
         if !(in_x && in_y) {
-            let side_x = if to_east { Side::East } else { Side::West };
-            let side_y = if to_north { Side::North } else { Side::South };
-            let parent_cell = Cell {
-                anchor: anchor.cell_anchor(level - 1),
-                level: level - 1,
-            };
-            let (beside, in_root) = parent_cell.neighbour_anchors();
-            for (side, in_block) in [(side_x, in_x), (side_y, in_y)] {
+            let cell = Cell { anchor, level };
+            let (beside, in_root) = cell.parent().neighbour_anchors();
+            for (side, in_block) in touched_sides(cell).into_iter().zip([in_x, in_y]) {
                 if !in_block && in_root & 1 << side as u8 != 0 {
                     others.push(beside[side as usize]);
                 }

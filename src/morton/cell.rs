@@ -174,9 +174,7 @@ impl<K: MortonKey> Cell<K> {
         if self.level == 0 {
             return 0;
         }
-        self.anchor
-            .bits_from(2 * (K::AXIS_BITS - self.level as u32))
-            & 3
+        self.anchor.bits_from(self.span_bits()) & 3
     }
 
     /// log2 of the number of grid keys the square spans.
