@@ -4,7 +4,9 @@
 
 mod common;
 
-use common::{FAMILIES, beyond_f64, check_warped, distinct_count, mixed_point_sets, on_threads};
+use common::{
+    FAMILIES, check_warped, distinct_count, mixed_point_sets, on_threads, refused_beyond_f64,
+};
 use proptest::prelude::*;
 use quadmesh::balance::{DomainSides, check_separated_in, separate_in};
 use quadmesh::framework::build_framework;
@@ -415,10 +417,10 @@ proptest! {
         margins in prop::array::uniform4(prop_oneof![Just(0.0), 0.0f64..0.7]),
     ) {
         let domain = around(&points, margins);
-        // Points closer together than f64 can place a mesh between, at the domain's scale, are
-        // refused, naming one of them.
-        if let Err(Error::Unresolvable { index, .. }) = mesh_points(&points, &options(domain)) {
-            prop_assert!(beyond_f64(&points, index, domain.lo, domain.hi), "point {index} refused");
+        // Points closer together than f64 can place a mesh between, or the grid can tell
+        // apart, at the domain's scale, are refused, naming them.
+        if let Err(error @ (Error::Unresolvable { .. } | Error::Inseparable { .. })) = mesh_points(&points, &options(domain)) {
+            prop_assert!(refused_beyond_f64(&points, &error, domain.lo, domain.hi), "{error}");
             return Ok(());
         }
         let (_, report) = mesh_in(&points, domain);

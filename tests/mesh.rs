@@ -4,7 +4,7 @@
 mod common;
 
 use common::{
-    FAMILIES, WARP, beyond_f64, check_warped, distinct_count, mixed_point_sets, on_threads,
+    FAMILIES, WARP, check_warped, distinct_count, mixed_point_sets, on_threads, refused_beyond_f64,
 };
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
@@ -132,15 +132,16 @@ proptest! {
 
     #[test]
     fn random_point_sets_mesh_validly(points in mixed_point_sets()) {
-        // Points closer together than f64 can place a mesh between, at the scale of the square
-        // around them, are refused, naming one of them.
-        if let Err(Error::Unresolvable { index, .. }) = mesh_points(&points, &MeshOptions::default()) {
+        // Points closer together than f64 can place a mesh between, or the grid can tell
+        // apart, at the scale of the square around them, are refused, naming them.
+        let options = MeshOptions::default();
+        if let Err(error @ (Error::Unresolvable { .. } | Error::Inseparable { .. })) = mesh_points(&points, &options) {
             let (lo, hi) = points.iter().fold((points[0], points[0]), |(lo, hi), &p| (lo.min(p), hi.max(p)));
             let half = (hi - lo).max_element();
             let centre = (lo + hi) / 2.0;
             prop_assert!(
-                beyond_f64(&points, index, centre - half, centre + half),
-                "point {index} refused"
+                refused_beyond_f64(&points, &error, centre - half, centre + half),
+                "{error}"
             );
             return Ok(());
         }

@@ -5,7 +5,7 @@ use proptest::prelude::*;
 use quadmesh::generate::Distribution2d;
 use quadmesh::mesh::{AngleBounds, angles_deg};
 use quadmesh::warp::ANGLE_BOUNDS;
-use quadmesh::{DVec2, Mesh, MeshReport};
+use quadmesh::{DVec2, Error, Mesh, MeshReport};
 
 /// Every generated input family.
 pub const FAMILIES: [Distribution2d; 4] = Distribution2d::ALL;
@@ -123,9 +123,30 @@ fn assert_report_measures(mesh: &Mesh, report: &MeshReport) {
 /// `lo..hi`: the mesh's leaves there need about a 2^-40 of it, where f64 rounds vertices by
 /// 2^-52 of it, so `Error::Unresolvable` naming that point is the right answer.
 pub fn beyond_f64(points: &[DVec2], index: usize, lo: DVec2, hi: DVec2) -> bool {
-    let extent = (hi - lo).max_element().max(lo.abs().max_element());
     let p = points[index];
     points
         .iter()
-        .any(|&q| q != p && (q - p).abs().max_element() < extent * (2.0f64).powi(-30))
+        .any(|&q| q != p && closer_than_f64_resolves(p, q, lo, hi))
+}
+
+/// Whether `p` and `q` lie closer together than 2^-30 of the extent of the domain `lo..hi` (see
+/// [`beyond_f64`]).
+fn closer_than_f64_resolves(p: DVec2, q: DVec2, lo: DVec2, hi: DVec2) -> bool {
+    let extent = (hi - lo).max_element().max(lo.abs().max_element());
+    (q - p).abs().max_element() < extent * (2.0f64).powi(-30)
+}
+
+/// Whether `error` is the right refusal of points too close together for f64 at the scale of
+/// the domain `lo..hi`: `Unresolvable` naming a point that has another that close, or
+/// `Inseparable` naming two distinct points that close (the grid's coordinates, worked out in
+/// f64 at that scale, cannot tell them apart).
+pub fn refused_beyond_f64(points: &[DVec2], error: &Error, lo: DVec2, hi: DVec2) -> bool {
+    match *error {
+        Error::Unresolvable { index, .. } => beyond_f64(points, index, lo, hi),
+        Error::Inseparable { a, b, .. } => {
+            let (p, q) = (points[a], points[b]);
+            p != q && closer_than_f64_resolves(p, q, lo, hi)
+        }
+        _ => false,
+    }
 }
