@@ -69,6 +69,8 @@ fn kuzmin_million_balances() {
         panic!("wide grid expected")
     };
     let tree = unbalanced(&m.keys);
+    // Squares below level 32, whose anchors need more than 64 bits, and above it.
+    assert!(tree.internal.iter().any(|s| s.cell.level > 32));
     let balanced = balance(&tree, &m.keys);
     check_balance(&balanced.tree).unwrap();
     assert_eq!(cells(&balanced.tree), ripple_closure(&cells(&tree)));

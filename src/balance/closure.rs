@@ -11,10 +11,10 @@ use std::borrow::Cow;
 
 use rayon::prelude::*;
 
-use crate::morton::{Cell, MortonKey, Side, SortPairs};
+use crate::morton::{Cell, MortonKey, Side};
 use crate::par::{
-    DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_indexed, collect_segments_by,
-    concat, exclusive_scan_by,
+    DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat,
+    exclusive_scan_by,
 };
 use crate::quadtree::Internal;
 
@@ -38,14 +38,103 @@ pub fn balance_closure_with_points<K: MortonKey>(
 }
 
 /// The sorted anchors at each level of the balanced closure of `split`.
-fn closed_levels<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
-    let mut levels = by_level(split);
-    for level in (1..levels.len()).rev() {
-        if !levels[level].is_empty() {
-            levels[level - 1] = with_forced(&levels[level - 1], &levels[level], level as u8);
+fn closed_levels<K: MortonKey>(split: &[Cell<K>]) -> Levels<K> {
+    let Levels {
+        mut narrow,
+        mut deep,
+    } = by_level(split);
+    // Up the deep levels in the key's width, into the finest narrow level, then up to the root
+    // in 64 bits.
+    for i in (1..deep.len()).rev() {
+        if !deep[i].is_empty() {
+            deep[i - 1] = with_forced(&deep[i - 1], &deep[i], (NARROW_LEVEL + 1 + i) as u8);
         }
     }
-    levels
+    if let Some(finest) = deep.first().filter(|list| !list.is_empty()) {
+        let level = NARROW_LEVEL as u8 + 1;
+        narrow[NARROW_LEVEL] = with_forced(&narrow[NARROW_LEVEL], finest, level);
+    }
+    for level in (1..narrow.len()).rev() {
+        if !narrow[level].is_empty() {
+            narrow[level - 1] = with_forced(&narrow[level - 1], &narrow[level], level as u8);
+        }
+    }
+    Levels { narrow, deep }
+}
+
+/// The finest level whose squares' anchors fit in 64 bits: a wide key's anchor at this level or
+/// a coarser one has its low 64 bits zero. Trees of wide keys rarely go deeper (1e6 Kuzmin
+/// points: a few hundred of a million squares), so their closure and walk read half the memory
+/// and do most of their arithmetic in one register.
+const NARROW_LEVEL: usize = u64::AXIS_BITS as usize;
+
+/// The sorted, distinct anchors of the squares at each level: in 64 bits (see [`in_width`])
+/// down to [`NARROW_LEVEL`], in the key's own width below it.
+pub(crate) struct Levels<K> {
+    /// Levels `0..=NARROW_LEVEL`.
+    narrow: Vec<Vec<u64>>,
+    /// Levels `NARROW_LEVEL + 1..=K::AXIS_BITS`; none for narrow keys.
+    deep: Vec<Vec<K>>,
+}
+
+/// The anchor of a square no finer than either width's finest level, in the other width: the
+/// same digits at the other width's top.
+#[inline]
+fn in_width<I: MortonKey, O: MortonKey>(anchor: I) -> O {
+    let bits = anchor.to_u128();
+    O::from_u128(if O::AXIS_BITS >= I::AXIS_BITS {
+        bits << (2 * (O::AXIS_BITS - I::AXIS_BITS))
+    } else {
+        bits >> (2 * (I::AXIS_BITS - O::AXIS_BITS))
+    })
+}
+
+impl<K: MortonKey> Levels<K> {
+    /// `sizes[level]` zero anchors at each level `0..=K::AXIS_BITS`.
+    fn zeroed(sizes: &[usize]) -> Self {
+        let (narrow, deep) = sizes.split_at(NARROW_LEVEL + 1);
+        Levels {
+            narrow: narrow.iter().map(|&n| vec![0; n]).collect(),
+            deep: deep.iter().map(|&n| vec![K::default(); n]).collect(),
+        }
+    }
+
+    /// The number of levels, `K::AXIS_BITS + 1`.
+    fn count(&self) -> usize {
+        self.narrow.len() + self.deep.len()
+    }
+
+    /// The number of squares at `level`.
+    fn len_at(&self, level: usize) -> usize {
+        match level.checked_sub(NARROW_LEVEL + 1) {
+            None => self.narrow[level].len(),
+            Some(i) => self.deep[i].len(),
+        }
+    }
+
+    /// The number of squares at `level` whose anchors are below `bound`.
+    fn below(&self, level: usize, bound: K) -> usize {
+        match level.checked_sub(NARROW_LEVEL + 1) {
+            None => self.narrow[level].partition_point(|&a| in_width::<u64, K>(a) < bound),
+            Some(i) => self.deep[i].partition_point(|&a| a < bound),
+        }
+    }
+
+    /// Each level's every `step`-th anchor after its first, sorted and distinct.
+    fn samples(&self, step: usize) -> Vec<K> {
+        let narrow = self.narrow.iter().flat_map(|list| {
+            let sampled = list.iter().step_by(step).skip(1);
+            sampled.map(|&a| in_width::<u64, K>(a))
+        });
+        let deep = self
+            .deep
+            .iter()
+            .flat_map(|list| list.iter().step_by(step).skip(1).copied());
+        let mut samples: Vec<K> = narrow.chain(deep).collect();
+        samples.sort_unstable();
+        samples.dedup();
+        samples
+    }
 }
 
 /// The most squares of one level in a range of the preorder walk: enough that the binary
@@ -80,47 +169,39 @@ impl<K: Copy + Send> Walked<K> for Internal<K> {
 /// parallel, each into its own part of the output. Each square's first key at or after its
 /// corner comes from a cursor that moves forward with the corners (none without keys).
 pub(crate) fn preorder_of_levels<K: MortonKey, T: Walked<K>>(
-    levels: &[Vec<K>],
+    levels: &Levels<K>,
     keys: &[K],
 ) -> Vec<T> {
-    if levels.is_empty() {
-        return Vec::new();
-    }
     // Every level gives its every WALK_RANGE-th anchor: between two of these, each level has
     // at most WALK_RANGE squares, and the ranges follow wherever the squares are.
-    let mut samples: Vec<K> = levels
-        .iter()
-        .flat_map(|list| list.iter().step_by(WALK_RANGE).skip(1).copied())
-        .collect();
-    samples.sort_unstable();
-    samples.dedup();
     let mut bounds: Vec<Option<K>> = vec![None];
-    bounds.extend(samples.into_iter().map(Some));
+    bounds.extend(levels.samples(WALK_RANGE).into_iter().map(Some));
     bounds.push(None);
-    let below = |bound: Option<K>, list: &[K]| {
-        bound.map_or(list.len(), |b| list.partition_point(|&a| a < b))
+    let below = |bound: Option<K>, level: usize| {
+        bound.map_or(levels.len_at(level), |b| levels.below(level, b))
     };
     let range = |r: usize| (bounds[r].unwrap_or_default(), bounds[r + 1]);
     let offsets = exclusive_scan_by(bounds.len() - 1, |r| {
         let (from, to) = range(r);
-        levels
-            .iter()
-            .map(|list| below(to, list) - below(Some(from), list))
+        (0..levels.count())
+            .map(|level| below(to, level) - below(Some(from), level))
             .sum()
     });
     collect_segments_by(&offsets, |r, out| {
         let (from, to) = range(r);
         let mut walk = RangeWalk {
             levels,
-            next: levels.iter().map(|list| below(Some(from), list)).collect(),
+            next: (0..levels.count())
+                .map(|level| below(Some(from), level))
+                .collect(),
             from,
             to,
             keys,
             key: keys.partition_point(|&k| k < from),
             out,
         };
-        if levels[0].first() == Some(&K::default()) {
-            walk.visit(Cell::root());
+        if levels.narrow[0].first() == Some(&0) {
+            walk.visit(Cell::<u64>::root());
         }
     })
 }
@@ -128,7 +209,7 @@ pub(crate) fn preorder_of_levels<K: MortonKey, T: Walked<K>>(
 /// A depth-first walk of the squares whose anchors lie in `from..to` (`to` = `None`: to the
 /// end), with the next unread entry of each level at or after `from`.
 struct RangeWalk<'a, 'w, K: Copy, T> {
-    levels: &'a [Vec<K>],
+    levels: &'a Levels<K>,
     next: Vec<usize>,
     from: K,
     to: Option<K>,
@@ -139,33 +220,57 @@ struct RangeWalk<'a, 'w, K: Copy, T> {
 }
 
 impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
-    /// Visits a square of the set that is in the range or holds its start.
-    fn visit(&mut self, cell: Cell<K>) {
-        if { cell.anchor } >= self.from {
-            let anchor = cell.anchor;
+    /// Visits a square of the set that is in the range or holds its start, given in the width
+    /// of its level's list (see [`in_width`]).
+    fn visit<C: MortonKey>(&mut self, cell: Cell<C>) {
+        let corner: K = in_width(cell.anchor);
+        if corner >= self.from {
             self.key += self.keys[self.key..]
                 .iter()
-                .take_while(|&&k| k < anchor)
+                .take_while(|&&k| k < corner)
                 .count();
+            let cell = Cell {
+                anchor: corner,
+                level: cell.level,
+            };
             self.out.push(T::walked(cell, self.key));
         }
         let level = cell.level as usize + 1;
-        let Some(list) = self.levels.get(level) else {
-            return;
+        let levels = self.levels;
+        match level.checked_sub(NARROW_LEVEL + 1) {
+            None => self.visit_children(cell, &levels.narrow[level]),
+            Some(deep) => {
+                if let Some(list) = levels.deep.get(deep) {
+                    self.visit_children(cell, list);
+                }
+            }
+        }
+    }
+
+    /// Visits the children of `cell` that are in `list`, the squares of their level, in the
+    /// list's width.
+    #[inline]
+    fn visit_children<C: MortonKey, N: MortonKey>(&mut self, cell: Cell<C>, list: &[N]) {
+        let cell = Cell::<N> {
+            anchor: in_width(cell.anchor),
+            level: cell.level,
         };
+        let level = cell.level as usize + 1;
         for quadrant in 0..4 {
             let child = cell.child(quadrant);
             let anchor = child.anchor;
-            if self.to.is_some_and(|to| anchor >= to) {
+            let corner: K = in_width(anchor);
+            if self.to.is_some_and(|to| corner >= to) {
                 return;
             }
-            let present = if anchor >= self.from {
+            let present = if corner >= self.from {
                 let hit = list.get(self.next[level]) == Some(&anchor);
                 self.next[level] += usize::from(hit);
                 hit
             } else {
                 // Before the range: only the square that holds its start is walked.
-                child.contains(self.from) && list.binary_search(&anchor).is_ok()
+                let holds_start = self.from.cell_anchor(child.level) == corner;
+                holds_start && list.binary_search(&anchor).is_ok()
             };
             if present {
                 self.visit(child);
@@ -178,7 +283,7 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
 /// usual input, checked) each level's squares already come in order, so they are only
 /// distributed, in parallel: each chunk counts its squares per level, then writes them at the
 /// places those counts give.
-pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
+pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Levels<K> {
     let key = |c: &Cell<K>| (c.anchor, c.level);
     let sorted: Cow<[Cell<K>]> = if split.par_windows(2).all(|w| key(&w[0]) < key(&w[1])) {
         Cow::Borrowed(split)
@@ -208,20 +313,32 @@ pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Vec<Vec<K>> {
             (*start, *total) = (*total, *total + *start);
         }
     }
-    let mut levels: Vec<Vec<K>> = totals.iter().map(|&n| vec![K::default(); n]).collect();
-    let slots: Vec<DisjointWrites<K>> = levels.iter_mut().map(|l| DisjointWrites::new(l)).collect();
+    let mut levels = Levels::<K>::zeroed(&totals);
+    let narrow: Vec<DisjointWrites<u64>> = levels
+        .narrow
+        .iter_mut()
+        .map(|l| DisjointWrites::new(l))
+        .collect();
+    let deep: Vec<DisjointWrites<K>> = levels
+        .deep
+        .iter_mut()
+        .map(|l| DisjointWrites::new(l))
+        .collect();
     starts.into_par_iter().enumerate().for_each(|(c, mut at)| {
         for cell in &sorted[chunks[c]..chunks[c + 1]] {
             let level = cell.level as usize;
             // SAFETY: the chunks' ranges at each level are disjoint, from the prefix sums.
             #[allow(unsafe_code)]
             unsafe {
-                slots[level].write(at[level], cell.anchor)
+                match level.checked_sub(NARROW_LEVEL + 1) {
+                    None => narrow[level].write(at[level], in_width(cell.anchor)),
+                    Some(i) => deep[i].write(at[level], cell.anchor),
+                }
             };
             at[level] += 1;
         }
     });
-    drop(slots);
+    drop((narrow, deep));
     levels
 }
 
@@ -237,12 +354,17 @@ const _: () = assert!(BLOCK_DEPTH >= 3 && BLOCK_DEPTH <= 6);
 const BLOCK_WORDS: usize = 1 << (2 * BLOCK_DEPTH - 6);
 
 /// The squares at `level - 1`: `existing` (sorted, distinct anchors) and those that the split
-/// squares at `level` (sorted, distinct anchors) force, sorted and distinct. Each block of
+/// squares at `level` (sorted, distinct anchors) force, sorted and distinct, in the width of the
+/// existing ones (see [`in_width`]). Each block of
 /// squares at `level - 1` is a bitmap: parents and their neighbours inside the block are marked,
 /// and read back in Morton order, so only the few neighbours in other blocks need a sort. Each
 /// chunk of blocks then merges in the existing squares and those others that fall among its
 /// blocks, so the level is written once more, not once per union.
-pub(crate) fn with_forced<K: MortonKey>(existing: &[K], anchors: &[K], level: u8) -> Vec<K> {
+pub(crate) fn with_forced<I: MortonKey, O: MortonKey>(
+    existing: &[O],
+    anchors: &[I],
+    level: u8,
+) -> Vec<O> {
     if anchors.is_empty() {
         return existing.to_vec();
     }
@@ -258,23 +380,24 @@ pub(crate) fn with_forced<K: MortonKey>(existing: &[K], anchors: &[K], level: u8
     }
     bounds.dedup();
     let chunks = bounds.len() - 1;
-    let (inside, others): (Vec<Vec<K>>, Vec<Vec<K>>) = (0..chunks)
+    let (inside, others): (Vec<Vec<O>>, Vec<Vec<O>>) = (0..chunks)
         .into_par_iter()
         .map(|c| forced_in_blocks(&anchors[bounds[c]..bounds[c + 1]], level, depth))
         .unzip();
     let mut others = concat(&others);
-    sort_anchors(&mut others, level - 1);
+    O::sort_keys(&mut others);
+    others.dedup();
     // Chunk c takes the keys from its first block's corner (the first chunk: from the start) to
     // the next chunk's (the last: to the end).
-    let cut = |list: &[K], c: usize| match c {
+    let cut = |list: &[O], c: usize| match c {
         0 => 0,
         c if c == chunks => list.len(),
         c => {
-            let corner = block_of(bounds[c]);
+            let corner = in_width(block_of(bounds[c]));
             list.partition_point(|&a| a < corner)
         }
     };
-    let parts: Vec<Vec<K>> = (0..chunks)
+    let parts: Vec<Vec<O>> = (0..chunks)
         .into_par_iter()
         .map(|c| {
             let existing = &existing[cut(existing, c)..cut(existing, c + 1)];
@@ -290,18 +413,24 @@ pub(crate) fn with_forced<K: MortonKey>(existing: &[K], anchors: &[K], level: u8
 
 /// For sorted squares at `level` in whole blocks (squares `depth` levels above their parents):
 /// the squares they force inside those blocks, sorted and distinct, and those they force in
-/// other blocks, unsorted and possibly repeated.
+/// other blocks, unsorted and possibly repeated; those in the width `O`.
 ///
 /// Which sides a square touches is close to random, so the marking selects instead of
 /// branching on it; only a neighbour outside the block takes a branch.
-fn forced_in_blocks<K: MortonKey>(anchors: &[K], level: u8, depth: u8) -> (Vec<K>, Vec<K>) {
-    let below = 2 * (K::AXIS_BITS - level as u32);
+fn forced_in_blocks<I: MortonKey, O: MortonKey>(
+    anchors: &[I],
+    level: u8,
+    depth: u8,
+) -> (Vec<O>, Vec<O>) {
+    let below = 2 * (I::AXIS_BITS - level as u32);
+    // The bits below a forced square, in the output's width.
+    let forced_span = 2 * (O::AXIS_BITS - level as u32) + 2;
     let child_bits = 2 * (u32::from(depth) + 1);
     let y_bits = 0x5555_5555 & ((1u32 << (2 * depth)) - 1);
     let x_bits = y_bits << 1;
     let mut block = Bitmap::default();
-    let mut inside: Vec<K> = Vec::with_capacity(anchors.len());
-    let mut others: Vec<K> = Vec::new();
+    let mut inside: Vec<O> = Vec::with_capacity(anchors.len());
+    let mut others: Vec<O> = Vec::new();
     let Some(&first) = anchors.first() else {
         return (inside, others);
     };
@@ -311,7 +440,7 @@ fn forced_in_blocks<K: MortonKey>(anchors: &[K], level: u8, depth: u8) -> (Vec<K
     for &anchor in anchors {
         let digits = anchor.to_u128() >> below;
         if digits >> child_bits != block_digits {
-            block.read(block_digits << (child_bits - 2), below + 2, &mut inside);
+            block.read(block_digits << (child_bits - 2), forced_span, &mut inside);
             block_digits = digits >> child_bits;
         }
         let in_block = digits as u32 & ((1 << child_bits) - 1);
@@ -343,12 +472,12 @@ fn forced_in_blocks<K: MortonKey>(anchors: &[K], level: u8, depth: u8) -> (Vec<K
             let (beside, in_root) = cell.parent().neighbour_anchors();
             for (side, in_block) in touched_sides(cell).into_iter().zip([in_x, in_y]) {
                 if !in_block && in_root & 1 << side as u8 != 0 {
-                    others.push(beside[side as usize]);
+                    others.push(in_width(beside[side as usize]));
                 }
             }
         }
     }
-    block.read(block_digits << (child_bits - 2), below + 2, &mut inside);
+    block.read(block_digits << (child_bits - 2), forced_span, &mut inside);
     (inside, others)
 }
 
@@ -416,24 +545,6 @@ pub fn forced_by<K: MortonKey>(cell: Cell<K>) -> [Option<Cell<K>>; 3] {
     ]
 }
 
-/// Sorts anchors of squares at `level` and drops repeats. Their low bits are zero, so wide
-/// keys down to level 32 sort as 64-bit numbers, in half the radix passes.
-fn sort_anchors<K: MortonKey>(anchors: &mut Vec<K>, level: u8) {
-    if K::AXIS_BITS > 32 && (1..=32).contains(&level) {
-        let shift = 2 * (K::AXIS_BITS - level as u32);
-        let mut narrow: Vec<u64> =
-            collect_indexed(anchors.len(), |i| (anchors[i].to_u128() >> shift) as u64);
-        u64::sort_keys(&mut narrow);
-        narrow.dedup();
-        *anchors = collect_indexed(narrow.len(), |i| {
-            K::from_u128(u128::from(narrow[i]) << shift)
-        });
-    } else {
-        K::sort_keys(anchors);
-        anchors.dedup();
-    }
-}
-
 /// The sorted union of two sorted, distinct lists.
 fn merge_distinct<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
     let mut out = Vec::with_capacity(a.len() + b.len());
@@ -454,27 +565,6 @@ mod tests {
     use super::*;
 
     #[test]
-    fn anchors_sort_alike_narrowed_or_not() {
-        let key = |i: u64| {
-            let hi = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-            u128::from(hi) << 64 | u128::from(hi.rotate_left(29) ^ i)
-        };
-        for level in [0u8, 1, 7, 20, 32, 33, 50, 64] {
-            // Both sides of the parallel sort's cut-off, with repeats.
-            for n in [3000u64, 70_000] {
-                let mut anchors: Vec<u128> = (0..n)
-                    .map(|i| Cell::<u128>::containing(key(i % (n - 100)), level).anchor)
-                    .collect();
-                let mut expected = anchors.clone();
-                expected.sort_unstable();
-                expected.dedup();
-                sort_anchors(&mut anchors, level);
-                assert_eq!(anchors, expected, "level {level}, {n} keys");
-            }
-        }
-    }
-
-    #[test]
     fn merging_keeps_one_of_each() {
         assert_eq!(
             merge_distinct::<u64>(&[1, 3, 5], &[2, 3, 6]),
@@ -487,27 +577,36 @@ mod tests {
 
     #[test]
     fn the_walk_gives_the_preorder_across_many_ranges() {
-        // Random squares at levels 9 to 14 and all their ancestors: the finest level alone spans
-        // several walk ranges.
-        let mut cells: Vec<Cell<u64>> = (0..120_000u64)
+        let narrow = |i: u64| i.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(17);
+        walk_gives_the_preorder(narrow, 9);
+        // Wide keys with squares on both sides of the narrow levels' end.
+        let wide = |i: u64| u128::from(narrow(i)) << 64 | u128::from(narrow(i ^ 0x5555));
+        walk_gives_the_preorder(wide, NARROW_LEVEL as u8 - 3);
+    }
+
+    /// Random squares at levels `coarsest..coarsest + 6` and all their ancestors, walked in
+    /// preorder: the coarsest of those levels alone spans several walk ranges.
+    fn walk_gives_the_preorder<K: MortonKey>(key: impl Fn(u64) -> K, coarsest: u8) {
+        let mut cells: Vec<Cell<K>> = (0..120_000u64)
             .flat_map(|i| {
-                let key = i.wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(17);
-                let level = 9 + (i % 6) as u8;
+                let level = coarsest + (i % 6) as u8;
+                let key = key(i);
                 (0..=level).map(move |l| Cell::containing(key, l))
             })
             .collect();
         cells.sort_unstable_by_key(|c| (c.anchor, c.level));
         cells.dedup();
         let levels = by_level(&cells);
-        assert!(levels.iter().map(Vec::len).max().unwrap() > 2 * WALK_RANGE);
-        assert_eq!(preorder_of_levels::<u64, Cell<u64>>(&levels, &[]), cells);
+        let widest = (0..levels.count()).map(|l| levels.len_at(l)).max();
+        assert!(widest.unwrap() > 2 * WALK_RANGE);
+        assert_eq!(preorder_of_levels::<K, Cell<K>>(&levels, &[]), cells);
         // With keys, each square gets the first at or after its corner.
-        let keys: Vec<u64> = (0..50_000u64)
-            .map(|i| i.wrapping_mul(0xD1B5_4A32_D192_ED03))
+        let keys: Vec<K> = (0..50_000u64)
+            .map(|i| key(i.wrapping_mul(0xD1B5_4A32_D192_ED03)))
             .collect::<std::collections::BTreeSet<_>>()
             .into_iter()
             .collect();
-        let with_points: Vec<Internal<u64>> = preorder_of_levels(&levels, &keys);
+        let with_points: Vec<Internal<K>> = preorder_of_levels(&levels, &keys);
         assert_eq!(
             with_points,
             crate::quadtree::with_first_points(&cells, &keys)
@@ -568,11 +667,19 @@ mod tests {
             existing.sort_unstable();
             existing.dedup();
             for existing in [&existing[..], &[]] {
+                let expected = forced_one_by_one(existing, &anchors, level);
                 assert_eq!(
                     with_forced(existing, &anchors, level),
-                    forced_one_by_one(existing, &anchors, level),
+                    expected,
                     "level {level}"
                 );
+                if K::AXIS_BITS > u64::AXIS_BITS && level as usize <= NARROW_LEVEL + 1 {
+                    // As the closure forces wide keys' squares at the narrow levels: in 64 bits.
+                    let narrow: Vec<u64> = existing.iter().map(|&a| in_width(a)).collect();
+                    let forced = with_forced(&narrow, &anchors, level);
+                    let forced: Vec<K> = forced.into_iter().map(in_width).collect();
+                    assert_eq!(forced, expected, "level {level}, forced in 64 bits");
+                }
             }
         }
     }
