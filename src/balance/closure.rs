@@ -11,7 +11,7 @@ use std::borrow::Cow;
 
 use rayon::prelude::*;
 
-use crate::morton::{Cell, MortonKey, Side};
+use crate::morton::{Cell, MortonKey, Side, in_width};
 use crate::par::{
     DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat,
     exclusive_scan_by,
@@ -75,18 +75,6 @@ pub(crate) struct Levels<K> {
     narrow: Vec<Vec<u64>>,
     /// Levels `NARROW_LEVEL + 1..=K::AXIS_BITS`; none for narrow keys.
     deep: Vec<Vec<K>>,
-}
-
-/// The anchor of a square no finer than either width's finest level, in the other width: the
-/// same digits at the other width's top.
-#[inline]
-fn in_width<I: MortonKey, O: MortonKey>(anchor: I) -> O {
-    let bits = anchor.to_u128();
-    O::from_u128(if O::AXIS_BITS >= I::AXIS_BITS {
-        bits << (2 * (O::AXIS_BITS - I::AXIS_BITS))
-    } else {
-        bits >> (2 * (I::AXIS_BITS - O::AXIS_BITS))
-    })
 }
 
 impl<K: MortonKey> Levels<K> {
@@ -423,8 +411,8 @@ fn forced_in_blocks<I: MortonKey, O: MortonKey>(
     depth: u8,
 ) -> (Vec<O>, Vec<O>) {
     let below = 2 * (I::AXIS_BITS - level as u32);
-    // The bits below a forced square, in the output's width.
-    let forced_span = 2 * (O::AXIS_BITS - level as u32) + 2;
+    // The bits below a forced square (at `level - 1`), in the output's width.
+    let forced_span = 2 * (O::AXIS_BITS + 1 - level as u32);
     let child_bits = 2 * (u32::from(depth) + 1);
     let y_bits = 0x5555_5555 & ((1u32 << (2 * depth)) - 1);
     let x_bits = y_bits << 1;

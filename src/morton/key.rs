@@ -93,6 +93,19 @@ fn sum_of_digits(x: u64) -> u32 {
     (bytes.wrapping_mul(0x0101_0101_0101_0101) >> 56) as u32
 }
 
+/// The anchor of a square no finer than either width's finest level, in the other width: the
+/// same digits at the other width's top. From a wider key to a narrower one, any key: the digits
+/// of its square at the narrower width's finest level.
+#[inline]
+pub fn in_width<I: MortonKey, O: MortonKey>(anchor: I) -> O {
+    let bits = anchor.to_u128();
+    O::from_u128(if O::AXIS_BITS >= I::AXIS_BITS {
+        bits << (2 * (O::AXIS_BITS - I::AXIS_BITS))
+    } else {
+        bits >> (2 * (I::AXIS_BITS - O::AXIS_BITS))
+    })
+}
+
 mod sealed {
     /// Only the crate's key types implement [`super::MortonKey`]: unsafe code relies on their
     /// `encode_points` writing every slot.

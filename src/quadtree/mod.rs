@@ -14,7 +14,7 @@ pub use crate::morton::Cell;
 use std::ops::Range;
 
 use crate::framework::{Framework, NONE};
-use crate::morton::MortonKey;
+use crate::morton::{MortonKey, in_width};
 use crate::par::{
     GRAIN, SharedSlots, chunk_offsets, collect_indexed, collect_segments, collect_segments_by,
     exclusive_scan_by,
@@ -203,10 +203,7 @@ fn leaves_of<K: MortonKey>(
             if let Some(parents) = &mut parents {
                 parents.square(i, internal[i].cell);
             }
-            let end = internal.get(i + 1).map(|s| s.cell.anchor);
-            let mut tiles = GapTiles::new(&internal[i], end, keys);
-            for j in gap {
-                let leaf = tiles.next_leaf();
+            let mut put = |j: usize, leaf: Leaf<K>| {
                 if let (Some(parents), Some(index)) = (&parents, index) {
                     parents.leaf(j, leaf.cell);
                     if leaf.point != NONE {
@@ -215,6 +212,16 @@ fn leaves_of<K: MortonKey>(
                     }
                 }
                 out.push(leaf);
+            };
+            let end = internal.get(i + 1).map(|s| s.cell.anchor);
+            // A gap's leaves are children of the square or of its ancestors, and so is the next
+            // square: above a square at the narrow width's finest level, all fit in 64 bits.
+            if K::AXIS_BITS > u64::AXIS_BITS && internal[i].cell.level < u64::AXIS_BITS as u8 {
+                let mut tiles = GapTiles::<u64, K>::new(&internal[i], end, keys);
+                gap.for_each(|j| put(j, tiles.next_leaf()));
+            } else {
+                let mut tiles = GapTiles::<K, K>::new(&internal[i], end, keys);
+                gap.for_each(|j| put(j, tiles.next_leaf()));
             }
         }
     })
@@ -257,20 +264,23 @@ pub fn leaves_before<K: MortonKey>(internal_before: usize, cell: Cell<K>) -> usi
 /// The leaves covering keys from an internal square's corner up to `end` (the next internal
 /// square's corner, or the end of the key space), largest aligned squares first, the first one
 /// a child of that square. Points are assigned by merging with the sorted keys.
-struct GapTiles<'a, K: Copy> {
-    x: K,
+///
+/// The tiling runs in the width `G` (see [`in_width`]), which may be narrower than the keys'
+/// when every leaf of the gap is coarse enough for it.
+struct GapTiles<'a, G: Copy, K> {
+    x: G,
     /// Where the gap ends; the end of the key space is 0, so `end - x` wraps to the right span.
-    end: K,
+    end: G,
     cursor: usize,
     finest: u8,
     keys: &'a [K],
 }
 
-impl<'a, K: MortonKey> GapTiles<'a, K> {
+impl<'a, G: MortonKey, K: MortonKey> GapTiles<'a, G, K> {
     fn new(from: &Internal<K>, end: Option<K>, keys: &'a [K]) -> Self {
         GapTiles {
-            x: from.cell.anchor,
-            end: end.unwrap_or_default(),
+            x: in_width(from.cell.anchor),
+            end: end.map_or(G::default(), in_width),
             cursor: from.first as usize,
             finest: from.cell.level + 1,
             keys,
@@ -278,12 +288,12 @@ impl<'a, K: MortonKey> GapTiles<'a, K> {
     }
 }
 
-impl<K: MortonKey> GapTiles<'_, K> {
+impl<G: MortonKey, K: MortonKey> GapTiles<'_, G, K> {
     /// The next leaf of the gap; the caller knows how many there are.
     fn next_leaf(&mut self) -> Leaf<K> {
-        let key_bits = 2 * K::AXIS_BITS;
+        let key_bits = 2 * G::AXIS_BITS;
         let span = self.end.wrapping_sub(self.x);
-        let span_bits = if span == K::default() {
+        let span_bits = if span == G::default() {
             key_bits
         } else {
             key_bits - 1 - span.leading_zeros()
@@ -292,18 +302,18 @@ impl<K: MortonKey> GapTiles<'_, K> {
         // A leaf is never the root here, so its size fits in a key.
         let half_bits = (span_bits / 2)
             .min(align_bits / 2)
-            .min(K::AXIS_BITS - self.finest as u32);
-        let size = K::pow2(2 * half_bits);
+            .min(G::AXIS_BITS - self.finest as u32);
+        let size = G::pow2(2 * half_bits);
         // About half the leaves hold a point, at random: a select, not a branch.
         let holds = self
             .keys
             .get(self.cursor)
-            .is_some_and(|k| k.wrapping_sub(self.x) < size);
+            .is_some_and(|&k| in_width::<K, G>(k).wrapping_sub(self.x) < size);
         let point = if holds { self.cursor as u32 } else { NONE };
         self.cursor += holds as usize;
         let cell = Cell {
-            anchor: self.x,
-            level: (K::AXIS_BITS - half_bits) as u8,
+            anchor: in_width(self.x),
+            level: (G::AXIS_BITS - half_bits) as u8,
         };
         self.x = self.x.wrapping_add(size);
         self.finest = 0;
