@@ -5,13 +5,15 @@
 //! preorder are walked in chunks, each keeping these neighbours along its path from the root,
 //! so every square and leaf costs O(1) look-ups and no climbing.
 
+use std::mem::MaybeUninit;
+
 use rayon::prelude::*;
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
-use crate::par::{GRAIN, chunk_offsets, collect_segments_by, prefetch};
+use crate::par::{DisjointWrites, GRAIN, chunk_offsets, prefetch, with_capacity_huge};
+use crate::quadtree::Quadtree;
 use crate::quadtree::index::{LEAF, children, path_to};
-use crate::quadtree::{Quadtree, leaf_starts, with_gap_leaves};
 
 /// A leaf's neighbours across its four sides: one leaf of the same or twice the size, the two
 /// half-size leaves in increasing coordinate along the side, or none on the root's boundary.
@@ -84,30 +86,67 @@ pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
     cross_links_by(tree, &children(tree))
 }
 
-/// As [`cross_links`], given the tree's [`children`] index.
-pub fn cross_links_by<K: MortonKey>(tree: &Quadtree<K>, children: &[[u32; 4]]) -> Vec<Links> {
+/// As [`cross_links`], given the tree's [`children`] index, as the crate builds it: each leaf
+/// is named in at most one slot.
+///
+/// Each leaf's links are written when its parent is entered, from the entries the path keeps
+/// for the parent's children: the leaves themselves are never read.
+///
+/// # Panics
+/// If the children index does not name every leaf.
+pub(crate) fn cross_links_by<K: MortonKey>(
+    tree: &Quadtree<K>,
+    children: &[[u32; 4]],
+) -> Vec<Links> {
     let internal = &tree.internal;
+    let leaves = tree.leaves.len();
     if internal.is_empty() {
-        return vec![Links::NONE; tree.leaves.len()];
+        return vec![Links::NONE; leaves];
     }
+    let mut links: Vec<Links> = with_capacity_huge(leaves);
+    let slots = DisjointWrites::new(&mut links.spare_capacity_mut()[..leaves]);
     let chunks = chunk_offsets(internal.len(), GRAIN);
-    let offsets = leaf_starts(internal, &chunks);
-    collect_segments_by(&offsets, |c, out| {
-        let mut path = NeighbourPath::to(tree, children, chunks[c]);
-        for (i, gap) in with_gap_leaves(internal, chunks[c]..chunks[c + 1]) {
-            path.enter(i as u32, internal[i].cell);
-            for leaf in &tree.leaves[gap] {
-                out.push(path.leaf_links(leaf.cell));
+    let written: usize = (0..chunks.len() - 1)
+        .into_par_iter()
+        .map(|c| {
+            let mut path = NeighbourPath::to(tree, children, chunks[c]);
+            let mut written = 0;
+            for i in chunks[c]..chunks[c + 1] {
+                let cell = internal[i].cell;
+                path.enter(i as u32, cell);
+                for (quadrant, &entry) in children[i].iter().enumerate() {
+                    if entry & LEAF != 0 {
+                        let leaf_links = path.child_links(cell.level, quadrant);
+                        // SAFETY: each internal square is entered once, by one chunk, and each
+                        // leaf is named in at most one of their slots.
+                        #[allow(unsafe_code)]
+                        unsafe {
+                            slots.write((entry & !LEAF) as usize, MaybeUninit::new(leaf_links))
+                        };
+                        written += 1;
+                    }
+                }
             }
-        }
-    })
+            written
+        })
+        .sum();
+    drop(slots);
+    // Distinct leaves were written, as many as there are: all of them.
+    assert_eq!(written, leaves, "the children index misses leaves");
+    // SAFETY: every slot below `leaves` was written, once.
+    #[allow(unsafe_code)]
+    unsafe {
+        links.set_len(leaves)
+    };
+    links
 }
 
 /// The path from the root to the current internal square: for the square at each level, the
 /// entries of the same-size squares across the four sides of each of its four children: an
 /// internal index, a leaf index tagged [`LEAF`] for a leaf that covers that square (of the same
-/// or a larger size), or [`NONE`] outside the root. A square's children are met several times
-/// (internal ones once, leaves once each), so their entries are worked out once, on entering it.
+/// or a larger size), or [`NONE`] outside the root. The entries of a square's children are
+/// worked out once, on entering it: its leaves' links then, and its internal children's entries
+/// later, from them.
 struct NeighbourPath<'a> {
     children: &'a [[u32; 4]],
     /// By level: for each quadrant of the path's square there, the entries across West, East,
@@ -178,11 +217,10 @@ impl<'a> NeighbourPath<'a> {
         }
     }
 
-    /// The links of a leaf whose parent is on the path.
+    /// The links of a leaf, child `quadrant` of the path's square at `level`.
     #[inline]
-    fn leaf_links<K: MortonKey>(&self, cell: Cell<K>) -> Links {
-        let [west, east, south, north] =
-            self.beside_children[cell.level as usize - 1][cell.quadrant() as usize];
+    fn child_links(&self, level: u8, quadrant: usize) -> Links {
+        let [west, east, south, north] = self.beside_children[level as usize][quadrant];
         Links::new([
             leaves_facing(self.children, west, Side::West),
             leaves_facing(self.children, east, Side::East),
@@ -215,4 +253,36 @@ pub fn point_leaves<K: MortonKey>(tree: &Quadtree<K>) -> Vec<u32> {
         .into_par_iter()
         .filter(|&j| leaves[j as usize].point != NONE)
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::framework::build_framework;
+    use crate::quadtree::expand;
+
+    fn balanced_tree() -> Quadtree<u64> {
+        let mut keys: Vec<u64> = (0..500u64)
+            .map(|i| i.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+            .collect();
+        keys.sort_unstable();
+        keys.dedup();
+        let tree = expand(&build_framework(&keys), &keys);
+        crate::balance::balance(&tree, &keys).tree
+    }
+
+    #[test]
+    #[should_panic(expected = "misses leaves")]
+    fn an_index_that_misses_a_leaf_is_refused() {
+        let tree = balanced_tree();
+        let mut index = children(&tree);
+        let slot = index
+            .as_flattened_mut()
+            .iter_mut()
+            .find(|e| **e & LEAF != 0)
+            .unwrap();
+        // The root's index: an internal square, so the leaf is named nowhere.
+        *slot = 0;
+        cross_links_by(&tree, &index);
+    }
 }

@@ -12,7 +12,8 @@ mod split_set;
 use std::collections::HashSet;
 
 pub use closure::{balance_closure, balance_closure_with_points, forced_by};
-pub use links::{Links, across, cross_links, cross_links_by, point_leaves};
+use links::cross_links_by;
+pub use links::{Links, across, cross_links, point_leaves};
 pub use separate::{
     Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
     check_separated_in, coarsest_band_level, separate, separate_in,
