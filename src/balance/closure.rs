@@ -16,7 +16,7 @@ use crate::par::{
     DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat,
     exclusive_scan_by,
 };
-use crate::quadtree::Internal;
+use crate::quadtree::{HasCell, Internal};
 
 /// The smallest set of split squares that contains `split`, is closed under parents, and
 /// makes the quadtree balanced; in preorder.
@@ -24,21 +24,21 @@ use crate::quadtree::Internal;
 /// # Complexity
 /// O(k) work for k squares plus a radix sort of the few forced squares that lie outside the
 /// block of the square that forces them (about one in sixteen); depth O(L log k) for L levels.
-pub fn balance_closure<K: MortonKey>(split: &[Cell<K>]) -> Vec<Cell<K>> {
+pub fn balance_closure<K: MortonKey, S: HasCell<K>>(split: &[S]) -> Vec<Cell<K>> {
     preorder_of_levels(&closed_levels(split), &[])
 }
 
 /// As [`balance_closure`], each square with the first of the sorted `keys` at or after its
 /// corner (as [`crate::quadtree::with_first_points`] gives, without another pass).
-pub fn balance_closure_with_points<K: MortonKey>(
-    split: &[Cell<K>],
+pub fn balance_closure_with_points<K: MortonKey, S: HasCell<K>>(
+    split: &[S],
     keys: &[K],
 ) -> Vec<Internal<K>> {
     preorder_of_levels(&closed_levels(split), keys)
 }
 
 /// The sorted anchors at each level of the balanced closure of `split`.
-fn closed_levels<K: MortonKey>(split: &[Cell<K>]) -> Levels<K> {
+fn closed_levels<K: MortonKey, S: HasCell<K>>(split: &[S]) -> Levels<K> {
     let Levels {
         mut narrow,
         mut deep,
@@ -271,15 +271,18 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
 /// usual input, checked) each level's squares already come in order, so they are only
 /// distributed, in parallel: each chunk counts its squares per level, then writes them at the
 /// places those counts give.
-pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Levels<K> {
-    let key = |c: &Cell<K>| (c.anchor, c.level);
-    let sorted: Cow<[Cell<K>]> = if split.par_windows(2).all(|w| key(&w[0]) < key(&w[1])) {
+pub(crate) fn by_level<K: MortonKey, S: HasCell<K>>(split: &[S]) -> Levels<K> {
+    let key = |s: &S| {
+        let cell = s.cell();
+        (cell.anchor, cell.level)
+    };
+    let sorted: Cow<[S]> = if split.par_windows(2).all(|w| key(&w[0]) < key(&w[1])) {
         Cow::Borrowed(split)
     } else {
-        let mut cells = split.to_vec();
-        cells.par_sort_unstable_by_key(key);
-        cells.dedup();
-        Cow::Owned(cells)
+        let mut squares = split.to_vec();
+        squares.par_sort_unstable_by_key(key);
+        squares.dedup_by_key(|s| key(s));
+        Cow::Owned(squares)
     };
     let level_count = K::AXIS_BITS as usize + 1;
     let chunks = chunk_offsets(sorted.len(), GRAIN);
@@ -287,8 +290,8 @@ pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Levels<K> {
         .into_par_iter()
         .map(|c| {
             let mut count = vec![0; level_count];
-            for cell in &sorted[chunks[c]..chunks[c + 1]] {
-                count[cell.level as usize] += 1;
+            for square in &sorted[chunks[c]..chunks[c + 1]] {
+                count[square.cell().level as usize] += 1;
             }
             count
         })
@@ -313,7 +316,8 @@ pub(crate) fn by_level<K: MortonKey>(split: &[Cell<K>]) -> Levels<K> {
         .map(|l| DisjointWrites::new(l))
         .collect();
     starts.into_par_iter().enumerate().for_each(|(c, mut at)| {
-        for cell in &sorted[chunks[c]..chunks[c + 1]] {
+        for square in &sorted[chunks[c]..chunks[c + 1]] {
+            let cell = square.cell();
             let level = cell.level as usize;
             // SAFETY: the chunks' ranges at each level are disjoint, from the prefix sums.
             #[allow(unsafe_code)]

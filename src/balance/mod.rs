@@ -21,7 +21,6 @@ pub use separate::{
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
-use crate::par::collect_indexed;
 use crate::quadtree::{IndexedTree, Internal, Quadtree, indexed_from_internal, with_first_points};
 
 /// A balanced quadtree with cross links and point location.
@@ -40,8 +39,7 @@ pub struct BalancedTree<K: Copy> {
 /// # Complexity
 /// O(k log k) work for k output squares; the sweep has one parallel step per level.
 pub fn balance<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K> {
-    let split: Vec<Cell<K>> = collect_indexed(tree.internal.len(), |i| tree.internal[i].cell);
-    linked_from_internal(balance_closure_with_points(&split, keys), keys)
+    linked_from_internal(balance_closure_with_points(&tree.internal, keys), keys)
 }
 
 /// The tree with split squares `split` (in preorder, balanced), its links and point location.

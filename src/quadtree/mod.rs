@@ -41,6 +41,26 @@ pub struct Internal<K: Copy> {
     pub first: u32,
 }
 
+/// A record that names a square: the square itself, or an internal square with its first point.
+pub trait HasCell<K: Copy>: Copy + Send + Sync {
+    /// The square.
+    fn cell(&self) -> Cell<K>;
+}
+
+impl<K: Copy + Send + Sync> HasCell<K> for Cell<K> {
+    #[inline]
+    fn cell(&self) -> Cell<K> {
+        *self
+    }
+}
+
+impl<K: Copy + Send + Sync> HasCell<K> for Internal<K> {
+    #[inline]
+    fn cell(&self) -> Cell<K> {
+        self.cell
+    }
+}
+
 /// The unbalanced quadtree as flat arrays.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Quadtree<K: Copy> {
