@@ -72,6 +72,8 @@ fn kuzmin_million_balances() {
     // Squares below level 32, whose anchors need more than 64 bits, and above it.
     assert!(tree.internal.iter().any(|s| s.cell.level > 32));
     let balanced = balance(&tree, &m.keys);
+    // The leaves tile the root and hold their points, on both sides of level 32.
+    balanced.tree.check(&m.keys).unwrap();
     check_balance(&balanced.tree).unwrap();
     assert_eq!(cells(&balanced.tree), ripple_closure(&cells(&tree)));
     // Links and point location over many chunks; the full check would take too long here.

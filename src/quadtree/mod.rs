@@ -14,7 +14,7 @@ pub use crate::morton::Cell;
 use std::ops::Range;
 
 use crate::framework::{Framework, NONE};
-use crate::morton::{MortonKey, in_width};
+use crate::morton::MortonKey;
 use crate::par::{
     GRAIN, SharedSlots, chunk_offsets, collect_indexed, collect_segments, collect_segments_by,
     exclusive_scan_by,
@@ -234,13 +234,23 @@ fn leaves_of<K: MortonKey>(
                 out.push(leaf);
             };
             let end = internal.get(i + 1).map(|s| s.cell.anchor);
-            // A gap's leaves are children of the square or of its ancestors, and so is the next
-            // square: above a square at the narrow width's finest level, all fit in 64 bits.
-            if K::AXIS_BITS > u64::AXIS_BITS && internal[i].cell.level < u64::AXIS_BITS as u8 {
-                let mut tiles = GapTiles::<u64, K>::new(&internal[i], end, keys);
+            // Wide keys' gaps mostly fit in 64 bits. A gap's leaves are children of the square
+            // or of its ancestors, and so is the next square, so above level 32 all are anchored
+            // in the top 64 bits. From level 32 down, a gap that ends inside the same square of
+            // level 32 lies in that square: the low 64 bits.
+            let from = &internal[i];
+            let low_bits = 2 * (K::AXIS_BITS - u64::AXIS_BITS);
+            let top = |k: K| k.to_u128() >> low_bits << low_bits;
+            let wide = K::AXIS_BITS > u64::AXIS_BITS;
+            if wide && from.cell.level < u64::AXIS_BITS as u8 {
+                let mut tiles = GapTiles::<u64, K>::new(from, end, keys, 0, low_bits);
+                gap.for_each(|j| put(j, tiles.next_leaf()));
+            } else if wide && end.is_some_and(|e| top(e) == top(from.cell.anchor)) {
+                let base = top(from.cell.anchor);
+                let mut tiles = GapTiles::<u64, K>::new(from, end, keys, base, 0);
                 gap.for_each(|j| put(j, tiles.next_leaf()));
             } else {
-                let mut tiles = GapTiles::<K, K>::new(&internal[i], end, keys);
+                let mut tiles = GapTiles::<K, K>::new(from, end, keys, 0, 0);
                 gap.for_each(|j| put(j, tiles.next_leaf()));
             }
         }
@@ -285,26 +295,47 @@ pub fn leaves_before<K: MortonKey>(internal_before: usize, cell: Cell<K>) -> usi
 /// square's corner, or the end of the key space), largest aligned squares first, the first one
 /// a child of that square. Points are assigned by merging with the sorted keys.
 ///
-/// The tiling runs in the width `G` (see [`in_width`]), which may be narrower than the keys'
-/// when every leaf of the gap is coarse enough for it.
+/// The tiling runs in a window of the key space: key `base + (w << shift)` for `w` of the width
+/// `G`, which may be narrower than the keys' when the whole gap lies in such a window.
 struct GapTiles<'a, G: Copy, K> {
     x: G,
     /// Where the gap ends; the end of the key space is 0, so `end - x` wraps to the right span.
     end: G,
     cursor: usize,
+    /// The finest level the next leaf may have, in the window's levels.
     finest: u8,
     keys: &'a [K],
+    base: u128,
+    shift: u32,
+    /// The level of a square of the window's level 0.
+    level_offset: u8,
 }
 
 impl<'a, G: MortonKey, K: MortonKey> GapTiles<'a, G, K> {
-    fn new(from: &Internal<K>, end: Option<K>, keys: &'a [K]) -> Self {
+    /// The gap after `from`, up to `end`, in the window `base`, `shift`: it must hold `from`'s
+    /// children, `end` (none: the end of the key space, only for windows that reach it) and every
+    /// leaf between.
+    fn new(from: &Internal<K>, end: Option<K>, keys: &'a [K], base: u128, shift: u32) -> Self {
+        let in_window = |k: K| G::from_u128(k.to_u128().wrapping_sub(base) >> shift);
+        let level_offset = (K::AXIS_BITS - G::AXIS_BITS - shift / 2) as u8;
         GapTiles {
-            x: in_width(from.cell.anchor),
-            end: end.map_or(G::default(), in_width),
+            x: in_window(from.cell.anchor),
+            end: end.map_or(G::default(), in_window),
             cursor: from.first as usize,
-            finest: from.cell.level + 1,
+            finest: from.cell.level + 1 - level_offset,
             keys,
+            base,
+            shift,
+            level_offset,
         }
+    }
+
+    /// Key `k` in the window's width, if it lies in the window.
+    #[inline]
+    fn in_window(&self, k: K) -> Option<G> {
+        let w = k.to_u128().wrapping_sub(self.base) >> self.shift;
+        let most = u128::MAX >> (128 - 2 * G::AXIS_BITS);
+        (w <= most).then(|| G::from_u128(w))
     }
 }
 
@@ -325,15 +356,15 @@ impl<G: MortonKey, K: MortonKey> GapTiles<'_, G, K> {
             .min(G::AXIS_BITS - self.finest as u32);
         let size = G::pow2(2 * half_bits);
         // About half the leaves hold a point, at random: a select, not a branch.
-        let holds = self
-            .keys
-            .get(self.cursor)
-            .is_some_and(|&k| in_width::<K, G>(k).wrapping_sub(self.x) < size);
+        let holds = self.keys.get(self.cursor).is_some_and(|&k| {
+            self.in_window(k)
+                .is_some_and(|w| w.wrapping_sub(self.x) < size)
+        });
         let point = if holds { self.cursor as u32 } else { NONE };
         self.cursor += holds as usize;
         let cell = Cell {
-            anchor: in_width(self.x),
-            level: (G::AXIS_BITS - half_bits) as u8,
+            anchor: K::from_u128(self.base | self.x.to_u128() << self.shift),
+            level: (G::AXIS_BITS - half_bits) as u8 + self.level_offset,
         };
         self.x = self.x.wrapping_add(size);
         self.finest = 0;
