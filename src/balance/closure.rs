@@ -666,9 +666,15 @@ mod tests {
                     "level {level}"
                 );
                 if K::AXIS_BITS > u64::AXIS_BITS && level as usize <= NARROW_LEVEL + 1 {
-                    // As the closure forces wide keys' squares at the narrow levels: in 64 bits.
+                    // As the closure forces wide keys' squares at the narrow levels: from 64-bit
+                    // anchors above level 33, from wide ones at it, into 64 bits.
                     let narrow: Vec<u64> = existing.iter().map(|&a| in_width(a)).collect();
-                    let forced = with_forced(&narrow, &anchors, level);
+                    let forced = if level as usize <= NARROW_LEVEL {
+                        let anchors: Vec<u64> = anchors.iter().map(|&a| in_width(a)).collect();
+                        with_forced(&narrow, &anchors, level)
+                    } else {
+                        with_forced(&narrow, &anchors, level)
+                    };
                     let forced: Vec<K> = forced.into_iter().map(in_width).collect();
                     assert_eq!(forced, expected, "level {level}, forced in 64 bits");
                 }

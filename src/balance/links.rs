@@ -87,7 +87,8 @@ pub fn cross_links<K: MortonKey>(tree: &Quadtree<K>) -> Vec<Links> {
 }
 
 /// As [`cross_links`], given the tree's [`children`] index, as the crate builds it: each leaf
-/// is named in at most one slot.
+/// is named in at most one slot, since the leaves' gaps between internal squares follow one
+/// another (checked as the index is built).
 ///
 /// Each leaf's links are written when its parent is entered, from the entries the path keeps
 /// for the parent's children: the leaves themselves are never read.
@@ -130,7 +131,6 @@ pub(crate) fn cross_links_by<K: MortonKey>(
             written
         })
         .sum();
-    drop(slots);
     // Distinct leaves were written, as many as there are: all of them.
     assert_eq!(written, leaves, "the children index misses leaves");
     // SAFETY: every slot below `leaves` was written, once.
@@ -259,7 +259,7 @@ pub fn point_leaves<K: MortonKey>(tree: &Quadtree<K>) -> Vec<u32> {
 mod tests {
     use super::*;
     use crate::framework::build_framework;
-    use crate::quadtree::expand;
+    use crate::quadtree::{Internal, Leaf, expand};
 
     fn balanced_tree() -> Quadtree<u64> {
         let mut keys: Vec<u64> = (0..500u64)
@@ -269,6 +269,28 @@ mod tests {
         keys.dedup();
         let tree = expand(&build_framework(&keys), &keys);
         crate::balance::balance(&tree, &keys).tree
+    }
+
+    #[test]
+    #[should_panic(expected = "out of preorder")]
+    fn squares_out_of_preorder_are_refused() {
+        // The third square's leaves would start before the second's: gaps that overlap would
+        // name leaves twice.
+        let internal = [
+            Cell::<u64>::root(),
+            Cell::root().child(3),
+            Cell::root().child(0).child(0),
+        ]
+        .map(|cell| Internal { cell, first: 0 });
+        let leaf = Leaf {
+            cell: Cell::root().child(1),
+            point: NONE,
+        };
+        let tree = Quadtree {
+            internal: internal.to_vec(),
+            leaves: vec![leaf; 10],
+        };
+        cross_links(&tree);
     }
 
     #[test]

@@ -298,6 +298,23 @@ mod tests {
         }
     }
 
+    #[test]
+    fn anchors_keep_their_digits_across_widths() {
+        for i in 0..500u64 {
+            let x = i.wrapping_mul(0x9E37_79B9_7F4A_7C15);
+            let wide = u128::from(x) << 64 | u128::from(x.rotate_left(13));
+            for level in [0u8, 1, 17, 31, 32] {
+                let square = Cell::containing(wide, level);
+                let narrow: u64 = in_width(square.anchor);
+                assert_eq!(Cell::containing(narrow, level), Cell::containing(x, level));
+                assert_eq!(in_width::<u64, u128>(narrow), { square.anchor });
+            }
+            // Finer than 32: the digits down to level 32.
+            assert_eq!(in_width::<u128, u64>(wide), x);
+            assert_eq!(in_width::<u64, u64>(x), x);
+        }
+    }
+
     fn digit_sums_match_the_digits<K: MortonKey>(key: K) {
         for level in 0..=K::AXIS_BITS as u8 {
             let digits = (1..=level).map(|l| Cell::containing(key, l).quadrant());

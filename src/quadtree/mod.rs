@@ -42,9 +42,18 @@ pub struct Internal<K: Copy> {
 }
 
 /// A record that names a square: the square itself, or an internal square with its first point.
-pub trait HasCell<K: Copy>: Copy + Send + Sync {
+///
+/// Sealed: the closure's parallel writes rely on `cell` giving the same square every time.
+pub trait HasCell<K: Copy>: Copy + Send + Sync + sealed::Sealed {
     /// The square.
     fn cell(&self) -> Cell<K>;
+}
+
+mod sealed {
+    /// Only the crate's square records implement [`super::HasCell`].
+    pub trait Sealed {}
+    impl<K: Copy> Sealed for super::Cell<K> {}
+    impl<K: Copy> Sealed for super::Internal<K> {}
 }
 
 impl<K: Copy + Send + Sync> HasCell<K> for Cell<K> {
@@ -271,6 +280,9 @@ pub(crate) fn with_gap_leaves<K: MortonKey>(
     let mut first = leaves_at(internal, range.start);
     range.map(move |i| {
         let end = leaves_at(internal, i + 1);
+        // In a full quadtree the gaps follow one another, so each leaf is in one of them: the
+        // children index and the links, which scatter by leaf, rely on it.
+        assert!(first <= end, "internal squares out of preorder");
         let gap = first..end;
         first = end;
         (i, gap)
@@ -302,8 +314,9 @@ struct GapTiles<'a, G: Copy, K> {
     /// Where the gap ends; the end of the key space is 0, so `end - x` wraps to the right span.
     end: G,
     cursor: usize,
-    /// The finest level the next leaf may have, in the window's levels.
-    finest: u8,
+    /// The coarsest level the next leaf may have, in the window's levels: the first leaf is a
+    /// child of the square the gap follows, later ones may be larger.
+    coarsest: u8,
     keys: &'a [K],
     base: u128,
     shift: u32,
@@ -322,7 +335,7 @@ impl<'a, G: MortonKey, K: MortonKey> GapTiles<'a, G, K> {
             x: in_window(from.cell.anchor),
             end: end.map_or(G::default(), in_window),
             cursor: from.first as usize,
-            finest: from.cell.level + 1 - level_offset,
+            coarsest: from.cell.level + 1 - level_offset,
             keys,
             base,
             shift,
@@ -353,7 +366,7 @@ impl<G: MortonKey, K: MortonKey> GapTiles<'_, G, K> {
         // A leaf is never the root here, so its size fits in a key.
         let half_bits = (span_bits / 2)
             .min(align_bits / 2)
-            .min(G::AXIS_BITS - self.finest as u32);
+            .min(G::AXIS_BITS - self.coarsest as u32);
         let size = G::pow2(2 * half_bits);
         // About half the leaves hold a point, at random: a select, not a branch.
         let holds = self.keys.get(self.cursor).is_some_and(|&k| {
@@ -367,7 +380,7 @@ impl<G: MortonKey, K: MortonKey> GapTiles<'_, G, K> {
             level: (G::AXIS_BITS - half_bits) as u8 + self.level_offset,
         };
         self.x = self.x.wrapping_add(size);
-        self.finest = 0;
+        self.coarsest = 0;
         Leaf { cell, point }
     }
 }
