@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{FAMILIES, on_threads, with_keys};
+use common::{FAMILIES, extreme_wide_keys, on_threads, with_keys};
 
 use quadmesh::DVec2;
 use quadmesh::balance::reference::ripple_closure;
@@ -65,25 +65,13 @@ fn dyadic_boundaries_and_a_lone_deep_pair() {
 #[test]
 fn wide_keys_at_the_ends_of_the_key_space_and_below_level_32() {
     let high = 0x9E37_79B9_7F4A_7C15u128 << 64;
-    let wide: Vec<Vec<u128>> = vec![
-        // The finest level at both corners of the key space.
-        vec![0, 1],
-        vec![u128::MAX - 1, u128::MAX],
-        vec![0, 1, u128::MAX - 1, u128::MAX],
-        // A chain from the root to the finest level, and its mirror.
-        std::iter::once(0)
-            .chain((0..64).map(|k| 1u128 << (2 * k)))
-            .collect(),
-        (0..64)
-            .map(|k| u128::MAX - (1u128 << (2 * k)))
-            .rev()
-            .chain([u128::MAX])
-            .collect(),
-        // Keys in one square of level 32, so gaps below it end inside it, and some beside it.
+    let mut wide = extreme_wide_keys();
+    // Keys in one square of level 32, so gaps below it end inside it, and some beside it.
+    wide.extend([
         vec![high | 5, high | 9, high | 1 << 40, high | 1 << 63],
         vec![high | 3, high | 1 << 20, (high | 7) + (1 << 64)],
         vec![high - 1, high, high | 1],
-    ];
+    ]);
     for keys in &wide {
         assert_balanced_like_the_ripple(keys);
     }

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{FAMILIES, on_threads};
+use common::{FAMILIES, extreme_wide_keys, on_threads};
 
 use proptest::prelude::*;
 use quadmesh::balance::point_leaves;
@@ -342,19 +342,8 @@ fn extreme_keys_match_the_reference() {
     for keys in &narrow {
         assert_matches_reference(keys);
     }
-    let wide: Vec<Vec<u128>> = vec![
-        vec![0, u128::MAX],
-        vec![u128::MAX - 1, u128::MAX],
-        std::iter::once(0)
-            .chain((0..64).map(|k| 1u128 << (2 * k)))
-            .collect(),
-        (0..64)
-            .map(|k| u128::MAX - (1u128 << (2 * k)))
-            .rev()
-            .chain([u128::MAX])
-            .collect(),
-        (0..4096u128).map(|i| u128::MAX - 4095 + i).collect(),
-    ];
+    let mut wide = extreme_wide_keys();
+    wide.push((0..4096u128).map(|i| u128::MAX - 4095 + i).collect());
     for keys in &wide {
         assert_matches_reference(keys);
     }

@@ -150,3 +150,22 @@ pub fn refused_beyond_f64(points: &[DVec2], error: &Error, lo: DVec2, hi: DVec2)
         _ => false,
     }
 }
+
+/// 128-bit key sets at the edges of the key space: the finest level at the corners, and chains
+/// of squares from the root down to the finest level at both ends (sorted, distinct).
+pub fn extreme_wide_keys() -> Vec<Vec<u128>> {
+    vec![
+        vec![0, 1],
+        vec![0, u128::MAX],
+        vec![u128::MAX - 1, u128::MAX],
+        vec![0, 1, u128::MAX - 1, u128::MAX],
+        std::iter::once(0)
+            .chain((0..64).map(|k| 1u128 << (2 * k)))
+            .collect(),
+        (0..64)
+            .map(|k| u128::MAX - (1u128 << (2 * k)))
+            .rev()
+            .chain([u128::MAX])
+            .collect(),
+    ]
+}
