@@ -243,27 +243,49 @@ fn leaves_of<K: MortonKey>(
                 out.push(leaf);
             };
             let end = internal.get(i + 1).map(|s| s.cell.anchor);
-            // Wide keys' gaps mostly fit in 64 bits. A gap's leaves are children of the square
-            // or of its ancestors, and so is the next square, so above level 32 all are anchored
-            // in the top 64 bits. From level 32 down, a gap that ends inside the same square of
-            // level 32 lies in that square: the low 64 bits.
-            let from = &internal[i];
-            let low_bits = 2 * (K::AXIS_BITS - u64::AXIS_BITS);
-            let top = |k: K| k.to_u128() >> low_bits << low_bits;
-            let wide = K::AXIS_BITS > u64::AXIS_BITS;
-            if wide && from.cell.level < u64::AXIS_BITS as u8 {
-                let mut tiles = GapTiles::<u64, K>::new(from, end, keys, 0, low_bits);
-                gap.for_each(|j| put(j, tiles.next_leaf()));
-            } else if wide && end.is_some_and(|e| top(e) == top(from.cell.anchor)) {
-                let base = top(from.cell.anchor);
-                let mut tiles = GapTiles::<u64, K>::new(from, end, keys, base, 0);
-                gap.for_each(|j| put(j, tiles.next_leaf()));
-            } else {
-                let mut tiles = GapTiles::<K, K>::new(from, end, keys, 0, 0);
-                gap.for_each(|j| put(j, tiles.next_leaf()));
+            // Each arm with its own constant shift: a variable 128-bit shift per leaf costs more.
+            match narrow_window(internal[i].cell, end) {
+                Some(NarrowWindow::Top) => {
+                    let shift = 2 * (K::AXIS_BITS - u64::AXIS_BITS);
+                    let mut tiles = GapTiles::<u64, K>::new(&internal[i], end, keys, 0, shift);
+                    gap.for_each(|j| put(j, tiles.next_leaf()));
+                }
+                Some(NarrowWindow::Within(base)) => {
+                    let mut tiles = GapTiles::<u64, K>::new(&internal[i], end, keys, base, 0);
+                    gap.for_each(|j| put(j, tiles.next_leaf()));
+                }
+                None => {
+                    let mut tiles = GapTiles::<K, K>::new(&internal[i], end, keys, 0, 0);
+                    gap.for_each(|j| put(j, tiles.next_leaf()));
+                }
             }
         }
     })
+}
+
+/// A 64-bit window of a wide key space that holds a gap (see [`GapTiles`]).
+enum NarrowWindow {
+    /// The top 64 bits.
+    Top,
+    /// The low 64 bits of the square of level 32 with this anchor.
+    Within(u128),
+}
+
+/// The 64-bit window that holds the gap after square `from` up to `end`, for wide keys. A gap's
+/// leaves are children of the square or of its ancestors, and so is the next square, so above
+/// level 32 all are anchored in the top 64 bits. From level 32 down, a gap that ends inside the
+/// same square of level 32 lies in that square.
+fn narrow_window<K: MortonKey>(from: Cell<K>, end: Option<K>) -> Option<NarrowWindow> {
+    if K::AXIS_BITS <= u64::AXIS_BITS {
+        return None;
+    }
+    let narrow_level = u64::AXIS_BITS as u8;
+    if from.level < narrow_level {
+        return Some(NarrowWindow::Top);
+    }
+    let square = from.anchor.cell_anchor(narrow_level);
+    end.filter(|e| e.cell_anchor(narrow_level) == square)
+        .map(|_| NarrowWindow::Within(square.to_u128()))
 }
 
 /// Where the leaves after each of the internal squares `at` start (see [`with_gap_leaves`]).
@@ -329,7 +351,7 @@ impl<'a, G: MortonKey, K: MortonKey> GapTiles<'a, G, K> {
     /// children, `end` (none: the end of the key space, only for windows that reach it) and every
     /// leaf between.
     fn new(from: &Internal<K>, end: Option<K>, keys: &'a [K], base: u128, shift: u32) -> Self {
-        let in_window = |k: K| G::from_u128(k.to_u128().wrapping_sub(base) >> shift);
+        let in_window = |k: K| G::from_u128(window_offset(k, base, shift));
         let level_offset = (K::AXIS_BITS - G::AXIS_BITS - shift / 2) as u8;
         GapTiles {
             x: in_window(from.cell.anchor),
@@ -346,10 +368,17 @@ impl<'a, G: MortonKey, K: MortonKey> GapTiles<'a, G, K> {
     /// Key `k` in the window's width, if it lies in the window.
     #[inline]
     fn in_window(&self, k: K) -> Option<G> {
-        let w = k.to_u128().wrapping_sub(self.base) >> self.shift;
+        let w = window_offset(k, self.base, self.shift);
         let most = u128::MAX >> (128 - 2 * G::AXIS_BITS);
         (w <= most).then(|| G::from_u128(w))
     }
+}
+
+/// Key `k`'s place in the window `base`, `shift`: below `2^(2 G::AXIS_BITS)` when it lies in a
+/// window of width `G`.
+#[inline]
+fn window_offset<K: MortonKey>(k: K, base: u128, shift: u32) -> u128 {
+    k.to_u128().wrapping_sub(base) >> shift
 }
 
 impl<G: MortonKey, K: MortonKey> GapTiles<'_, G, K> {
