@@ -211,6 +211,21 @@ fn single_point_mesh_by_hand() {
     assert_eq!(mesh.vertices[point], points[0]);
 }
 
+/// Two points 5e-9 apart at a span of 1000 need leaves whose f64 corners are squares only to
+/// some 1e-4 of their side: their templates' angles are off by 0.003°, so the report measures
+/// them (the property test found this one).
+#[test]
+fn the_report_measures_leaves_that_rounding_bends() {
+    let points = [
+        DVec2::new(0.2500009258344418, 0.5),
+        DVec2::new(874.2861093044031, 0.0),
+        DVec2::new(0.2500009310293854, 0.5),
+        DVec2::new(-129.99731019170375, -480.309997512667),
+    ];
+    let (_, report) = mesh_checked(&points);
+    assert!(report.min_angle < 0.5f64.atan().to_degrees() - 1e-3);
+}
+
 #[test]
 fn points_closer_than_f64_can_mesh_between_are_an_error() {
     // Adjacent floats next to a point a unit away: the grid separates them, but the leaves

@@ -26,6 +26,8 @@ pub struct LeafGeometry<'a, K: Copy> {
     grid: &'a Grid,
     /// Leaves at this level or coarser are far larger than f64's spacing anywhere in the root.
     resolved_level: u8,
+    /// Leaves at this level or coarser are squares to f64's precision (see [`Self::exact_square`]).
+    exact_level: u8,
     /// The grid row moved onto a short domain's top side, if any (asked once, not per leaf).
     inner_top_row: Option<u128>,
 }
@@ -37,7 +39,8 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
             links: &tree.links,
             point_leaf: &tree.point_leaf,
             grid,
-            resolved_level: resolved_level(grid, K::AXIS_BITS),
+            resolved_level: level_spanning(grid, K::AXIS_BITS, RESOLVED_SPACINGS),
+            exact_level: level_spanning(grid, K::AXIS_BITS, EXACT_SPACINGS),
             inner_top_row: grid.inner_top_row(),
         }
     }
@@ -119,13 +122,13 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
         lo.x < mid.x && mid.x < hi.x && lo.y < mid.y && mid.y < hi.y
     }
 
-    /// Whether the leaf is a square up to f64 rounding of at most 2^-11 of its side, so that its
-    /// triangles have its template's angles to about 0.01°: it is coarse enough, and its top
+    /// Whether the leaf is a square up to f64 rounding of about 2^-17 of its side, so that its
+    /// triangles have its template's angles to about 2e-3°: it is coarse enough, and its top
     /// side is not the grid row moved onto a short domain's top side (which makes it a
     /// rectangle).
     pub fn exact_square(&self, leaf: usize) -> bool {
         let (_, y, size) = self.grid_square(leaf);
-        self.level(leaf) <= self.resolved_level && self.inner_top_row != Some(y + size)
+        self.level(leaf) <= self.exact_level && self.inner_top_row != Some(y + size)
     }
 
     /// A point of the grid in input coordinates.
@@ -134,9 +137,20 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
     }
 }
 
-/// The deepest level whose half-size squares span at least 2^10 f64 spacings of the largest
-/// coordinate in the root, so that their corners, midpoints and centres are surely distinct.
-fn resolved_level(grid: &Grid, axis_bits: u32) -> u8 {
+/// F64 spacings a leaf's half side spans at [`LeafGeometry::resolvable`]'s coarse levels: its
+/// corners, midpoints and centre are surely distinct.
+const RESOLVED_SPACINGS: f64 = 1024.0;
+
+/// F64 spacings a leaf's half side spans at [`LeafGeometry::exact_square`]'s levels: the grid's
+/// rounding moves a corner by about a spacing at most, 2^-17 of the side, which turns an angle
+/// by some 2^-15 radians (2e-3°). At [`RESOLVED_SPACINGS`] it may turn one by 0.03°, which a
+/// report of template angles would miss. (Measuring every leaf to 2^-22 of its side made the
+/// warp's last stage 2.4 times as long for 3e6 Kuzmin points, most of whose leaves lie that deep.)
+const EXACT_SPACINGS: f64 = (1u64 << 16) as f64;
+
+/// The deepest level whose half-size squares span at least `spacings` f64 spacings of the
+/// largest coordinate in the root.
+fn level_spanning(grid: &Grid, axis_bits: u32, spacings: f64) -> u8 {
     let lo = grid.origin();
     let largest = lo
         .abs()
@@ -146,7 +160,7 @@ fn resolved_level(grid: &Grid, axis_bits: u32) -> u8 {
         .max(f64::MIN_POSITIVE);
     let spacing = largest * f64::EPSILON;
     let mut level = 0;
-    while level < axis_bits && grid.side() / (2.0f64).powi(level as i32 + 2) >= spacing * 1024.0 {
+    while level < axis_bits && grid.side() / (2.0f64).powi(level as i32 + 2) >= spacing * spacings {
         level += 1;
     }
     level as u8
