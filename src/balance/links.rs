@@ -11,7 +11,9 @@ use rayon::prelude::*;
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
-use crate::par::{DisjointWrites, GRAIN, chunk_offsets, prefetch, with_capacity_huge};
+use crate::par::{
+    DisjointWrites, GRAIN, chunk_offsets, prefetch, stream_fence, with_capacity_huge,
+};
 use crate::quadtree::Quadtree;
 use crate::quadtree::index::{LEAF, children, path_to};
 
@@ -122,12 +124,15 @@ pub(crate) fn cross_links_by<K: MortonKey>(
                         // leaf is named in at most one of their slots.
                         #[allow(unsafe_code)]
                         unsafe {
-                            slots.write((entry & !LEAF) as usize, MaybeUninit::new(leaf_links))
+                            let at = (entry & !LEAF) as usize;
+                            slots.write_streaming(at, MaybeUninit::new(leaf_links))
                         };
                         written += 1;
                     }
                 }
             }
+            // Streaming stores are weakly ordered: fenced before the join hands them on.
+            stream_fence();
             written
         })
         .sum();
