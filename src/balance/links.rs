@@ -5,15 +5,11 @@
 //! preorder are walked in chunks, each keeping these neighbours along its path from the root,
 //! so every square and leaf costs O(1) look-ups and no climbing.
 
-use std::mem::MaybeUninit;
-
 use rayon::prelude::*;
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
-use crate::par::{
-    DisjointWrites, GRAIN, chunk_offsets, prefetch, stream_fence, with_capacity_huge,
-};
+use crate::par::{DisjointWrites, GRAIN, StreamFence, chunk_offsets, prefetch, with_capacity_huge};
 use crate::quadtree::Quadtree;
 use crate::quadtree::index::{LEAF, children, path_to};
 
@@ -25,7 +21,10 @@ use crate::quadtree::index::{LEAF, children, path_to};
 /// in consecutive quadrants, hence consecutive leaves; south or north, the second is the
 /// first's east neighbour, of its own size. A slot holds the first, flagged `PAIR` when there
 /// are two; [`across`] finds the second.
+///
+/// Aligned to 16 bytes, so that the links are written by streaming stores.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(align(16))]
 pub struct Links([u32; 4]);
 
 /// On a slot: the leaf there is the first of two. Leaf indices stay below it, as the children
@@ -112,6 +111,8 @@ pub(crate) fn cross_links_by<K: MortonKey>(
     let written: usize = (0..chunks.len() - 1)
         .into_par_iter()
         .map(|c| {
+            // Streaming stores are weakly ordered: fenced before the join hands them on.
+            let _fence = StreamFence;
             let mut path = NeighbourPath::to(tree, children, chunks[c]);
             let mut written = 0;
             for i in chunks[c]..chunks[c + 1] {
@@ -121,18 +122,17 @@ pub(crate) fn cross_links_by<K: MortonKey>(
                     if entry & LEAF != 0 {
                         let leaf_links = path.child_links(cell.level, quadrant);
                         // SAFETY: each internal square is entered once, by one chunk, and each
-                        // leaf is named in at most one of their slots.
+                        // leaf is named in at most one of their slots; any words are links;
+                        // the chunk's fence is dropped before the join hands the links on.
                         #[allow(unsafe_code)]
                         unsafe {
                             let at = (entry & !LEAF) as usize;
-                            slots.write_streaming(at, MaybeUninit::new(leaf_links))
+                            slots.write_words_streaming(at, leaf_links.0)
                         };
                         written += 1;
                     }
                 }
             }
-            // Streaming stores are weakly ordered: fenced before the join hands them on.
-            stream_fence();
             written
         })
         .sum();

@@ -97,7 +97,7 @@ pub fn warp<K: MortonKey>(
         })
     });
     let (boundary, quality) = times.time("warp boundary", || {
-        let inexact = |leaf: usize| !geometry.exact_square(leaf);
+        let inexact = |leaf: usize| !geometry.template_accurate(leaf);
         let measured = measured_quality(&kinds, &offsets, (&triangles, &vertices), inexact);
         (
             boundary_edges(&geometry, &kinds, &triangles, &offsets),
@@ -177,8 +177,8 @@ pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>) -> Option<usi
 
 /// The angles of the leaves without a moved corner, from their templates: such a leaf is a
 /// square, so its angles are the template's. (The warped leaves' angles are measured as their
-/// diagonals are chosen, and those of the leaves that are not squares to f64's precision, as
-/// [`LeafGeometry::exact_square`] tells, by [`measured_quality`].)
+/// diagonals are chosen, and those of the leaves that f64 rounding bends too far from a square,
+/// as [`LeafGeometry::template_accurate`] tells, by [`measured_quality`].)
 fn unmoved_quality(kinds: &[u8], inexact: impl Fn(usize) -> bool + Sync) -> AngleQuality {
     let unmoved_per_kind = kinds
         .par_chunks(crate::par::GRAIN)

@@ -25,9 +25,10 @@ pub struct LeafGeometry<'a, K: Copy> {
     pub point_leaf: &'a [u32],
     grid: &'a Grid,
     /// Leaves at this level or coarser are far larger than f64's spacing anywhere in the root.
-    resolved_level: u8,
-    /// Leaves at this level or coarser are squares to f64's precision (see [`Self::exact_square`]).
-    exact_level: u8,
+    resolved_level: Option<u8>,
+    /// Leaves at this level or coarser have their templates' angles to the report's precision
+    /// (see [`Self::template_accurate`]).
+    template_level: Option<u8>,
     /// The grid row moved onto a short domain's top side, if any (asked once, not per leaf).
     inner_top_row: Option<u128>,
 }
@@ -40,7 +41,7 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
             point_leaf: &tree.point_leaf,
             grid,
             resolved_level: level_spanning(grid, K::AXIS_BITS, RESOLVED_SPACINGS),
-            exact_level: level_spanning(grid, K::AXIS_BITS, EXACT_SPACINGS),
+            template_level: level_spanning(grid, K::AXIS_BITS, TEMPLATE_SPACINGS),
             inner_top_row: grid.inner_top_row(),
         }
     }
@@ -111,7 +112,7 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
 
     /// Whether f64 keeps the leaf's corners, midpoints and centre apart.
     pub fn resolvable(&self, leaf: usize) -> bool {
-        if self.level(leaf) <= self.resolved_level {
+        if self.resolved_level.is_some_and(|l| self.level(leaf) <= l) {
             return true;
         }
         let (x, y, size) = self.grid_square(leaf);
@@ -122,13 +123,13 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
         lo.x < mid.x && mid.x < hi.x && lo.y < mid.y && mid.y < hi.y
     }
 
-    /// Whether the leaf is a square up to f64 rounding of about 2^-17 of its side, so that its
-    /// triangles have its template's angles to about 2e-3°: it is coarse enough, and its top
-    /// side is not the grid row moved onto a short domain's top side (which makes it a
-    /// rectangle).
-    pub fn exact_square(&self, leaf: usize) -> bool {
+    /// Whether the leaf's triangles have its template's angles to the report's precision (see
+    /// [`TEMPLATE_SPACINGS`]): it is coarse enough, and its top side is not the grid row moved
+    /// onto a short domain's top side (which makes it a rectangle).
+    pub fn template_accurate(&self, leaf: usize) -> bool {
         let (_, y, size) = self.grid_square(leaf);
-        self.level(leaf) <= self.exact_level && self.inner_top_row != Some(y + size)
+        let coarse = self.template_level.is_some_and(|l| self.level(leaf) <= l);
+        coarse && self.inner_top_row != Some(y + size)
     }
 
     /// A point of the grid in input coordinates.
@@ -141,16 +142,21 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
 /// corners, midpoints and centre are surely distinct.
 const RESOLVED_SPACINGS: f64 = 1024.0;
 
-/// F64 spacings a leaf's half side spans at [`LeafGeometry::exact_square`]'s levels: the grid's
-/// rounding moves a corner by about a spacing at most, 2^-17 of the side, which turns an angle
-/// by some 2^-15 radians (2e-3°). At [`RESOLVED_SPACINGS`] it may turn one by 0.03°, which a
-/// report of template angles would miss. (Measuring every leaf to 2^-22 of its side made the
-/// warp's last stage 2.4 times as long for 3e6 Kuzmin points, most of whose leaves lie that deep.)
-const EXACT_SPACINGS: f64 = (1u64 << 16) as f64;
+/// F64 spacings a leaf's half side spans at the levels whose leaves the report takes to have
+/// their templates' angles ([`LeafGeometry::template_accurate`]). A grid vertex is
+/// `origin + gx * unit`, rounded twice, so it is off by up to about 1.5 spacings of the root's
+/// largest coordinate (2.5 on a domain's far side, which is set to the domain's own coordinate).
+/// Edges along grid lines stay on them, so only diagonals turn: by up to 2e/h for an error e
+/// and half side h, and an angle between two diagonals by up to 4e/h. Here that is 6·2^-16
+/// radians, 0.005° (0.01° on a far side); at [`RESOLVED_SPACINGS`] it is 0.3°, which a report
+/// of template angles would miss. Measuring down to 2^21 spacings made the warp's last stage
+/// 2.4 times as long for 3e6 Kuzmin points, most of whose leaves lie that deep; 2^16 costs 4–7%
+/// of it.
+const TEMPLATE_SPACINGS: f64 = (1u64 << 16) as f64;
 
 /// The deepest level whose half-size squares span at least `spacings` f64 spacings of the
-/// largest coordinate in the root.
-fn level_spanning(grid: &Grid, axis_bits: u32, spacings: f64) -> u8 {
+/// largest coordinate in the root; `None` if not even the root's do.
+fn level_spanning(grid: &Grid, axis_bits: u32, spacings: f64) -> Option<u8> {
     let lo = grid.origin();
     let largest = lo
         .abs()
@@ -159,11 +165,11 @@ fn level_spanning(grid: &Grid, axis_bits: u32, spacings: f64) -> u8 {
         .abs()
         .max(f64::MIN_POSITIVE);
     let spacing = largest * f64::EPSILON;
-    let mut level = 0;
-    while level < axis_bits && grid.side() / (2.0f64).powi(level as i32 + 2) >= spacing * spacings {
-        level += 1;
-    }
-    level as u8
+    let spans = |level: u32| grid.side() / (2.0f64).powi(level as i32 + 1) >= spacing * spacings;
+    (0..=axis_bits)
+        .take_while(|&level| spans(level))
+        .last()
+        .map(|level| level as u8)
 }
 
 /// What a leaf owns besides its lower-left corner, in slot order.

@@ -88,12 +88,12 @@ pub fn check_warped(points: &[DVec2], mesh: &Mesh, report: &MeshReport) {
 }
 
 /// The report's angles, taken from templates and from the diagonals' choice, are those of the
-/// mesh's triangles. The templates give the angles of ideal squares, and f64 corners make a
-/// leaf the templates stand for a square only to about 2^-17 of its side (smaller leaves are
-/// measured), so the report may differ from the measure by some 2e-3°: its extremes by up to
-/// `TOLERANCE_DEG`, its histogram only by angles that close to a bin's edge.
+/// mesh's triangles. The templates give the angles of ideal squares, and f64 corners bend the
+/// leaves the report takes them for by up to some 0.005° (0.01° on a domain's far side; finer
+/// leaves are measured), so its extremes may differ from the measure by up to `TOLERANCE_DEG`,
+/// its histogram only by angles that close to a bin's edge.
 fn assert_report_measures(mesh: &Mesh, report: &MeshReport) {
-    const TOLERANCE_DEG: f64 = 5e-3;
+    const TOLERANCE_DEG: f64 = 0.01;
     let (mut min, mut max, mut histogram) = (f64::INFINITY, f64::NEG_INFINITY, [0u64; 18]);
     let mut near_edges = 0;
     for t in &mesh.triangles {
