@@ -4,11 +4,12 @@
 mod common;
 
 use common::{
-    FAMILIES, WARP, check_warped, distinct_count, mixed_point_sets, on_threads, refused_beyond_f64,
+    FAMILIES, WARP, check_warped, distinct_count, mesh_angles, mixed_point_sets, on_threads,
+    refused_beyond_f64,
 };
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
-use quadmesh::mesh::{AngleBounds, angles_deg};
+use quadmesh::mesh::AngleBounds;
 use quadmesh::{DVec2, Error, Mesh, MeshOptions, MeshReport, mesh_points};
 
 fn mesh_checked(points: &[DVec2]) -> (Mesh, MeshReport) {
@@ -223,12 +224,7 @@ fn the_report_measures_leaves_that_rounding_bends() {
         DVec2::new(-129.99731019170375, -480.309997512667),
     ];
     let (mesh, report) = mesh_checked(&points);
-    let smallest = (mesh.triangles.iter())
-        .flat_map(|t| {
-            let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
-            angles_deg(a, b, c)
-        })
-        .fold(f64::INFINITY, f64::min);
+    let smallest = mesh_angles(&mesh).fold(f64::INFINITY, f64::min);
     assert!(smallest < 0.5f64.atan().to_degrees() - 1e-3, "{smallest}");
     assert_eq!(report.min_angle, smallest);
 }

@@ -8,10 +8,10 @@ mod common;
 use std::sync::mpsc;
 use std::time::Duration;
 
-use common::{FAMILIES, distinct_count, mixed_point_sets, on_threads};
+use common::{FAMILIES, distinct_count, mesh_angles, mixed_point_sets, on_threads};
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
-use quadmesh::mesh::{AngleBounds, Domain, NONE, angles_deg};
+use quadmesh::mesh::{AngleBounds, Domain, NONE};
 use quadmesh::refine::{GUARANTEED_MIN_ANGLE_DEG, MAX_MIN_ANGLE_DEG, RefineOptions, refine_points};
 use quadmesh::{DVec2, Error, Mesh, MeshReport};
 
@@ -80,16 +80,9 @@ fn check_report(mesh: &Mesh, report: &MeshReport, min_angle_deg: f64) {
     let b = bounds(min_angle_deg);
     assert!(report.min_angle >= b.min_deg - 1e-9, "{}", report.min_angle);
     assert!(report.max_angle <= b.max_deg + 1e-9, "{}", report.max_angle);
-    let (lo, hi) = mesh
-        .triangles
-        .iter()
-        .flat_map(|tri| {
-            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
-            angles_deg(a, b, c)
-        })
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
-            (lo.min(x), hi.max(x))
-        });
+    let (lo, hi) = mesh_angles(mesh).fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| {
+        (lo.min(x), hi.max(x))
+    });
     assert!(
         (report.min_angle - lo).abs() < 1e-9,
         "{} vs {lo}",

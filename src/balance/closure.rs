@@ -11,7 +11,7 @@ use std::borrow::Cow;
 
 use rayon::prelude::*;
 
-use crate::morton::{Cell, MortonKey, Side, in_width};
+use crate::morton::{Cell, MortonKey, NARROW_LEVEL, Side, in_width};
 use crate::par::{
     DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat,
     exclusive_scan_by,
@@ -61,12 +61,6 @@ fn closed_levels<K: MortonKey, S: HasCell<K>>(split: &[S]) -> Levels<K> {
     }
     Levels { narrow, deep }
 }
-
-/// The finest level whose squares' anchors fit in 64 bits: a wide key's anchor at this level or
-/// a coarser one has its low 64 bits zero. Trees of wide keys rarely go deeper (1e6 Kuzmin
-/// points: a few hundred of a million squares), so their closure and walk read half the memory
-/// and do most of their arithmetic in one register.
-const NARROW_LEVEL: usize = u64::AXIS_BITS as usize;
 
 /// The sorted, distinct anchors of the squares at each level: in 64 bits (see [`in_width`])
 /// down to [`NARROW_LEVEL`], in the key's own width below it.

@@ -93,6 +93,12 @@ fn sum_of_digits(x: u64) -> u32 {
     (bytes.wrapping_mul(0x0101_0101_0101_0101) >> 56) as u32
 }
 
+/// The finest level whose squares' anchors fit in 64 bits: a wide key's anchor at this level or
+/// a coarser one has its low 64 bits zero. Trees of wide keys rarely go deeper (1e6 Kuzmin
+/// points: a few hundred of a million squares), so the balance works on them in 64 bits down to
+/// here: its closure and walk read half the memory, and its leaves are tiled in one register.
+pub(crate) const NARROW_LEVEL: usize = u64::AXIS_BITS as usize;
+
 /// The anchor of a square no finer than either width's finest level, in the other width: the
 /// same digits at the other width's top. From a wider key to a narrower one, any key: the digits
 /// of its square at the narrower width's finest level.

@@ -19,7 +19,7 @@ use rayon::prelude::*;
 pub use cell::{Cell, Side};
 pub use interleave::has_pdep;
 pub use key::MortonKey;
-pub(crate) use key::in_width;
+pub(crate) use key::{NARROW_LEVEL, in_width};
 pub use quantize::{GUARD_LEVELS, Grid};
 pub use sort::{Pair, SortAlgorithm, SortPairs, equal_key_runs};
 

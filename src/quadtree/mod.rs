@@ -14,7 +14,7 @@ pub use crate::morton::Cell;
 use std::ops::Range;
 
 use crate::framework::{Framework, NONE};
-use crate::morton::MortonKey;
+use crate::morton::{MortonKey, NARROW_LEVEL};
 use crate::par::{
     GRAIN, SharedSlots, chunk_offsets, collect_indexed, collect_segments, collect_segments_by,
     exclusive_scan_by,
@@ -279,7 +279,7 @@ fn narrow_window<K: MortonKey>(from: Cell<K>, end: Option<K>) -> Option<NarrowWi
     if K::AXIS_BITS <= u64::AXIS_BITS {
         return None;
     }
-    let narrow_level = u64::AXIS_BITS as u8;
+    let narrow_level = NARROW_LEVEL as u8;
     if from.level < narrow_level {
         return Some(NarrowWindow::Top);
     }

@@ -96,15 +96,12 @@ fn assert_report_measures(mesh: &Mesh, report: &MeshReport) {
     const TOLERANCE_DEG: f64 = 0.01;
     let (mut min, mut max, mut histogram) = (f64::INFINITY, f64::NEG_INFINITY, [0u64; 18]);
     let mut near_edges = 0;
-    for t in &mesh.triangles {
-        let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
-        for angle in angles_deg(a, b, c) {
-            min = min.min(angle);
-            max = max.max(angle);
-            histogram[((angle / 10.0) as usize).min(17)] += 1;
-            let edge = (angle / 10.0).round() * 10.0;
-            near_edges += u64::from((angle - edge).abs() < TOLERANCE_DEG);
-        }
+    for angle in mesh_angles(mesh) {
+        min = min.min(angle);
+        max = max.max(angle);
+        histogram[((angle / 10.0) as usize).min(17)] += 1;
+        let edge = (angle / 10.0).round() * 10.0;
+        near_edges += u64::from((angle - edge).abs() < TOLERANCE_DEG);
     }
     let close = |reported: f64, measured: f64| (reported - measured).abs() < TOLERANCE_DEG;
     assert!(close(report.min_angle, min), "{} {min}", report.min_angle);
@@ -117,6 +114,14 @@ fn assert_report_measures(mesh: &Mesh, report: &MeshReport) {
         "report {:?}, measured {histogram:?}",
         report.histogram
     );
+}
+
+/// Every angle of every triangle of `mesh`, in degrees, measured on its f64 vertices.
+pub fn mesh_angles(mesh: &Mesh) -> impl Iterator<Item = f64> + '_ {
+    mesh.triangles.iter().flat_map(|t| {
+        let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
+        angles_deg(a, b, c)
+    })
 }
 
 /// Whether another point lies closer to point `index` than 2^-30 of the extent of the domain
