@@ -243,6 +243,22 @@ impl<T> SegmentWriter<'_, T> {
         self.written += 1;
     }
 
+    /// Writes `values` next, as one copy.
+    ///
+    /// # Panics
+    /// If the segment has too little room left.
+    #[inline]
+    pub fn extend_from_slice(&mut self, values: &[T])
+    where
+        T: Copy,
+    {
+        let slots = &mut self.slots[self.written..self.written + values.len()];
+        for (slot, &value) in slots.iter_mut().zip(values) {
+            slot.write(value);
+        }
+        self.written += values.len();
+    }
+
     /// How many values have been written.
     pub fn len(&self) -> usize {
         self.written
@@ -403,11 +419,7 @@ where
 /// The parts one after another, copied in parallel into fresh memory.
 pub fn concat<T: Copy + Send + Sync>(parts: &[Vec<T>]) -> Vec<T> {
     let offsets = exclusive_scan_by(parts.len(), |i| parts[i].len());
-    collect_segments_by(&offsets, |i, out| {
-        for &value in &parts[i] {
-            out.push(value);
-        }
-    })
+    collect_segments_by(&offsets, |i, out| out.extend_from_slice(&parts[i]))
 }
 
 /// `f(0), f(1), ..., f(n - 1)` computed in parallel into fresh memory.

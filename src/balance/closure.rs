@@ -388,10 +388,7 @@ pub(crate) fn with_forced<I: MortonKey, O: MortonKey>(
         .map(|c| {
             let existing = &existing[cut(existing, c)..cut(existing, c + 1)];
             let others = &others[cut(&others, c)..cut(&others, c + 1)];
-            match others {
-                [] => merge_distinct(&inside[c], existing),
-                _ => merge_distinct(&inside[c], &merge_distinct(existing, others)),
-            }
+            merge_distinct_with_few(&inside[c], existing, others)
         })
         .collect();
     concat(&parts)
@@ -531,9 +528,8 @@ pub fn forced_by<K: MortonKey>(cell: Cell<K>) -> [Option<Cell<K>>; 3] {
     ]
 }
 
-/// The sorted union of two sorted, distinct lists.
-fn merge_distinct<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
-    let mut out = Vec::with_capacity(a.len() + b.len());
+/// Appends the sorted union of two sorted, distinct lists to `out`.
+fn merge_distinct_into<K: MortonKey>(out: &mut Vec<K>, a: &[K], b: &[K]) {
     let (mut i, mut j) = (0, 0);
     while i < a.len() && j < b.len() {
         let next = a[i].min(b[j]);
@@ -543,6 +539,27 @@ fn merge_distinct<K: MortonKey>(a: &[K], b: &[K]) -> Vec<K> {
     }
     out.extend_from_slice(&a[i..]);
     out.extend_from_slice(&b[j..]);
+}
+
+/// The sorted union of three sorted, distinct lists, the last of them short beside the others:
+/// one pass that merges the first two without branching and takes the few in as they come.
+fn merge_distinct_with_few<K: MortonKey>(a: &[K], b: &[K], few: &[K]) -> Vec<K> {
+    let mut out = Vec::with_capacity(a.len() + b.len() + few.len());
+    let (mut i, mut j, mut f) = (0, 0, 0);
+    while i < a.len() && j < b.len() {
+        let next = a[i].min(b[j]);
+        while f < few.len() && few[f] <= next {
+            if few[f] < next {
+                out.push(few[f]);
+            }
+            f += 1;
+        }
+        out.push(next);
+        i += usize::from(a[i] == next);
+        j += usize::from(b[j] == next);
+    }
+    let rest = if i < a.len() { &a[i..] } else { &b[j..] };
+    merge_distinct_into(&mut out, rest, &few[f..]);
     out
 }
 
@@ -552,13 +569,20 @@ mod tests {
 
     #[test]
     fn merging_keeps_one_of_each() {
-        assert_eq!(
-            merge_distinct::<u64>(&[1, 3, 5], &[2, 3, 6]),
-            vec![1, 2, 3, 5, 6]
-        );
-        assert_eq!(merge_distinct::<u64>(&[], &[2]), vec![2]);
-        assert_eq!(merge_distinct::<u64>(&[4], &[]), vec![4]);
-        assert_eq!(merge_distinct::<u64>(&[], &[]), Vec::<u64>::new());
+        let few = [0u64, 3, 4, 9, 12];
+        let lists: [&[u64]; 4] = [&[1, 3, 5, 9], &[2, 3, 6], &[], &[7, 8, 9, 10, 11]];
+        for a in lists {
+            for b in lists {
+                for f in 0..=few.len() {
+                    let few = &few[..f];
+                    let union: std::collections::BTreeSet<u64> =
+                        a.iter().chain(b).chain(few).copied().collect();
+                    let expected: Vec<u64> = union.into_iter().collect();
+                    let merged = merge_distinct_with_few(a, b, few);
+                    assert_eq!(merged, expected, "{a:?} {b:?} {few:?}");
+                }
+            }
+        }
     }
 
     #[test]

@@ -11,7 +11,7 @@ use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
 use crate::par::{DisjointWrites, GRAIN, StreamFence, chunk_offsets, prefetch, with_capacity_huge};
 use crate::quadtree::Quadtree;
-use crate::quadtree::index::{LEAF, children, path_to};
+use crate::quadtree::index::{LEAF, children, path_by_children};
 
 /// A leaf's neighbours across its four sides: one leaf of the same or twice the size, the two
 /// half-size leaves in increasing coordinate along the side, or none on the root's boundary.
@@ -162,7 +162,7 @@ struct NeighbourPath<'a> {
 impl<'a> NeighbourPath<'a> {
     /// The path down to the parent of internal square `i`.
     fn to<K: MortonKey>(tree: &Quadtree<K>, children: &'a [[u32; 4]], i: usize) -> Self {
-        let squares = path_to(tree, i);
+        let squares = path_by_children(tree, children, i);
         let mut path = NeighbourPath {
             children,
             beside_children: vec![[[NONE; 4]; 4]; squares.len()],

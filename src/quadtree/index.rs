@@ -3,6 +3,8 @@
 
 use rayon::prelude::*;
 
+use std::ops::Range;
+
 use crate::morton::{Cell, MortonKey};
 use crate::par::{GRAIN, SharedSlots, chunk_offsets};
 
@@ -30,7 +32,7 @@ pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
     let slots = SharedSlots::new(children.as_flattened_mut());
     let chunks = chunk_offsets(internal.len(), GRAIN);
     (0..chunks.len() - 1).into_par_iter().for_each(|c| {
-        let mut parents = ChildSlots::starting_at(internal, chunks[c], &slots);
+        let mut parents = ChildSlots::for_scan(internal, chunks[c]..chunks[c + 1], &slots);
         for (i, gap) in with_gap_leaves(internal, chunks[c]..chunks[c + 1]) {
             parents.square(i, internal[i].cell);
             for j in gap {
@@ -51,14 +53,17 @@ pub(crate) struct ChildSlots<'s, 'a> {
 }
 
 impl<'s, 'a> ChildSlots<'s, 'a> {
-    /// For a scan that starts at internal square `i`.
-    pub(crate) fn starting_at<K: MortonKey>(
+    /// For a scan of the internal squares `range` and the leaves after each. Of the path from
+    /// the root, only the levels the scan climbs to are looked up: a chunk of squares climbs a
+    /// few levels above its first, while a deep tree has dozens, each a binary search among all
+    /// squares.
+    pub(crate) fn for_scan<K: MortonKey>(
         internal: &[Internal<K>],
-        i: usize,
+        range: Range<usize>,
         slots: &'s SharedSlots<'a>,
     ) -> Self {
         ChildSlots {
-            path: path_in(internal, i),
+            path: path_in(internal, range.start, highest_parent(internal, range)),
             slots,
         }
     }
@@ -85,22 +90,63 @@ impl<'s, 'a> ChildSlots<'s, 'a> {
     }
 }
 
+/// The coarsest level of a parent in a scan of the internal squares `range` and the leaves
+/// after each: a leaf in the gap before the next square is a child of the square before it or
+/// of an ancestor of it below the next one's parent, so one level above the coarsest square in
+/// the range and the one after it (the root's level after the last square).
+fn highest_parent<K: MortonKey>(internal: &[Internal<K>], range: Range<usize>) -> u8 {
+    let next = internal.get(range.end).map_or(0, |s| s.cell.level);
+    let coarsest = internal[range].iter().map(|s| s.cell.level).min();
+    coarsest
+        .map_or(next, |level| level.min(next))
+        .saturating_sub(1)
+}
+
 /// The internal squares from the root down to the parent of internal square `i`, by level, with
 /// room below for a path down to the finest level.
 pub fn path_to<K: MortonKey>(tree: &Quadtree<K>, i: usize) -> Vec<u32> {
-    path_in(&tree.internal, i)
+    path_in(&tree.internal, i, 0)
 }
 
-/// As [`path_to`], in the internal squares alone (in preorder).
-pub(crate) fn path_in<K: MortonKey>(internal: &[Internal<K>], i: usize) -> Vec<u32> {
+/// As [`path_to`], in the internal squares alone (in preorder), from level `top` down (zero
+/// above it).
+fn path_in<K: MortonKey>(internal: &[Internal<K>], i: usize, top: u8) -> Vec<u32> {
     let cell = internal[i].cell;
     let mut path = vec![0u32; K::AXIS_BITS as usize + 1];
-    for level in 0..cell.level {
+    for level in top..cell.level {
         let ancestor = Cell::containing(cell.anchor, level);
-        // Preorder is the order of (corner, level).
-        path[level as usize] = internal[..i]
-            .partition_point(|s| ({ s.cell.anchor }, s.cell.level) < ({ ancestor.anchor }, level))
-            as u32;
+        path[level as usize] = ancestor_before(&internal[..i], ancestor) as u32;
+    }
+    path
+}
+
+/// The index of `square` among `internal` (in preorder), which ends after it. Rare beside the
+/// scans that need it, so kept out of their loops.
+#[cold]
+fn ancestor_before<K: MortonKey>(internal: &[Internal<K>], square: Cell<K>) -> usize {
+    // Preorder is the order of (corner, level).
+    let key = (square.anchor, square.level);
+    internal.partition_point(|s| ({ s.cell.anchor }, s.cell.level) < key)
+}
+
+/// As [`path_to`], through the children index from the root down: one read a level.
+pub fn path_by_children<K: MortonKey>(
+    tree: &Quadtree<K>,
+    children: &[[u32; 4]],
+    i: usize,
+) -> Vec<u32> {
+    let cell = tree.internal[i].cell;
+    let mut path = vec![0u32; K::AXIS_BITS as usize + 1];
+    // The root is the first square in preorder.
+    let mut square = 0;
+    for level in 1..cell.level {
+        let quadrant = Cell::containing(cell.anchor, level).quadrant();
+        square = children[square as usize][quadrant as usize];
+        debug_assert!(
+            square & LEAF == 0,
+            "an ancestor is a leaf in the children index"
+        );
+        path[level as usize] = square;
     }
     path
 }

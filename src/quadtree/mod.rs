@@ -226,8 +226,8 @@ fn leaves_of<K: MortonKey>(
     // Leaf counts come from the formula at each end, so only chunk ends need a table.
     let chunks = chunk_offsets(internal.len(), GRAIN);
     collect_segments_by(&leaf_starts(internal, &chunks), |c, out| {
-        let mut parents =
-            index.map(|index| ChildSlots::starting_at(internal, chunks[c], &index.children));
+        let mut parents = index
+            .map(|index| ChildSlots::for_scan(internal, chunks[c]..chunks[c + 1], &index.children));
         for (i, gap) in with_gap_leaves(internal, chunks[c]..chunks[c + 1]) {
             if let Some(parents) = &mut parents {
                 parents.square(i, internal[i].cell);
