@@ -8,13 +8,14 @@
 //! the unique smallest balanced tree containing the input, the one the sequential ripple gives.
 
 use std::borrow::Cow;
+use std::mem::MaybeUninit;
 
 use rayon::prelude::*;
 
 use crate::morton::{Cell, MortonKey, NARROW_LEVEL, Side, in_width};
 use crate::par::{
     DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat,
-    exclusive_scan_by,
+    exclusive_scan_by, with_capacity_huge,
 };
 use crate::quadtree::{HasCell, Internal};
 
@@ -72,12 +73,12 @@ pub(crate) struct Levels<K> {
 }
 
 impl<K: MortonKey> Levels<K> {
-    /// `sizes[level]` zero anchors at each level `0..=K::AXIS_BITS`.
-    fn zeroed(sizes: &[usize]) -> Self {
+    /// No anchors, with room for `sizes[level]` at each level `0..=K::AXIS_BITS`.
+    fn with_capacities(sizes: &[usize]) -> Self {
         let (narrow, deep) = sizes.split_at(NARROW_LEVEL + 1);
         Levels {
-            narrow: narrow.iter().map(|&n| vec![0; n]).collect(),
-            deep: deep.iter().map(|&n| vec![K::default(); n]).collect(),
+            narrow: narrow.iter().map(|&n| with_capacity_huge(n)).collect(),
+            deep: deep.iter().map(|&n| with_capacity_huge(n)).collect(),
         }
     }
 
@@ -298,16 +299,20 @@ pub(crate) fn by_level<K: MortonKey, S: HasCell<K>>(split: &[S]) -> Levels<K> {
             (*start, *total) = (*total, *total + *start);
         }
     }
-    let mut levels = Levels::<K>::zeroed(&totals);
-    let narrow: Vec<DisjointWrites<u64>> = levels
+    // Written in parallel without being cleared first: clearing is a serial pass, and on fresh
+    // memory a serial first touch of every page.
+    let mut levels = Levels::<K>::with_capacities(&totals);
+    let narrow: Vec<DisjointWrites<MaybeUninit<u64>>> = levels
         .narrow
         .iter_mut()
-        .map(|l| DisjointWrites::new(l))
+        .zip(&totals)
+        .map(|(l, &n)| DisjointWrites::new(&mut l.spare_capacity_mut()[..n]))
         .collect();
-    let deep: Vec<DisjointWrites<K>> = levels
+    let deep: Vec<DisjointWrites<MaybeUninit<K>>> = levels
         .deep
         .iter_mut()
-        .map(|l| DisjointWrites::new(l))
+        .zip(&totals[NARROW_LEVEL + 1..])
+        .map(|(l, &n)| DisjointWrites::new(&mut l.spare_capacity_mut()[..n]))
         .collect();
     starts.into_par_iter().enumerate().for_each(|(c, mut at)| {
         for square in &sorted[chunks[c]..chunks[c + 1]] {
@@ -317,14 +322,29 @@ pub(crate) fn by_level<K: MortonKey, S: HasCell<K>>(split: &[S]) -> Levels<K> {
             #[allow(unsafe_code)]
             unsafe {
                 match level.checked_sub(NARROW_LEVEL + 1) {
-                    None => narrow[level].write(at[level], in_width(cell.anchor)),
-                    Some(i) => deep[i].write(at[level], cell.anchor),
+                    None => narrow[level].write(at[level], MaybeUninit::new(in_width(cell.anchor))),
+                    Some(i) => deep[i].write(at[level], MaybeUninit::new(cell.anchor)),
                 }
             };
             at[level] += 1;
         }
     });
     drop((narrow, deep));
+    for (list, &n) in levels.narrow.iter_mut().zip(&totals) {
+        // SAFETY: the chunks' ranges at each level, from the prefix sums of their own counts of
+        // the same squares, cover the level's first `n` slots, all written above.
+        #[allow(unsafe_code)]
+        unsafe {
+            list.set_len(n)
+        };
+    }
+    for (list, &n) in levels.deep.iter_mut().zip(&totals[NARROW_LEVEL + 1..]) {
+        // SAFETY: as for the narrow levels.
+        #[allow(unsafe_code)]
+        unsafe {
+            list.set_len(n)
+        };
+    }
     levels
 }
 

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use std::ops::Range;
 
 use crate::morton::{Cell, MortonKey};
-use crate::par::{GRAIN, SharedSlots, chunk_offsets};
+use crate::par::{GRAIN, SharedSlots, chunk_offsets, collect_indexed};
 
 use super::{Internal, Quadtree, with_gap_leaves};
 
@@ -28,7 +28,7 @@ pub fn children<K: MortonKey>(tree: &Quadtree<K>) -> Vec<[u32; 4]> {
         "too many leaves to index"
     );
     let internal = &tree.internal;
-    let mut children = vec![[0u32; 4]; internal.len()];
+    let mut children = collect_indexed(internal.len(), |_| [0u32; 4]);
     let slots = SharedSlots::new(children.as_flattened_mut());
     let chunks = chunk_offsets(internal.len(), GRAIN);
     (0..chunks.len() - 1).into_par_iter().for_each(|c| {
