@@ -177,24 +177,28 @@ pub(crate) fn preorder_of_levels<K: MortonKey, T: Walked<K>>(
             next: (0..levels.count())
                 .map(|level| below(Some(from), level))
                 .collect(),
-            from,
+            narrow_path: [0; NARROW_LEVEL + 1],
+            deep_path: vec![K::default(); levels.deep.len()],
             to,
             keys,
             key: keys.partition_point(|&k| k < from),
             out,
         };
-        if levels.narrow[0].first() == Some(&0) {
-            walk.visit(Cell::<u64>::root());
-        }
+        walk.run(from);
     })
 }
 
-/// A depth-first walk of the squares whose anchors lie in `from..to` (`to` = `None`: to the
-/// end), with the next unread entry of each level at or after `from`.
+/// A preorder walk of the squares whose anchors lie in `from..to` (`to` = `None`: to the end).
+/// From the square it is at, the walk goes down to the next unread square of the level below
+/// if that is a child, and up a level if not: about two steps a square, each one comparison.
 struct RangeWalk<'a, 'w, K: Copy, T> {
     levels: &'a Levels<K>,
+    /// By level, the next unread square, from the first at or after `from`.
     next: Vec<usize>,
-    from: K,
+    /// The anchors of the squares on the path from the root, by level, in the widths of their
+    /// levels' lists (see [`Levels`]).
+    narrow_path: [u64; NARROW_LEVEL + 1],
+    deep_path: Vec<K>,
     to: Option<K>,
     keys: &'a [K],
     /// The first key not below the corners walked so far.
@@ -202,63 +206,126 @@ struct RangeWalk<'a, 'w, K: Copy, T> {
     out: &'a mut SegmentWriter<'w, T>,
 }
 
+/// Where a step of the walk goes.
+enum Step {
+    Down,
+    Up,
+    End,
+}
+
 impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
-    /// Visits a square of the set that is in the range or holds its start, given in the width
-    /// of its level's list (see [`in_width`]).
-    fn visit<C: MortonKey>(&mut self, cell: Cell<C>) {
-        let corner: K = in_width(cell.anchor);
-        if corner >= self.from {
-            self.key += self.keys[self.key..]
-                .iter()
-                .take_while(|&&k| k < corner)
-                .count();
-            let cell = Cell {
-                anchor: corner,
-                level: cell.level,
-            };
-            self.out.push(T::walked(cell, self.key));
-        }
-        let level = cell.level as usize + 1;
-        let levels = self.levels;
-        match level.checked_sub(NARROW_LEVEL + 1) {
-            None => self.visit_children(cell, &levels.narrow[level]),
-            Some(deep) => {
-                if let Some(list) = levels.deep.get(deep) {
-                    self.visit_children(cell, list);
-                }
+    fn run(&mut self, from: K) {
+        let Some(mut level) = self.enter(from) else {
+            return;
+        };
+        loop {
+            match self.step_down(level) {
+                Step::Down => level += 1,
+                Step::Up if level > 0 => level -= 1,
+                _ => return,
             }
         }
     }
 
-    /// Visits the children of `cell` that are in `list`, the squares of their level, in the
-    /// list's width.
-    #[inline]
-    fn visit_children<C: MortonKey, N: MortonKey>(&mut self, cell: Cell<C>, list: &[N]) {
-        let cell = Cell::<N> {
-            anchor: in_width(cell.anchor),
-            level: cell.level,
-        };
-        let level = cell.level as usize + 1;
-        for quadrant in 0..4 {
-            let child = cell.child(quadrant);
-            let anchor = child.anchor;
-            let corner: K = in_width(anchor);
-            if self.to.is_some_and(|to| corner >= to) {
-                return;
+    /// Puts the walk at the deepest square that holds `from` and lies before it (an earlier
+    /// range walked it), or at the root, put out, when `from` is zero; returns its level (none
+    /// without squares).
+    fn enter(&mut self, from: K) -> Option<usize> {
+        if self.levels.narrow[0].first() != Some(&0) {
+            return None;
+        }
+        if from == K::default() {
+            self.out.push(T::walked(Cell::root(), self.key));
+            return Some(0);
+        }
+        let mut level = 0;
+        while level + 1 < self.levels.count() {
+            let anchor = from.cell_anchor(level as u8 + 1);
+            if anchor == from || !self.holds(level + 1, anchor) {
+                break;
             }
-            let present = if corner >= self.from {
-                let hit = list.get(self.next[level]) == Some(&anchor);
-                self.next[level] += usize::from(hit);
-                hit
-            } else {
-                // Before the range: only the square that holds its start is walked.
-                let holds_start = self.from.cell_anchor(child.level) == corner;
-                holds_start && list.binary_search(&anchor).is_ok()
-            };
-            if present {
-                self.visit(child);
+            level += 1;
+        }
+        Some(level)
+    }
+
+    /// Makes `anchor`'s square at `level` the path's square there; whether it is one of the
+    /// set.
+    fn holds(&mut self, level: usize, anchor: K) -> bool {
+        match level.checked_sub(NARROW_LEVEL + 1) {
+            None => {
+                let narrow: u64 = in_width(anchor);
+                self.narrow_path[level] = narrow;
+                self.levels.narrow[level].binary_search(&narrow).is_ok()
+            }
+            Some(i) => {
+                self.deep_path[i] = anchor;
+                self.levels.deep[i].binary_search(&anchor).is_ok()
             }
         }
+    }
+
+    /// From the path's square at `level`: down to the next unread square of the level below if
+    /// that is its child (and in the range), up if not.
+    #[inline]
+    fn step_down(&mut self, level: usize) -> Step {
+        let below = level + 1;
+        let parent_level = level as u8;
+        match below.checked_sub(NARROW_LEVEL + 1) {
+            None => {
+                let Some(&head) = self
+                    .levels
+                    .narrow
+                    .get(below)
+                    .and_then(|l| l.get(self.next[below]))
+                else {
+                    return Step::Up;
+                };
+                if head.cell_anchor(parent_level) != self.narrow_path[level] {
+                    return Step::Up;
+                }
+                self.narrow_path[below] = head;
+                self.emit(in_width(head), below)
+            }
+            Some(i) => {
+                let Some(&head) = self
+                    .levels
+                    .deep
+                    .get(i)
+                    .and_then(|l| l.get(self.next[below]))
+                else {
+                    return Step::Up;
+                };
+                let parent = match i.checked_sub(1) {
+                    None => in_width(self.narrow_path[level]),
+                    Some(j) => self.deep_path[j],
+                };
+                if head.cell_anchor(parent_level) != parent {
+                    return Step::Up;
+                }
+                self.deep_path[i] = head;
+                self.emit(head, below)
+            }
+        }
+    }
+
+    /// Puts out the next unread square of `level`, at `corner`, unless the range ends before it.
+    #[inline]
+    fn emit(&mut self, corner: K, level: usize) -> Step {
+        if self.to.is_some_and(|to| corner >= to) {
+            return Step::End;
+        }
+        self.next[level] += 1;
+        self.key += self.keys[self.key..]
+            .iter()
+            .take_while(|&&k| k < corner)
+            .count();
+        let cell = Cell {
+            anchor: corner,
+            level: level as u8,
+        };
+        self.out.push(T::walked(cell, self.key));
+        Step::Down
     }
 }
 
