@@ -243,7 +243,7 @@ impl<T> SegmentWriter<'_, T> {
         self.written += 1;
     }
 
-    /// Writes `values` next, as one copy.
+    /// Writes `values` next, in one loop that the compiler makes a block copy.
     ///
     /// # Panics
     /// If the segment has too little room left.

@@ -10,7 +10,7 @@ use quadmesh::balance::point_leaves;
 use quadmesh::framework::{self, Framework, NONE};
 use quadmesh::generate::{Distribution2d, points};
 use quadmesh::morton::{Morton, MortonKey, SortAlgorithm, morton_order};
-use quadmesh::quadtree::index::{LEAF, children};
+use quadmesh::quadtree::index::{LEAF, children, path_to};
 use quadmesh::quadtree::reference::build_reference;
 use quadmesh::quadtree::{Cell, Quadtree, expand, indexed_from_internal, points_in};
 use quadmesh::{DVec2, Tree, TreeOptions, build_tree};
@@ -96,6 +96,16 @@ fn assert_index_matches<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) {
     }
     for (p, &j) in indexed.point_leaf.iter().enumerate() {
         assert!(tree.leaves[j as usize].cell.contains(keys[p]), "point {p}");
+    }
+    // The path to a square names its ancestors, for squares spread over the tree.
+    let step = (tree.internal.len() / 97).max(1);
+    for i in (0..tree.internal.len()).step_by(step) {
+        let cell = tree.internal[i].cell;
+        let path = path_to(tree, i);
+        for level in 0..cell.level {
+            let ancestor = tree.internal[path[level as usize] as usize].cell;
+            assert_eq!(ancestor, Cell::containing(cell.anchor, level), "square {i}");
+        }
     }
 }
 

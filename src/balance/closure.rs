@@ -7,7 +7,6 @@
 //! only to coarser levels, so one sweep from the finest level up reaches the least fixed point:
 //! the unique smallest balanced tree containing the input, the one the sequential ripple gives.
 
-use std::borrow::Cow;
 use std::mem::MaybeUninit;
 
 use rayon::prelude::*;
@@ -214,12 +213,13 @@ enum Step {
 }
 
 impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
+    /// Puts out the range's squares in preorder, from the path's square that holds `from`.
     fn run(&mut self, from: K) {
         let Some(mut level) = self.enter(from) else {
             return;
         };
         loop {
-            match self.step_down(level) {
+            match self.step(level) {
                 Step::Down => level += 1,
                 Step::Up if level > 0 => level -= 1,
                 _ => return,
@@ -241,7 +241,7 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
         let mut level = 0;
         while level + 1 < self.levels.count() {
             let anchor = from.cell_anchor(level as u8 + 1);
-            if anchor == from || !self.holds(level + 1, anchor) {
+            if anchor == from || !self.enter_at(level + 1, anchor) {
                 break;
             }
             level += 1;
@@ -251,7 +251,7 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
 
     /// Makes `anchor`'s square at `level` the path's square there; whether it is one of the
     /// set.
-    fn holds(&mut self, level: usize, anchor: K) -> bool {
+    fn enter_at(&mut self, level: usize, anchor: K) -> bool {
         match level.checked_sub(NARROW_LEVEL + 1) {
             None => {
                 let narrow: u64 = in_width(anchor);
@@ -268,43 +268,29 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
     /// From the path's square at `level`: down to the next unread square of the level below if
     /// that is its child (and in the range), up if not.
     #[inline]
-    fn step_down(&mut self, level: usize) -> Step {
+    fn step(&mut self, level: usize) -> Step {
         let below = level + 1;
-        let parent_level = level as u8;
+        let next = self.next[below];
         match below.checked_sub(NARROW_LEVEL + 1) {
             None => {
-                let Some(&head) = self
-                    .levels
-                    .narrow
-                    .get(below)
-                    .and_then(|l| l.get(self.next[below]))
-                else {
+                let parent = self.narrow_path[level];
+                let Some(child) = child_at(&self.levels.narrow[below], next, parent, level) else {
                     return Step::Up;
                 };
-                if head.cell_anchor(parent_level) != self.narrow_path[level] {
-                    return Step::Up;
-                }
-                self.narrow_path[below] = head;
-                self.emit(in_width(head), below)
+                self.narrow_path[below] = child;
+                self.emit(in_width(child), below)
             }
             Some(i) => {
-                let Some(&head) = self
-                    .levels
-                    .deep
-                    .get(i)
-                    .and_then(|l| l.get(self.next[below]))
-                else {
-                    return Step::Up;
-                };
                 let parent = match i.checked_sub(1) {
                     None => in_width(self.narrow_path[level]),
                     Some(j) => self.deep_path[j],
                 };
-                if head.cell_anchor(parent_level) != parent {
+                let list = self.levels.deep.get(i).map_or(&[][..], Vec::as_slice);
+                let Some(child) = child_at(list, next, parent, level) else {
                     return Step::Up;
-                }
-                self.deep_path[i] = head;
-                self.emit(head, below)
+                };
+                self.deep_path[i] = child;
+                self.emit(child, below)
             }
         }
     }
@@ -329,35 +315,75 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
     }
 }
 
+/// The square at `next` of a level's sorted `list`, if it is a child of `parent`, the anchor of
+/// a square at `parent_level`, in the list's width.
+#[inline]
+fn child_at<N: MortonKey>(list: &[N], next: usize, parent: N, parent_level: usize) -> Option<N> {
+    let child = *list.get(next)?;
+    (child.cell_anchor(parent_level as u8) == parent).then_some(child)
+}
+
 /// Sorted, distinct anchors of the squares at each level `0..=AXIS_BITS`. In preorder (the
 /// usual input, checked) each level's squares already come in order, so they are only
 /// distributed, in parallel: each chunk counts its squares per level, then writes them at the
 /// places those counts give.
 pub(crate) fn by_level<K: MortonKey, S: HasCell<K>>(split: &[S]) -> Levels<K> {
-    let key = |s: &S| {
-        let cell = s.cell();
-        (cell.anchor, cell.level)
-    };
-    let sorted: Cow<[S]> = if split.par_windows(2).all(|w| key(&w[0]) < key(&w[1])) {
-        Cow::Borrowed(split)
-    } else {
-        let mut squares = split.to_vec();
-        squares.par_sort_unstable_by_key(key);
-        squares.dedup_by_key(|s| key(s));
-        Cow::Owned(squares)
-    };
-    let level_count = K::AXIS_BITS as usize + 1;
-    let chunks = chunk_offsets(sorted.len(), GRAIN);
-    let counts: Vec<Vec<usize>> = (0..chunks.len() - 1)
+    let chunks = chunk_offsets(split.len(), GRAIN);
+    if let Some(counts) = counts_if_sorted(split, &chunks) {
+        return distributed(split, &chunks, counts);
+    }
+    let mut squares = split.to_vec();
+    squares.par_sort_unstable_by_key(|s| preorder_key(s));
+    squares.dedup_by_key(|s| preorder_key(s));
+    let chunks = chunk_offsets(squares.len(), GRAIN);
+    let counts = counts_if_sorted(&squares, &chunks).expect("sorted and distinct");
+    distributed(&squares, &chunks, counts)
+}
+
+/// A square's place in preorder.
+fn preorder_key<K: MortonKey, S: HasCell<K>>(square: &S) -> (K, u8) {
+    let cell = square.cell();
+    (cell.anchor, cell.level)
+}
+
+/// The squares of each chunk at each level, if `split` is in strict preorder: one pass checks
+/// the order and counts.
+fn counts_if_sorted<K: MortonKey, S: HasCell<K>>(
+    split: &[S],
+    chunks: &[usize],
+) -> Option<Vec<Vec<usize>>> {
+    (0..chunks.len() - 1)
         .into_par_iter()
         .map(|c| {
-            let mut count = vec![0; level_count];
-            for square in &sorted[chunks[c]..chunks[c + 1]] {
-                count[square.cell().level as usize] += 1;
+            let mut count = vec![0; K::AXIS_BITS as usize + 1];
+            let chunk = &split[chunks[c]..chunks[c + 1]];
+            let mut last = None;
+            for square in chunk {
+                let key = preorder_key(square);
+                if last.is_some_and(|last| last >= key) {
+                    return None;
+                }
+                last = Some(key);
+                count[key.1 as usize] += 1;
             }
-            count
+            // The order across the chunk's end.
+            let next = split.get(chunks[c + 1]).map(preorder_key);
+            match (last, next) {
+                (Some(last), Some(next)) if last >= next => None,
+                _ => Some(count),
+            }
         })
-        .collect();
+        .collect()
+}
+
+/// The squares of `sorted`, in strict preorder, written to their levels in parallel: each of
+/// `chunks` writes its squares at the places its `counts` give.
+fn distributed<K: MortonKey, S: HasCell<K>>(
+    sorted: &[S],
+    chunks: &[usize],
+    counts: Vec<Vec<usize>>,
+) -> Levels<K> {
+    let level_count = K::AXIS_BITS as usize + 1;
     // Where each chunk starts writing at each level, and each level's size.
     let mut starts = counts;
     let mut totals = vec![0; level_count];
@@ -369,18 +395,9 @@ pub(crate) fn by_level<K: MortonKey, S: HasCell<K>>(split: &[S]) -> Levels<K> {
     // Written in parallel without being cleared first: clearing is a serial pass, and on fresh
     // memory a serial first touch of every page.
     let mut levels = Levels::<K>::with_capacities(&totals);
-    let narrow: Vec<DisjointWrites<MaybeUninit<u64>>> = levels
-        .narrow
-        .iter_mut()
-        .zip(&totals)
-        .map(|(l, &n)| DisjointWrites::new(&mut l.spare_capacity_mut()[..n]))
-        .collect();
-    let deep: Vec<DisjointWrites<MaybeUninit<K>>> = levels
-        .deep
-        .iter_mut()
-        .zip(&totals[NARROW_LEVEL + 1..])
-        .map(|(l, &n)| DisjointWrites::new(&mut l.spare_capacity_mut()[..n]))
-        .collect();
+    let (narrow_totals, deep_totals) = totals.split_at(NARROW_LEVEL + 1);
+    let narrow = room_writers(&mut levels.narrow, narrow_totals);
+    let deep = room_writers(&mut levels.deep, deep_totals);
     starts.into_par_iter().enumerate().for_each(|(c, mut at)| {
         for square in &sorted[chunks[c]..chunks[c + 1]] {
             let cell = square.cell();
@@ -397,22 +414,37 @@ pub(crate) fn by_level<K: MortonKey, S: HasCell<K>>(split: &[S]) -> Levels<K> {
         }
     });
     drop((narrow, deep));
-    for (list, &n) in levels.narrow.iter_mut().zip(&totals) {
-        // SAFETY: the chunks' ranges at each level, from the prefix sums of their own counts of
-        // the same squares, cover the level's first `n` slots, all written above.
-        #[allow(unsafe_code)]
-        unsafe {
-            list.set_len(n)
-        };
-    }
-    for (list, &n) in levels.deep.iter_mut().zip(&totals[NARROW_LEVEL + 1..]) {
-        // SAFETY: as for the narrow levels.
-        #[allow(unsafe_code)]
-        unsafe {
-            list.set_len(n)
-        };
+    // SAFETY: the chunks' ranges at each level, from the prefix sums of their own counts of the
+    // same squares, cover the level's first `totals[level]` slots, all written above.
+    #[allow(unsafe_code)]
+    unsafe {
+        assume_written(&mut levels.narrow, narrow_totals);
+        assume_written(&mut levels.deep, deep_totals);
     }
     levels
+}
+
+/// Writers of the first `lens[i]` slots of the room of each of `lists`.
+fn room_writers<'a, T>(
+    lists: &'a mut [Vec<T>],
+    lens: &[usize],
+) -> Vec<DisjointWrites<'a, MaybeUninit<T>>> {
+    let lists = lists.iter_mut().zip(lens);
+    lists
+        .map(|(list, &n)| DisjointWrites::new(&mut list.spare_capacity_mut()[..n]))
+        .collect()
+}
+
+/// Sets the length of each of `lists` to `lens[i]`.
+///
+/// # Safety
+/// The first `lens[i]` slots of each list's room are written.
+#[allow(unsafe_code)]
+unsafe fn assume_written<T>(lists: &mut [Vec<T>], lens: &[usize]) {
+    for (list, &n) in lists.iter_mut().zip(lens) {
+        // SAFETY: the caller's.
+        unsafe { list.set_len(n) };
+    }
 }
 
 /// Levels between the forced squares and the blocks they are marked in: a block holds

@@ -11,7 +11,7 @@ use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};
 use crate::par::{DisjointWrites, GRAIN, StreamFence, chunk_offsets, prefetch, with_capacity_huge};
 use crate::quadtree::Quadtree;
-use crate::quadtree::index::{LEAF, children, path_by_children};
+use crate::quadtree::index::{LEAF, children};
 
 /// A leaf's neighbours across its four sides: one leaf of the same or twice the size, the two
 /// half-size leaves in increasing coordinate along the side, or none on the root's boundary.
@@ -160,19 +160,22 @@ struct NeighbourPath<'a> {
 }
 
 impl<'a> NeighbourPath<'a> {
-    /// The path down to the parent of internal square `i`.
+    /// The path down to the parent of internal square `i`, entered from the root (the first
+    /// square in preorder) through the children index: one read a level.
     fn to<K: MortonKey>(tree: &Quadtree<K>, children: &'a [[u32; 4]], i: usize) -> Self {
-        let squares = path_by_children(tree, children, i);
         let mut path = NeighbourPath {
             children,
-            beside_children: vec![[[NONE; 4]; 4]; squares.len()],
+            beside_children: vec![[[NONE; 4]; 4]; K::AXIS_BITS as usize + 1],
         };
         let cell = tree.internal[i].cell;
+        let mut square = 0;
         for level in 0..cell.level {
-            path.enter(
-                squares[level as usize],
-                Cell::containing(cell.anchor, level),
-            );
+            let ancestor = Cell::containing(cell.anchor, level);
+            if level > 0 {
+                square = children[square as usize][ancestor.quadrant() as usize];
+                debug_assert!(square & LEAF == 0, "an ancestor is a leaf in the index");
+            }
+            path.enter(square, ancestor);
         }
         path
     }

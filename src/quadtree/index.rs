@@ -91,9 +91,9 @@ impl<'s, 'a> ChildSlots<'s, 'a> {
 }
 
 /// The coarsest level of a parent in a scan of the internal squares `range` and the leaves
-/// after each: a leaf in the gap before the next square is a child of the square before it or
-/// of an ancestor of it below the next one's parent, so one level above the coarsest square in
-/// the range and the one after it (the root's level after the last square).
+/// after each: a leaf in the gap before the next square lies in that square's parent, so its
+/// own parent is no coarser; the coarsest parent is one level above the coarsest square in the
+/// range and the one after it (the root's level after the last square).
 fn highest_parent<K: MortonKey>(internal: &[Internal<K>], range: Range<usize>) -> u8 {
     let next = internal.get(range.end).map_or(0, |s| s.cell.level);
     let coarsest = internal[range].iter().map(|s| s.cell.level).min();
@@ -115,38 +115,16 @@ fn path_in<K: MortonKey>(internal: &[Internal<K>], i: usize, top: u8) -> Vec<u32
     let mut path = vec![0u32; K::AXIS_BITS as usize + 1];
     for level in top..cell.level {
         let ancestor = Cell::containing(cell.anchor, level);
-        path[level as usize] = ancestor_before(&internal[..i], ancestor) as u32;
+        path[level as usize] = index_in_preorder(&internal[..i], ancestor) as u32;
     }
     path
 }
 
-/// The index of `square` among `internal` (in preorder), which ends after it. Rare beside the
+/// The index of `square` among `internal` (in preorder), which holds it. Rare beside the
 /// scans that need it, so kept out of their loops.
 #[cold]
-fn ancestor_before<K: MortonKey>(internal: &[Internal<K>], square: Cell<K>) -> usize {
+fn index_in_preorder<K: MortonKey>(internal: &[Internal<K>], square: Cell<K>) -> usize {
     // Preorder is the order of (corner, level).
     let key = (square.anchor, square.level);
     internal.partition_point(|s| ({ s.cell.anchor }, s.cell.level) < key)
-}
-
-/// As [`path_to`], through the children index from the root down: one read a level.
-pub fn path_by_children<K: MortonKey>(
-    tree: &Quadtree<K>,
-    children: &[[u32; 4]],
-    i: usize,
-) -> Vec<u32> {
-    let cell = tree.internal[i].cell;
-    let mut path = vec![0u32; K::AXIS_BITS as usize + 1];
-    // The root is the first square in preorder.
-    let mut square = 0;
-    for level in 1..cell.level {
-        let quadrant = Cell::containing(cell.anchor, level).quadrant();
-        square = children[square as usize][quadrant as usize];
-        debug_assert!(
-            square & LEAF == 0,
-            "an ancestor is a leaf in the children index"
-        );
-        path[level as usize] = square;
-    }
-    path
 }

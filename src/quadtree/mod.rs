@@ -127,7 +127,9 @@ pub fn indexed_from_internal<K: MortonKey>(
         3 * internal.len() + 1 < index::LEAF as usize,
         "too many leaves to index"
     );
-    // Cleared in parallel: a serial clear would be a serial first touch of fresh pages.
+    // The leaf pass writes every slot of a valid tree; these values are for any other. Cleared
+    // in parallel: a serial clear would be a serial pass, and a serial first touch of fresh
+    // pages.
     let mut children = collect_indexed(internal.len(), |_| [0u32; 4]);
     let mut point_leaf = collect_indexed(keys.len(), |_| NONE);
     let leaves = leaves_of(
