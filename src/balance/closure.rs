@@ -270,7 +270,10 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
     #[inline]
     fn step(&mut self, level: usize) -> Step {
         let below = level + 1;
-        let next = self.next[below];
+        // A square of the finest level, given as split, has no level below.
+        let Some(&next) = self.next.get(below) else {
+            return Step::Up;
+        };
         match below.checked_sub(NARROW_LEVEL + 1) {
             None => {
                 let parent = self.narrow_path[level];
@@ -846,6 +849,19 @@ mod tests {
             balance_closure(&cells),
             crate::balance::reference::ripple_closure(&cells)
         );
+    }
+
+    #[test]
+    fn squares_of_the_finest_level_given_as_split_are_walked() {
+        let finest = |x, y| Cell::<u64>::containing(u64::encode(x, y), u64::AXIS_BITS as u8);
+        let split = [finest(5, 7), finest(5, 8), finest(1 << 31, 3)];
+        let closed = balance_closure(&split);
+        assert_eq!(closed, crate::balance::reference::ripple_closure(&split));
+        assert!(split.iter().all(|s| closed.contains(s)));
+        let wide = |x, y| Cell::<u128>::containing(u128::encode(x, y), u128::AXIS_BITS as u8);
+        let split = [wide(5, 7), wide(u64::MAX, 1 << 40)];
+        let closed = balance_closure(&split);
+        assert_eq!(closed, crate::balance::reference::ripple_closure(&split));
     }
 
     #[test]
