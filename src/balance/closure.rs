@@ -270,7 +270,8 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
     #[inline]
     fn step(&mut self, level: usize) -> Step {
         let below = level + 1;
-        // A square of the finest level, given as split, has no level below.
+        // A square of the finest level, given as split, has no level below (`next` has an
+        // entry for each level, so every level below that has one has its list).
         let Some(&next) = self.next.get(below) else {
             return Step::Up;
         };
@@ -288,8 +289,7 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
                     None => in_width(self.narrow_path[level]),
                     Some(j) => self.deep_path[j],
                 };
-                let list = self.levels.deep.get(i).map_or(&[][..], Vec::as_slice);
-                let Some(child) = child_at(list, next, parent, level) else {
+                let Some(child) = child_at(&self.levels.deep[i], next, parent, level) else {
                     return Step::Up;
                 };
                 self.deep_path[i] = child;
