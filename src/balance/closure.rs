@@ -16,7 +16,7 @@ use crate::par::{
     DisjointWrites, GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, concat,
     exclusive_scan_by, with_capacity_huge,
 };
-use crate::quadtree::{HasCell, Internal};
+use crate::quadtree::{HasCell, Internal, first_not_below};
 
 /// The smallest set of split squares that contains `split`, is closed under parents, and
 /// makes the quadtree balanced; in preorder.
@@ -305,10 +305,7 @@ impl<K: MortonKey, T: Walked<K>> RangeWalk<'_, '_, K, T> {
             return Step::End;
         }
         self.next[level] += 1;
-        self.key += self.keys[self.key..]
-            .iter()
-            .take_while(|&&k| k < corner)
-            .count();
+        self.key = first_not_below(self.keys, self.key, corner);
         let cell = Cell {
             anchor: corner,
             level: level as u8,

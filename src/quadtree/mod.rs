@@ -173,16 +173,31 @@ pub fn with_first_points<K: MortonKey>(cells: &[Cell<K>], keys: &[K]) -> Vec<Int
             .first()
             .map_or(0, |s| keys.partition_point(|k| *k < { s.anchor }));
         chunk.iter().map(move |&cell| {
-            cursor += keys[cursor..]
-                .iter()
-                .take_while(|k| **k < { cell.anchor })
-                .count();
+            cursor = first_not_below(keys, cursor, cell.anchor);
             Internal {
                 cell,
                 first: cursor as u32,
             }
         })
     })
+}
+
+/// The first of the sorted `keys`, from `from` on, that is not below `corner`, for a cursor that
+/// moves a few keys at a time. A loop that stops at the first such key mispredicts its exit at
+/// almost every call, as the count is 0, 1 or 2 at random; counting the keys below `corner` in a
+/// fixed window of the next few (sorted, so they are the first of the window) does not branch.
+#[inline]
+pub(crate) fn first_not_below<K: MortonKey>(keys: &[K], from: usize, corner: K) -> usize {
+    const WINDOW: usize = 4;
+    let mut at = from;
+    while let Some(window) = keys.get(at..at + WINDOW) {
+        let below: usize = window.iter().map(|&k| usize::from(k < corner)).sum();
+        at += below;
+        if below < WINDOW {
+            return at;
+        }
+    }
+    at + keys[at..].iter().take_while(|&&k| k < corner).count()
 }
 
 /// The squares on every framework edge: node `u` owns the levels below its parent's down to its
@@ -526,4 +541,26 @@ pub fn points_in<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> std::ops::Range<usi
     let start = keys.partition_point(|k| k.cell_anchor(cell.level) < { cell.anchor });
     let end = start + keys[start..].partition_point(|k| cell.contains(*k));
     start..end
+}
+
+#[cfg(test)]
+mod tests {
+    use super::first_not_below;
+
+    #[test]
+    fn the_cursor_finds_the_first_key_not_below_the_corner() {
+        // Runs of every length across the window, up to the end of the keys.
+        let keys: Vec<u64> = (0..40u64).map(|k| 3 * k).collect();
+        for from in 0..=keys.len() {
+            for corner in 0..130u64 {
+                let expected = keys.partition_point(|&k| k < corner).max(from);
+                assert_eq!(
+                    first_not_below(&keys, from, corner),
+                    expected,
+                    "from {from}, corner {corner}"
+                );
+            }
+        }
+        assert_eq!(first_not_below::<u128>(&[], 0, 5), 0);
+    }
 }
