@@ -182,10 +182,11 @@ pub fn with_first_points<K: MortonKey>(cells: &[Cell<K>], keys: &[K]) -> Vec<Int
     })
 }
 
-/// The first of the sorted `keys`, from `from` on, that is not below `corner`, for a cursor that
-/// moves a few keys at a time. A loop that stops at the first such key mispredicts its exit at
-/// almost every call, as the count is 0, 1 or 2 at random; counting the keys below `corner` in a
-/// fixed window of the next few (sorted, so they are the first of the window) does not branch.
+/// The index of the first of the sorted `keys`, from `from` on, that is not below `corner`
+/// (`keys.len()` if none), for a cursor that moves a few keys at a time. A loop that stops at
+/// the first such key mispredicts its exit at almost every call, as the count is mostly 0, 1 or
+/// 2 at random; counting the keys below `corner` in a fixed window of the next few (sorted, so
+/// they are the first of the window) does not branch on them.
 #[inline]
 pub(crate) fn first_not_below<K: MortonKey>(keys: &[K], from: usize, corner: K) -> usize {
     const WINDOW: usize = 4;
