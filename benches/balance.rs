@@ -7,9 +7,9 @@
 //! printed to stderr. Sizes and threads come from the same variables as the other benches.
 //!
 //! Each iteration's output is dropped outside the timing, and mimalloc hands large freed arrays
-//! back to the kernel 10 ms after the free, so most iterations pay for fresh pages (how many
-//! varies with timing). `MIMALLOC_PURGE_DELAY=-1` keeps them for reuse instead, which times the
-//! algorithm without the kernel's page clearing.
+//! back to the kernel a second after the free, so iterations that take about that long or more
+//! pay for fresh pages (how many varies with timing). `MIMALLOC_PURGE_DELAY=-1` keeps them for
+//! reuse instead, which times the algorithm without the kernel's page clearing.
 
 mod common;
 
