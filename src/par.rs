@@ -243,7 +243,7 @@ impl<T> SegmentWriter<'_, T> {
         self.written += 1;
     }
 
-    /// Writes `values` next, in one loop that the compiler makes a block copy.
+    /// Writes `values` next, as one block copy.
     ///
     /// # Panics
     /// If the segment has too little room left.
@@ -252,10 +252,7 @@ impl<T> SegmentWriter<'_, T> {
     where
         T: Copy,
     {
-        let slots = &mut self.slots[self.written..self.written + values.len()];
-        for (slot, &value) in slots.iter_mut().zip(values) {
-            slot.write(value);
-        }
+        self.slots[self.written..self.written + values.len()].write_copy_of_slice(values);
         self.written += values.len();
     }
 
