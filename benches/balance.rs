@@ -8,8 +8,12 @@
 //!
 //! Each iteration's output is dropped outside the timing, and mimalloc hands large freed arrays
 //! back to the kernel a second after the free, so iterations that take about that long or more
-//! pay for fresh pages (how many varies with timing). `MIMALLOC_PURGE_DELAY=-1` keeps them for
-//! reuse instead, which times the algorithm without the kernel's page clearing.
+//! pay for fresh pages (how many varies with timing, and on a virtual machine that reports free
+//! memory to its host, how much each costs). `MIMALLOC_PURGE_DELAY=-1` keeps them for reuse
+//! instead, which times the algorithm without the kernel's page clearing.
+//!
+//! Sampling is flat, so the time criterion prints is the mean of the iterations;
+//! `scripts/bench_stages.sh --table-only` prints the medians of the results on disk.
 
 mod common;
 
