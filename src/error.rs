@@ -3,10 +3,11 @@
 use glam::DVec2;
 use thiserror::Error;
 
-use crate::mesh::{BoundarySide, Reflection};
+use crate::mesh::{BoundarySide, Mesh, MeshReport, Reflection};
 
 /// Why an input was refused. Nothing is dropped silently: each variant names the offending data.
 #[derive(Debug, Error, Clone, PartialEq)]
+#[non_exhaustive]
 pub enum Error {
     /// No points at all.
     #[error("the input has no points")]
@@ -116,27 +117,43 @@ pub enum Error {
         /// The domain's height.
         height: f64,
     },
+    /// The points all lie on one line: their convex hull, the domain asked for, has no area.
+    #[error(
+        "the points are collinear (one of them: ({x}, {y})), so their convex hull has no area; \
+         mesh a rectangle around them instead"
+    )]
+    Degenerate {
+        /// An x coordinate of one of the points.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+    },
+    /// The input asks for something this version does not mesh.
+    #[error("{what} are not supported yet")]
+    Unsupported {
+        /// What was asked for.
+        what: &'static str,
+    },
     /// An option's value is out of range.
-    #[error("--{option}: {message}")]
+    #[error("option {option}: {message}")]
     InvalidOption {
-        /// The option, as the command line spells it.
+        /// The option, as [`crate::Options`] names it.
         option: &'static str,
         /// What is wrong with the value.
         message: String,
     },
     /// Refinement needed more vertices than its budget allows: the angle bound is above what
-    /// refinement reaches on this input, or the budget is too small for it.
+    /// refinement reaches on this input, or the budget is too small for it. The mesh reached so
+    /// far comes with it: valid, with the triangles still outside the bounds listed.
     #[error(
-        "refinement stopped at its budget of {limit} vertices (input points included) with \
-         {remaining} triangles still outside the bounds; raise the vertex budget or lower the angle bound (termination is \
-         proven up to 20.7 degrees)"
+        "refinement stopped at its budget of {} vertices (input points included) with {} \
+         triangles still outside the bounds{}; raise the vertex budget or lower the angle bound \
+         (termination is proven up to 20.7 degrees)",
+        .0.limit,
+        .0.unmet.len(),
+        .0.unmet.first().map_or(String::new(), |u| format!(", the first near ({}, {})", u.at.x, u.at.y))
     )]
-    VertexBudget {
-        /// The budget.
-        limit: usize,
-        /// Triangles still below the bounds when it stopped.
-        remaining: usize,
-    },
+    VertexBudget(Box<Incomplete>),
     /// Refinement needed a vertex closer to others than f64 resolves: it kept shrinking the
     /// triangles at one place, which happens above the angle bounds refinement can reach.
     #[error(
@@ -169,6 +186,32 @@ pub enum Error {
         /// The system's message.
         message: String,
     },
+}
+
+/// A mesh that refinement left unfinished at its vertex budget.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Incomplete {
+    /// The budget.
+    pub limit: usize,
+    /// The mesh reached: it passes [`Mesh::validate`] except for the bounds.
+    pub mesh: Mesh,
+    /// Its report.
+    pub report: MeshReport,
+    /// The triangles still outside the bounds, in triangle order.
+    pub unmet: Vec<Unmet>,
+}
+
+/// A triangle outside the quality bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Unmet {
+    /// Its index in the mesh.
+    pub triangle: u32,
+    /// Its centroid.
+    pub at: DVec2,
+    /// Its smallest angle, degrees.
+    pub min_angle: f64,
+    /// Its area.
+    pub area: f64,
 }
 
 impl Error {

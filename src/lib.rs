@@ -59,6 +59,7 @@ pub mod generate;
 pub mod io;
 pub mod mesh;
 pub mod morton;
+mod options;
 pub mod par;
 pub mod pipeline;
 pub mod pslg;
@@ -66,9 +67,12 @@ pub mod quadtree;
 pub mod refine;
 pub mod warp;
 
-pub use error::Error;
+pub use error::{Error, Incomplete, Unmet};
 pub use glam::DVec2;
-pub use mesh::{Mesh, MeshReport};
+pub use mesh::{AngleBounds, BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE};
+pub use morton::SortAlgorithm;
+pub use options::{DEFAULT_MIN_ANGLE_DEG, Input, Mode, Options, Region, RegionSeed, Segment};
 pub use pipeline::{
-    MeshOptions, Refinement, Tree, TreeBuild, TreeOptions, build_tree, mesh_points,
+    MeshOptions, Refinement, Tree, TreeBuild, TreeOptions, build_tree, mesh, mesh_points,
 };
+pub use refine::{GUARANTEED_MIN_ANGLE_DEG, RefineDomain, RefineOptions, refine_points};

@@ -16,7 +16,9 @@ use crate::morton::{
     Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order, morton_order_on,
     morton_order_wide, validate_points,
 };
+use crate::options::{Input, Mode, Options, Region};
 use crate::quadtree::{Quadtree, expand};
+use crate::refine::{RefineDomain, RefineOptions, refine_points};
 use crate::warp::{leaves_below, point_finer_than_grid, unresolvable, warp};
 
 /// Wall-clock time of each stage, in the order they ran.
@@ -511,4 +513,59 @@ fn warp_build<K: MortonKey>(
 
 fn deepest_point_leaf<K: MortonKey>(build: &TreeBuild<K>) -> Option<usize> {
     build.balanced.as_ref().and_then(point_finer_than_grid)
+}
+
+/// The mesh of `input` as `options` ask, on the current rayon pool, with its report: the one
+/// entry point for both modes.
+///
+/// # Errors
+/// Bad input ([`Error::Empty`], [`Error::NonFinite`], [`Error::TooManyPoints`]), options out
+/// of range ([`Error::InvalidOption`]), parts of the input not supported yet
+/// ([`Error::Unsupported`]), a point outside a given rectangle ([`Error::OutsideDomain`]),
+/// and what each mode refuses: see [`mesh_points`] (warp) and
+/// [`crate::refine::refine_points`] (Delaunay); a refinement stopped at its vertex budget
+/// returns the mesh reached in [`Error::VertexBudget`].
+pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
+    options.check()?;
+    input.check_supported()?;
+    let points = &input.points[..];
+    validate_points(points)?;
+    let rectangle = match options.region_choice() {
+        Region::Rectangle(d) => Some(d),
+        Region::BoundingBox => Some(bounding_box(points)),
+        Region::Auto | Region::ConvexHull | Region::Square => None,
+    };
+    match options.mode() {
+        Mode::Warp => {
+            let warp = MeshOptions {
+                sort: options.sort_algorithm(),
+                domain: rectangle,
+            };
+            mesh_points(points, &warp)
+        }
+        Mode::Delaunay => {
+            let domain = match (rectangle, options.region_choice()) {
+                (Some(d), _) => RefineDomain::Rectangle(d),
+                (None, Region::Square) => RefineDomain::Square,
+                (None, _) => RefineDomain::ConvexHull,
+            };
+            let refine = RefineOptions {
+                min_angle_deg: options.min_angle_deg(),
+                max_area: options.max_area_bound(),
+                max_vertices: options.vertex_budget(),
+                domain,
+                sort: options.sort_algorithm(),
+            };
+            refine_points(points, &refine)
+        }
+    }
+}
+
+/// The points' bounding box; the points are finite.
+fn bounding_box(points: &[DVec2]) -> Domain {
+    let (lo, hi) = points.par_iter().map(|&p| (p, p)).reduce(
+        || (DVec2::INFINITY, DVec2::NEG_INFINITY),
+        |a, b| (a.0.min(b.0), a.1.max(b.1)),
+    );
+    Domain { lo, hi }
 }

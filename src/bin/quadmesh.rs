@@ -22,14 +22,12 @@ use quadmesh::io::{
     read_points, with_extension_appended, write_leaves_csv, write_msh, write_points, write_svg,
     write_triangle_files, write_vtu,
 };
-use quadmesh::mesh::{AngleBounds, Domain};
-use quadmesh::morton::{MortonKey, bounding_box, validate_points};
+use quadmesh::mesh::Domain;
+use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::StageTimes;
-use quadmesh::refine::{GUARANTEED_MIN_ANGLE_DEG, RefineOptions, refine_points};
-use quadmesh::warp::ANGLE_BOUNDS;
 use quadmesh::{
-    DVec2, Mesh, MeshOptions, MeshReport, Refinement, Tree, TreeBuild, TreeOptions, build_tree,
-    mesh_points,
+    DVec2, GUARANTEED_MIN_ANGLE_DEG, Input, Mesh, MeshReport, Mode, Options, Refinement, Region,
+    Tree, TreeBuild, TreeOptions, build_tree,
 };
 
 /// Parallel quadtrees of point sets.
@@ -113,58 +111,45 @@ enum Command {
     },
 }
 
-/// Which mesh: warped (the default) or Delaunay refinement with bounds.
+/// Which mesh: a quality Delaunay mesh (the default) or the warped quadtree mesh.
 #[derive(clap::Args, Clone)]
 struct QualityArgs {
-    /// Delaunay refinement instead of warping, every angle at least A degrees (0 to 45).
-    /// Termination is proven up to 20.7°; above that refinement usually finishes up to about
-    /// 34° and stops at the vertex budget otherwise.
+    /// The warped quadtree mesh instead: every angle in [22.5°, 112.5°], about 104 triangles
+    /// per point, on a rectangle (by default the points' bounding box centred in a square
+    /// twice its larger side).
+    #[arg(long, conflicts_with_all = ["min_angle", "max_area", "max_vertices"])]
+    warp: bool,
+    /// Every angle at least A degrees (0 to 45) [default: 20, below the 20.7° up to which
+    /// termination is proven]. Above 20.7° refinement usually finishes up to about 34° and
+    /// stops at the vertex budget otherwise. Input angles smaller than A (narrow corners of the
+    /// convex hull) stay as they are.
     #[arg(long, value_name = "A", allow_negative_numbers = true)]
     min_angle: Option<f64>,
-    /// Delaunay refinement with every triangle's area at most X (with no `--min-angle`, no
-    /// angle bound).
+    /// Every triangle's area at most X.
     #[arg(long, value_name = "X", allow_negative_numbers = true)]
     max_area: Option<f64>,
-    /// Mesh this rectangle instead of the square around the points: `X0,Y0,X1,Y1`, holding
-    /// every point (points on its sides become boundary vertices with the same angle bounds),
-    /// or `bbox` for the points' bounding box.
-    #[arg(long, value_name = "X0,Y0,X1,Y1|bbox", value_parser = parse_domain, allow_hyphen_values = true)]
-    domain: Option<DomainArg>,
-    /// Refinement stops with an error past N vertices, input points included [default: 100 per
-    /// point + 10000].
+    /// The region to mesh: `hull` (the points' convex hull, the default of the Delaunay mode),
+    /// `bbox` (their bounding box), `square` (the bounding box centred in a square twice its
+    /// larger side, the default of `--warp`) or `X0,Y0,X1,Y1`, a rectangle holding every point
+    /// (points on its sides become boundary vertices).
+    #[arg(long, value_name = "hull|bbox|square|X0,Y0,X1,Y1", value_parser = parse_domain, allow_hyphen_values = true)]
+    domain: Option<Region>,
+    /// Refinement stops past N vertices, input points included, writes the mesh reached and
+    /// exits with an error naming where it stopped [default: 100 per point + 10000].
     #[arg(long, value_name = "N")]
     max_vertices: Option<usize>,
 }
 
-/// The rectangle `--domain` asks for.
-#[derive(Clone, Copy, Debug)]
-enum DomainArg {
-    /// Given by its corners.
-    Rectangle(Domain),
-    /// The points' bounding box.
-    BoundingBox,
-}
-
-impl DomainArg {
-    /// The rectangle for `points`.
-    fn of(self, points: &[DVec2]) -> Domain {
-        match self {
-            DomainArg::Rectangle(d) => d,
-            DomainArg::BoundingBox => {
-                let (lo, hi) = bounding_box(points);
-                Domain { lo, hi }
-            }
-        }
-    }
-}
-
-/// `x0,y0,x1,y1` as a rectangle, or `bbox`.
-fn parse_domain(text: &str) -> Result<DomainArg, String> {
-    if text.trim() == "bbox" {
-        return Ok(DomainArg::BoundingBox);
+/// `hull`, `bbox`, `square` or `x0,y0,x1,y1`.
+fn parse_domain(text: &str) -> Result<Region, String> {
+    match text.trim() {
+        "hull" => return Ok(Region::ConvexHull),
+        "bbox" => return Ok(Region::BoundingBox),
+        "square" => return Ok(Region::Square),
+        _ => {}
     }
     let [x0, y0, x1, y1] = parse_rectangle(text)?;
-    Ok(DomainArg::Rectangle(Domain {
+    Ok(Region::Rectangle(Domain {
         lo: DVec2::new(x0, y0),
         hi: DVec2::new(x1, y1),
     }))
@@ -183,82 +168,67 @@ fn parse_rectangle(text: &str) -> Result<[f64; 4], String> {
 }
 
 impl QualityArgs {
-    /// The refinement asked for, if any, without its domain (see [`QualityArgs::mesh`]).
-    fn refinement(&self) -> Option<RefineOptions> {
-        if self.min_angle.is_none() && self.max_area.is_none() {
-            return None;
+    /// The library's options for these arguments.
+    fn options(&self) -> Options {
+        let mut options = Options::default();
+        if self.warp {
+            options = options.warp();
         }
-        Some(RefineOptions {
-            min_angle_deg: self.min_angle.unwrap_or(0.0),
-            max_area: self.max_area,
-            max_vertices: self.max_vertices,
-            ..RefineOptions::default()
-        })
+        if let Some(a) = self.min_angle {
+            options = options.min_angle(a);
+        }
+        if let Some(x) = self.max_area {
+            options = options.max_area(x);
+        }
+        if let Some(n) = self.max_vertices {
+            options = options.max_vertices(n);
+        }
+        if let Some(region) = self.domain {
+            options = options.region(region);
+        }
+        options
     }
 
-    /// Refuses bounds out of range before any work, and warns about an angle bound beyond the
-    /// proven one.
+    /// Refuses options out of range before any work, and warns about an angle bound beyond
+    /// the proven one.
     fn check(&self) -> Result<()> {
-        let Some(options) = self.refinement() else {
-            anyhow::ensure!(
-                self.max_vertices.is_none(),
-                "--max-vertices applies to refinement only (--min-angle or --max-area)"
-            );
-            return self.check_domain();
-        };
-        options.check()?;
-        self.check_domain()?;
-        if options.min_angle_deg > GUARANTEED_MIN_ANGLE_DEG {
+        let options = self.options();
+        options
+            .check()
+            .map_err(|e| anyhow::anyhow!(cli_terms(&e)))?;
+        if !options.termination_proven() {
             let _ = writeln!(
                 io::stderr(),
                 "warning: termination is proven up to {GUARANTEED_MIN_ANGLE_DEG:.1}°; at {}° \
-                 refinement may stop with an error",
-                options.min_angle_deg
+                 refinement may stop at the vertex budget",
+                options.min_angle_deg()
             );
         }
         Ok(())
     }
 
-    /// Refuses a rectangle that is not one, before reading the points.
-    fn check_domain(&self) -> Result<()> {
-        if let Some(DomainArg::Rectangle(d)) = self.domain {
-            d.check()?;
-        }
-        Ok(())
-    }
-
-    /// The angles the mesh guarantees.
-    fn bounds(&self) -> AngleBounds {
-        match self.refinement() {
-            Some(r) => AngleBounds {
-                min_deg: r.min_angle_deg,
-                max_deg: 180.0 - 2.0 * r.min_angle_deg,
-            },
-            None => AngleBounds {
-                min_deg: ANGLE_BOUNDS.0,
-                max_deg: ANGLE_BOUNDS.1,
-            },
-        }
-    }
-
     /// Meshes `points` the way these arguments ask.
-    fn mesh(&self, points: &[DVec2]) -> Result<(Mesh, MeshReport), quadmesh::Error> {
-        // The bounding box of points the meshers refuse (none, or not finite) is left out, so
-        // that they say what is wrong with the points.
-        let domain = self
-            .domain
-            .filter(|_| validate_points(points).is_ok())
-            .map(|d| d.of(points));
-        match self.refinement() {
-            Some(options) => refine_points(points, &RefineOptions { domain, ..options }),
-            None => mesh_points(
-                points,
-                &MeshOptions {
-                    domain,
-                    ..MeshOptions::default()
-                },
-            ),
+    fn mesh(&self, points: Vec<DVec2>) -> (Input, Result<(Mesh, MeshReport), quadmesh::Error>) {
+        let input = Input::points(points);
+        let result = quadmesh::mesh(&input, &self.options());
+        (input, result)
+    }
+}
+
+/// An option error in the command line's terms.
+fn cli_terms(e: &quadmesh::Error) -> String {
+    match e {
+        quadmesh::Error::InvalidOption { option, message } => {
+            let flag = match *option {
+                "min_angle" => "--min-angle",
+                "max_area" => "--max-area",
+                "region" | "domain" => "--domain",
+                "mode" => "--warp",
+                other => other,
+            };
+            format!("{flag}: {message}")
         }
+        other => other.to_string(),
     }
 }
 
@@ -385,15 +355,24 @@ fn mesh(
     pool(threads)?.install(|| {
         let (points, read_time) = timed(|| with_spinner("reading", || read_points(input)));
         let points = points?;
-        let (meshed, _) = timed(|| with_spinner("meshing", || quality.mesh(&points)));
-        let (mesh, report) = meshed.with_context(|| format!("{}", input.display()))?;
-        if check {
-            let bounds = quality.bounds();
-            // A refined mesh is also checked to be Delaunay, edge by edge.
-            let delaunay = quality.refinement().is_some();
+        let ((input_points, meshed), _) =
+            timed(|| with_spinner("meshing", || quality.mesh(points)));
+        // A refinement stopped at its budget still writes the mesh it reached, then fails.
+        let (mesh, report, unfinished) = match meshed {
+            Ok((mesh, report)) => (mesh, report, None),
+            Err(quadmesh::Error::VertexBudget(partial)) => {
+                let message = quadmesh::Error::VertexBudget(partial.clone()).to_string();
+                let partial = *partial;
+                (partial.mesh, partial.report, Some(message))
+            }
+            Err(e) => return Err(anyhow::anyhow!("{}: {e}", input.display())),
+        };
+        let options = quality.options();
+        if check && unfinished.is_none() {
             with_spinner("checking", || {
-                mesh.validate(&points, bounds)?;
-                if delaunay {
+                mesh.validate(&input_points.points, options.angle_bounds())?;
+                // A Delaunay mesh is also checked edge by edge.
+                if options.mode() == Mode::Delaunay {
                     mesh.check_delaunay()?;
                 }
                 Ok::<_, String>(())
@@ -407,17 +386,20 @@ fn mesh(
         });
         let files = written?;
         let mut err = io::stderr().lock();
-        let _ = writeln!(err, "{:<24}{}", "input points", points.len());
+        let _ = writeln!(err, "{:<24}{}", "input points", input_points.points.len());
         let _ = writeln!(err, "{:<24}{}", "time read", millis(read_time));
         print_report(&mut err, &report, &mesh);
-        if check {
+        if check && unfinished.is_none() {
             let _ = writeln!(err, "{:<24}passed", "check");
         }
         let _ = writeln!(err, "{:<24}{}", "time write", millis(write_time));
         for file in files {
             let _ = writeln!(err, "{:<24}{}", "wrote", file.display());
         }
-        Ok(())
+        match unfinished {
+            None => Ok(()),
+            Some(message) => Err(anyhow::anyhow!("{}: {message}", input.display())),
+        }
     })
 }
 
@@ -516,7 +498,7 @@ fn bench(
     quality.check()?;
     let pool = pool(threads)?;
     let points = pool.install(|| generate::points(dist, n, seed));
-    let (meshed, wall) = timed(|| pool.install(|| quality.mesh(&points)));
+    let ((_, meshed), wall) = timed(|| pool.install(|| quality.mesh(points)));
     let (mesh, report) = meshed?;
     let mut out = io::stdout().lock();
     print_report(&mut out, &report, &mesh);

@@ -126,7 +126,7 @@ impl SideMarkers {
         let mut markers: Vec<([u32; 2], u8)> = mesh
             .boundary
             .par_iter()
-            .map(|e| (Self::key(e.vertices), e.side as u8))
+            .map(|e| (Self::key(e.vertices), e.marker as u8))
             .collect();
         markers.par_sort_unstable();
         SideMarkers(markers)
@@ -483,7 +483,7 @@ fn write_msh_elements<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
     let sides: Vec<(u8, Vec<[u32; 2]>)> = SIDES
         .iter()
         .map(|&(side, _)| {
-            let edges = mesh.boundary.iter().filter(|e| e.side == side);
+            let edges = mesh.boundary.iter().filter(|e| e.marker == side.marker());
             (side as u8, edges.map(|e| e.vertices).collect::<Vec<_>>())
         })
         .filter(|(_, edges)| !edges.is_empty())
@@ -743,7 +743,7 @@ mod tests {
             .enumerate()
             .map(|(k, side)| BoundaryEdge {
                 vertices: [corners[k], corners[(k + 1) % 4]],
-                side,
+                marker: side.marker(),
             })
             .collect()
     }
@@ -751,6 +751,7 @@ mod tests {
     /// The unit square cut along its diagonal from the origin.
     fn two_triangles() -> Mesh {
         Mesh {
+            outline: None,
             vertices: vec![
                 DVec2::new(0.0, 0.0),
                 DVec2::new(1.0, 0.0),
@@ -768,6 +769,7 @@ mod tests {
     /// The unit square fanned around its centre, which is the only input point.
     fn four_triangles() -> Mesh {
         Mesh {
+            outline: None,
             vertices: vec![
                 DVec2::new(0.0, 0.0),
                 DVec2::new(1.0, 0.0),
@@ -795,6 +797,7 @@ mod tests {
             }
         };
         let mut mesh = Mesh {
+            outline: None,
             domain: Domain {
                 lo: DVec2::ZERO,
                 hi: DVec2::splat(f64::from(n)),

@@ -112,6 +112,7 @@ mod tests {
             BoundarySide::Left,
         ];
         Mesh {
+            outline: None,
             vertices: q.to_vec(),
             vertex_input: vec![0, 1, 2, 3],
             triangles,
@@ -119,7 +120,7 @@ mod tests {
             boundary: (0..4)
                 .map(|k| BoundaryEdge {
                     vertices: [k as u32, (k as u32 + 1) % 4],
-                    side: side[k],
+                    marker: side[k].marker(),
                 })
                 .collect(),
             domain: Domain {

@@ -145,8 +145,31 @@ impl std::fmt::Display for BoundarySide {
 pub struct BoundaryEdge {
     /// Its two vertices, the domain's interior on their left.
     pub vertices: [u32; 2],
-    /// The side of the domain it lies on.
-    pub side: BoundarySide,
+    /// Its marker (Triangle's convention: nonzero on the boundary): on a rectangle, the side it
+    /// lies on (see [`BoundarySide::marker`]); on the points' convex hull, 1.
+    pub marker: i32,
+}
+
+impl BoundaryEdge {
+    /// The rectangle's side it lies on, for a mesh of a rectangle (one without an outline).
+    pub fn side(&self) -> Option<BoundarySide> {
+        BoundarySide::of_marker(self.marker)
+    }
+}
+
+impl BoundarySide {
+    /// The marker of the boundary edges on this side: 1 to 4 from the bottom, counter-clockwise.
+    pub fn marker(self) -> i32 {
+        self as i32
+    }
+
+    /// The side whose edges carry `marker`.
+    pub fn of_marker(marker: i32) -> Option<BoundarySide> {
+        use BoundarySide::{Bottom, Left, Right, Top};
+        [Bottom, Right, Top, Left]
+            .into_iter()
+            .find(|s| s.marker() == marker)
+    }
 }
 
 /// A conforming triangle mesh of a rectangular domain.
@@ -168,8 +191,12 @@ pub struct Mesh {
     pub neighbours: Vec<[u32; 3]>,
     /// The edges on the domain boundary, counter-clockwise.
     pub boundary: Vec<BoundaryEdge>,
-    /// The region the triangles cover exactly.
+    /// The rectangle the triangles cover exactly, or, with an `outline`, its bounding box.
     pub domain: Domain,
+    /// The convex polygon the triangles cover exactly when it is not the rectangle `domain`
+    /// (the points' convex hull), its corners counter-clockwise, every input point on its
+    /// sides included.
+    pub outline: Option<Vec<DVec2>>,
 }
 
 impl Mesh {
@@ -178,6 +205,9 @@ impl Mesh {
     pub fn reflected(self, r: Reflection) -> Mesh {
         let swap = |[a, b, c]: [u32; 3]| [a, c, b];
         Mesh {
+            outline: self
+                .outline
+                .map(|o| o.into_iter().map(|p| r.point(p)).rev().collect()),
             vertices: self.vertices.par_iter().map(|&v| r.point(v)).collect(),
             vertex_input: self.vertex_input,
             triangles: self.triangles.into_par_iter().map(swap).collect(),
@@ -187,7 +217,7 @@ impl Mesh {
                 .into_par_iter()
                 .map(|e| BoundaryEdge {
                     vertices: [e.vertices[1], e.vertices[0]],
-                    side: r.side(e.side),
+                    marker: e.side().map_or(e.marker, |s| r.side(s).marker()),
                 })
                 .collect(),
             domain: self.domain.reflected(r),

@@ -332,12 +332,22 @@ fn boundary_entry_fault(mesh: &Mesh, e: usize) -> Option<String> {
     let [a, b] = be.vertices;
     let (p, q) = (mesh.vertices[a as usize], mesh.vertices[b as usize]);
     let d = &mesh.domain;
-    (!on_side(d, be.side, p) || !on_side(d, be.side, q)).then(|| {
+    if mesh.outline.is_some() {
+        // The outline's own check walks the boundary.
+        return None;
+    }
+    let Some(side) = be.side() else {
+        return Some(format!(
+            "boundary edge {e} {a}->{b} has marker {}, no side's",
+            be.marker
+        ));
+    };
+    (!on_side(d, side, p) || !on_side(d, side, q)).then(|| {
         format!(
             "boundary edge {e} {a}->{b} at {} {} is not on the {:?} side of the domain {} to {}",
             pt(p),
             pt(q),
-            be.side,
+            side,
             pt(d.lo),
             pt(d.hi)
         )
@@ -364,6 +374,9 @@ fn check_boundary(mesh: &Mesh, single: &[(u64, usize)]) -> Result<(), String> {
         })
     })?;
     compare_boundary(mesh, single, &listed)?;
+    if let Some(outline) = &mesh.outline {
+        check_outline(mesh, outline)?;
+    }
     let d = mesh.domain;
     first_fault(mesh.vertices.len(), |v| {
         let p = mesh.vertices[v];
@@ -405,6 +418,104 @@ fn compare_boundary(
     Err(format!(
         "boundary edge {e} {a}->{b} is not an edge with exactly one triangle, the interior on its left"
     ))
+}
+
+/// The boundary of a mesh with an outline is one loop that runs along the outline: from its
+/// first corner, through every corner in order (bit for bit), and between corners through
+/// vertices on the side between them, within a few roundings (split points are rounded).
+fn check_outline(mesh: &Mesh, outline: &[DVec2]) -> Result<(), String> {
+    if outline.len() < 3 {
+        return Err(format!("the outline has {} corners", outline.len()));
+    }
+    let scale = outline
+        .iter()
+        .fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    let tolerance = 64.0 * f64::EPSILON * scale;
+    let mut next = vec![NONE; mesh.vertices.len()];
+    for e in &mesh.boundary {
+        next[e.vertices[0] as usize] = e.vertices[1];
+    }
+    let Some(start) = mesh
+        .vertices
+        .iter()
+        .position(|&p| same_point(p, outline[0]))
+    else {
+        return Err(format!(
+            "no vertex lies on the outline's first corner {}",
+            pt(outline[0])
+        ));
+    };
+    let (mut v, mut side) = (start as u32, 0);
+    for _ in 0..mesh.boundary.len() {
+        v = next[v as usize];
+        if v == NONE {
+            return Err("the boundary is not a closed loop along the outline".into());
+        }
+        let p = mesh.vertices[v as usize];
+        let (a, b) = (
+            outline[side % outline.len()],
+            outline[(side + 1) % outline.len()],
+        );
+        if same_point(p, b) {
+            side += 1;
+        } else if !near_segment(p, a, b, tolerance) {
+            return Err(format!(
+                "boundary vertex {v} at {} is not on the outline's side {} to {}",
+                pt(p),
+                pt(a),
+                pt(b)
+            ));
+        }
+        if v as usize == start {
+            break;
+        }
+    }
+    if v as usize != start || side != outline.len() {
+        return Err(format!(
+            "the boundary loop from the outline's first corner passes {side} of its {} corners \
+             before it closes",
+            outline.len()
+        ));
+    }
+    Ok(())
+}
+
+fn same_point(p: DVec2, q: DVec2) -> bool {
+    p.x.to_bits() == q.x.to_bits() && p.y.to_bits() == q.y.to_bits()
+}
+
+/// Whether `p` lies within `tolerance` of the segment `a b`.
+fn near_segment(p: DVec2, a: DVec2, b: DVec2, tolerance: f64) -> bool {
+    let d = b - a;
+    let t = (p - a).dot(d) / d.length_squared();
+    (0.0..=1.0).contains(&t) && (a + d * t).distance(p) <= tolerance
+}
+
+/// A polygon's area, its corners counter-clockwise (compensated).
+fn polygon_area(corners: &[DVec2]) -> f64 {
+    let origin = corners[0];
+    let mut sum = Sum::default();
+    for k in 1..corners.len().saturating_sub(1) {
+        let (a, b) = (corners[k] - origin, corners[k + 1] - origin);
+        sum = sum.add(0.5 * a.perp_dot(b));
+    }
+    sum.value()
+}
+
+/// The outline's corners narrower than `min_deg`: the angles there are the input's.
+fn narrow_corners(mesh: &Mesh, min_deg: f64) -> Vec<DVec2> {
+    let Some(outline) = &mesh.outline else {
+        return Vec::new();
+    };
+    let n = outline.len();
+    (0..n)
+        .filter(|&k| {
+            let (prev, here, next) = (outline[(k + n - 1) % n], outline[k], outline[(k + 1) % n]);
+            let (a, b) = (next - here, prev - here);
+            a.perp_dot(b).atan2(a.dot(b)).to_degrees() < min_deg
+        })
+        .map(|k| outline[k])
+        .collect()
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -454,7 +565,10 @@ fn check_area(mesh: &Mesh) -> Result<(), String> {
         })
         .reduce(Sum::default, Sum::merge)
         .value();
-    let want = mesh.domain.area();
+    let want = match &mesh.outline {
+        Some(outline) => polygon_area(outline),
+        None => mesh.domain.area(),
+    };
     let rel = (total - want).abs() / want;
     if rel <= AREA_REL_TOL {
         Ok(())
@@ -590,11 +704,14 @@ fn check_angles(mesh: &Mesh, bounds: AngleBounds) -> Result<(), String> {
         bounds.min_deg - ANGLE_SLACK_DEG,
         bounds.max_deg + ANGLE_SLACK_DEG,
     );
+    // Triangles in an input angle smaller than the bound keep it.
+    let narrow = narrow_corners(mesh, bounds.min_deg);
     first_fault(mesh.triangles.len(), |t| {
         let tri = mesh.triangles[t];
         let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
         let angles = angles_deg(a, b, c);
-        let bad = angles.iter().any(|x| !(lo..=hi).contains(x));
+        let exempt = !narrow.is_empty() && [a, b, c].iter().any(|&p| narrow.contains(&p));
+        let bad = !exempt && angles.iter().any(|x| !(lo..=hi).contains(x));
         bad.then(|| {
             format!(
                 "triangle {t} {tri:?} at {} {} {} has angles {angles:?} degrees, outside [{}, {}]",
@@ -629,7 +746,7 @@ mod tests {
     fn be(a: u32, b: u32, side: BoundarySide) -> BoundaryEdge {
         BoundaryEdge {
             vertices: [a, b],
-            side,
+            marker: side.marker(),
         }
     }
 
@@ -654,6 +771,7 @@ mod tests {
     /// The unit square split along its diagonal 0-2.
     fn square() -> (Mesh, Vec<DVec2>) {
         let mesh = Mesh {
+            outline: None,
             vertices: corners(),
             vertex_input: vec![0, 1, 2, 3],
             triangles: vec![[0, 1, 2], [0, 2, 3]],
@@ -669,6 +787,7 @@ mod tests {
         let mut vertices = corners();
         vertices.push(DVec2::splat(0.5));
         let mesh = Mesh {
+            outline: None,
             vertex_input: vec![0, 1, 2, 3, 4],
             triangles: vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]],
             neighbours: vec![[1, 3, NONE], [2, 0, NONE], [3, 1, NONE], [0, 2, NONE]],
@@ -794,7 +913,7 @@ mod tests {
     #[test]
     fn boundary_edge_on_the_wrong_side() {
         let (mut mesh, points) = square();
-        mesh.boundary[1].side = Left;
+        mesh.boundary[1].marker = Left.marker();
         fails(&mesh, &points, LOOSE, &["boundary edge 1", "Left"]);
     }
 
@@ -926,6 +1045,7 @@ mod tests {
             boundary.push(be(at(0, k + 1), at(0, k), Left));
         }
         let mesh = Mesh {
+            outline: None,
             vertex_input: (0..vertices.len() as u32).collect(),
             triangles,
             neighbours,

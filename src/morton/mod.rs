@@ -6,6 +6,7 @@
 //! separate are an error naming them.
 
 mod cell;
+mod float_order;
 pub(crate) mod interleave;
 mod key;
 mod quantize;
@@ -17,6 +18,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 pub use cell::{Cell, Side};
+pub use float_order::{FloatOrder, float_key, float_morton_order};
 pub use interleave::has_pdep;
 pub use key::MortonKey;
 pub(crate) use key::{NARROW_LEVEL, in_width};

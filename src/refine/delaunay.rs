@@ -181,7 +181,7 @@ impl Triangulation {
     /// Replaces the edge between triangle `t` (corners `a b c`, the edge opposite corner `i`,
     /// `a` there) and triangle `u` (apex `w` at corner `j`) by the edge `a w`: `t` becomes
     /// `a b w` and `u` becomes `w c a`, each with the new edge opposite corner 1.
-    fn flip(&mut self, t: u32, i: usize, u: u32, j: usize) {
+    pub(super) fn flip(&mut self, t: u32, i: usize, u: u32, j: usize) {
         let [a, b, c] = [i, NEXT[i], PREV[i]].map(|k| self.corners[t as usize][k]);
         let w = self.corners[u as usize][j];
         // Across a b (opposite c in t), c a (opposite b in t), b w (opposite c in u, whose
@@ -494,13 +494,16 @@ impl Cavity {
     }
 
     /// Inserts `p` into the cavity [`Self::dig`] last found for it: the cavity's triangles are
-    /// replaced by a fan from `p`. A boundary edge that `p` lies on is split. Returns the new
-    /// vertex; [`Self::created`] lists the new triangles.
-    pub fn commit<S: Store>(&mut self, s: &mut S, p: DVec2) -> u32 {
+    /// replaced by a fan from `p`. A boundary edge that `p` lies on is split, and so is the
+    /// boundary edge `split` if given (`p` is its rounded midpoint, which may lie a rounding
+    /// off its line). Returns the new vertex; [`Self::created`] lists the new triangles.
+    pub fn commit<S: Store>(&mut self, s: &mut S, p: DVec2, split: Option<(u32, u32)>) -> u32 {
         self.clear_left_out(s);
         let v = s.push_vertex(p);
-        self.rim
-            .retain(|e| e.outer != NONE || orient(s.point(e.a), s.point(e.b), p) != 0.0);
+        self.rim.retain(|e| {
+            e.outer != NONE
+                || (Some((e.a, e.b)) != split && orient(s.point(e.a), s.point(e.b), p) != 0.0)
+        });
         // A fan has one triangle more than an interior cavity (one less for a boundary edge
         // split), so every cavity slot is reused, which also clears its mark.
         self.created.clear();
@@ -584,7 +587,7 @@ impl Cavity {
         match locate(t, p, hint) {
             Location::Inside(tri) => {
                 assert!(self.dig(t, p, tri));
-                Ok(self.commit(t, p))
+                Ok(self.commit(t, p, None))
             }
             other => Err(other),
         }

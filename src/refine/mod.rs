@@ -32,6 +32,7 @@
 //! ```
 
 mod delaunay;
+mod hull;
 mod queue;
 mod refiner;
 mod strips;
@@ -40,14 +41,14 @@ mod tiles;
 use glam::DVec2;
 use rayon::prelude::*;
 
-use crate::error::Error;
+use crate::error::{Error, Incomplete, Unmet};
 use crate::mesh::{
     AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE, angles_deg,
 };
-use crate::morton::{Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order};
+use crate::morton::{FloatOrder, SortAlgorithm, float_morton_order};
 use crate::pipeline::{StageTimes, report_of};
 use delaunay::{Cavity, Location, MAX_VERTICES, NEXT, PREV, Triangulation, locate};
-use refiner::{Bounds, Refiner, Work};
+use refiner::{Bounds, Finish, Refiner, Work};
 
 /// The largest angle bound for which off-center refinement is proven to terminate,
 /// arcsin(1/(2√2)), in degrees.
@@ -68,9 +69,8 @@ pub struct RefineOptions {
     /// Refinement stops with [`Error::VertexBudget`] past this many vertices; by default
     /// 100 per distinct point plus 10 000.
     pub max_vertices: Option<usize>,
-    /// The rectangle to mesh, holding every point (on its sides too); by default the quadtree's
-    /// root square, the points' bounding box centred in a square twice its larger side.
-    pub domain: Option<Domain>,
+    /// The region to mesh; by default the points' convex hull.
+    pub domain: RefineDomain,
     /// The sort used for Morton order.
     pub sort: SortAlgorithm,
 }
@@ -81,7 +81,7 @@ impl Default for RefineOptions {
             min_angle_deg: 30.0,
             max_area: None,
             max_vertices: None,
-            domain: None,
+            domain: RefineDomain::default(),
             sort: SortAlgorithm::default(),
         }
     }
@@ -100,7 +100,7 @@ impl RefineOptions {
                 message: format!("{a} is not an angle in [0, {MAX_MIN_ANGLE_DEG}] degrees"),
             });
         }
-        if let Some(d) = self.domain {
+        if let RefineDomain::Rectangle(d) = self.domain {
             d.check()?;
         }
         if let Some(area) = self.max_area
@@ -112,6 +112,11 @@ impl RefineOptions {
             });
         }
         Ok(())
+    }
+
+    /// Whether no bound is asked for: the mesh is the Delaunay triangulation.
+    fn unbounded(&self) -> bool {
+        self.min_angle_deg == 0.0 && self.max_area.is_none()
     }
 
     /// About how many vertices refinement of `points` uniform points makes (measured: 2.7 per
@@ -128,72 +133,162 @@ impl RefineOptions {
     }
 }
 
-/// The refined Delaunay mesh of `points` on the current rayon pool, with its report. The domain
-/// is the quadtree's root square, as for [`crate::mesh_points`], unless the options give one.
+/// The region [`refine_points`] meshes.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum RefineDomain {
+    /// The points' convex hull, as Triangle meshes a bare point set.
+    #[default]
+    ConvexHull,
+    /// The points' bounding box centred in a square twice its larger side.
+    Square,
+    /// A rectangle holding every point (on its sides too).
+    Rectangle(Domain),
+}
+
+/// The refined Delaunay mesh of `points` on the current rayon pool, with its report.
 ///
 /// # Errors
-/// Whatever [`morton_order`] refuses, [`Error::InvalidOption`] for a bound out of range,
-/// [`Error::OutsideDomain`] for a point outside the given domain,
-/// [`Error::VertexBudget`] when refinement needs more vertices than allowed, and
-/// [`Error::RefinementResolution`] when it needs a vertex f64 cannot place.
+/// [`Error::Empty`], [`Error::NonFinite`] and [`Error::TooManyPoints`] for such input,
+/// [`Error::InvalidOption`] for a bound out of range, [`Error::OutsideDomain`] for a point
+/// outside a given rectangle, [`Error::Degenerate`] for collinear points on their hull,
+/// [`Error::VertexBudget`] (with the mesh reached) when refinement needs more vertices than
+/// allowed, and [`Error::RefinementResolution`] when it needs a vertex f64 cannot place.
 pub fn refine_points(
     points: &[DVec2],
     options: &RefineOptions,
 ) -> Result<(Mesh, MeshReport), Error> {
     options.check()?;
     let mut times = StageTimes::default();
-    let morton = times.time("morton", || morton_order(points, options.sort))?;
-    if let Some(domain) = options.domain {
+    let order = times.time("morton", || float_morton_order(points))?;
+    if let RefineDomain::Rectangle(domain) = options.domain {
         domain.check_holds(points)?;
     }
-    match morton {
-        Morton::Narrow(m) => refine_order(m, points, options, times),
-        Morton::Wide(m) => refine_order(m, points, options, times),
+    refine_order(order, points, options, times)
+}
+
+/// The square centred on the bounding box of the points `order` names, twice its larger side
+/// (or of side 2 around a single point).
+fn square_around(points: &[DVec2], order: &[u32]) -> Domain {
+    let (lo, hi) = order
+        .par_iter()
+        .map(|&i| (points[i as usize], points[i as usize]))
+        .reduce(
+            || (DVec2::INFINITY, DVec2::NEG_INFINITY),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
+    let centre = lo * 0.5 + hi * 0.5;
+    let half = (hi - lo).max_element();
+    let half = if half > 0.0 {
+        half
+    } else {
+        centre.abs().max_element().max(1.0)
+    };
+    Domain {
+        lo: centre - DVec2::splat(half),
+        hi: centre + DVec2::splat(half),
     }
 }
 
-fn refine_order<K: MortonKey>(
-    morton: MortonOrder<K>,
+fn refine_order(
+    morton: FloatOrder,
     points: &[DVec2],
     options: &RefineOptions,
     mut times: StageTimes,
 ) -> Result<(Mesh, MeshReport), Error> {
-    let grid = &morton.grid;
-    let side = 1u128 << grid.axis_bits();
-    let domain = options.domain.unwrap_or(Domain {
-        lo: grid.vertex(0, 0),
-        hi: grid.vertex(side, side),
-    });
+    let square = match options.domain {
+        RefineDomain::Rectangle(d) => d,
+        _ => square_around(points, &morton.order),
+    };
     let distinct = morton.order.len();
     // Room for the tiles' chunks too, so that they seldom need the arrays to move; memory past
     // what the points need is only touched as refinement uses it.
     let capacity = 2 * options.expected_vertices(distinct);
-    // Without bounds the mesh is the Delaunay triangulation of the points and the domain's
-    // corners alone, which the strips' seams would add vertices to.
-    let bounds = Bounds::new(options, domain.lo, domain.hi);
-    let strip_count = if bounds.unbounded() {
-        1
-    } else {
-        strips::strip_count(distinct)
-    };
-    let (mut triangulation, vertex_input) = times.time("delaunay", || {
+    let (mut triangulation, mut vertex_input) = times.time("delaunay", || {
+        // Without bounds the mesh of a rectangle is the Delaunay triangulation of the points and
+        // its corners alone, which the strips' seams would add vertices to.
+        let hull = options.domain == RefineDomain::ConvexHull;
+        let strip_count = if hull || !options.unbounded() {
+            strips::strip_count(distinct)
+        } else {
+            1
+        };
         if strip_count > 1 {
-            return strips::triangulate(points, &morton.order, domain, strip_count, capacity);
+            return strips::triangulate(points, &morton.order, square, strip_count, capacity);
         }
-        let mut t = Triangulation::rectangle(domain.lo, domain.hi);
+        let mut t = Triangulation::rectangle(square.lo, square.hi);
         t.reserve(capacity, distinct + 4);
         let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
         Ok::<_, Error>((t, vertex_input))
     })?;
+    let outline = match options.domain {
+        RefineDomain::ConvexHull => Some(times.time("hull", || {
+            hull::cut_to_hull(&mut triangulation, &mut vertex_input)
+        })?),
+        _ => None,
+    };
+    let corners: Vec<DVec2> = outline.as_ref().map_or_else(Vec::new, |h| {
+        h.vertices
+            .iter()
+            .map(|&v| triangulation.vertices[v as usize])
+            .collect()
+    });
+    let domain = match outline {
+        Some(_) => bounding_box(&corners),
+        None => square,
+    };
+    let angles = hull::corner_angles(&corners);
+    let hull_corners = outline.iter().flat_map(|h| h.vertices.iter().copied());
+    let bounds = Bounds::new(options, domain.lo, domain.hi).with_corners(hull_corners.zip(angles));
     let budget = options.budget(distinct);
-    times.time("refine", || {
+    let refined = times.time("refine", || {
         refine(&mut triangulation, &bounds, domain, distinct, budget)
-    })?;
-    let mesh = times.time("mesh", || into_mesh(triangulation, vertex_input, domain));
+    });
+    let unmet = match refined? {
+        Finish::Done => None,
+        Finish::OutOfBudget => Some(unmet_triangles(&triangulation, &bounds)),
+    };
+    let hull = outline.is_some();
+    let mut mesh = times.time("mesh", || {
+        into_mesh(triangulation, vertex_input, domain, hull)
+    });
+    mesh.outline = outline.map(|_| corners);
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
-    let (points, duplicates) = (morton.order.len(), morton.duplicates.count);
-    let report = report_of(&mesh, points, duplicates, &quality, times);
-    Ok((mesh, report))
+    let report = report_of(&mesh, distinct, morton.duplicates.count, &quality, times);
+    match unmet {
+        None => Ok((mesh, report)),
+        Some(unmet) => Err(Error::VertexBudget(Box::new(Incomplete {
+            limit: budget,
+            mesh,
+            report,
+            unmet,
+        }))),
+    }
+}
+
+/// The smallest rectangle around `points`.
+fn bounding_box(points: &[DVec2]) -> Domain {
+    let lo = points.iter().fold(DVec2::INFINITY, |a, &p| a.min(p));
+    let hi = points.iter().fold(DVec2::NEG_INFINITY, |a, &p| a.max(p));
+    Domain { lo, hi }
+}
+
+/// The triangles still outside the bounds, where they are and how far off.
+fn unmet_triangles(t: &Triangulation, bounds: &Bounds) -> Vec<Unmet> {
+    (0..t.len() as u32)
+        .into_par_iter()
+        .filter(|&id| refiner::badness(t, bounds, id).is_some())
+        .map(|id| {
+            let [a, b, c] = t.corners[id as usize].map(|v| t.vertices[v as usize]);
+            Unmet {
+                triangle: id,
+                at: (a + b + c) / 3.0,
+                min_angle: angles_deg(a, b, c)
+                    .into_iter()
+                    .fold(f64::INFINITY, f64::min),
+                area: 0.5 * (b - a).perp_dot(c - a),
+            }
+        })
+        .collect()
 }
 
 /// Refines the Delaunay triangulation of `points` points: by tiles in parallel where there
@@ -204,10 +299,10 @@ fn refine(
     domain: Domain,
     points: usize,
     budget: usize,
-) -> Result<(), Error> {
+) -> Result<Finish, Error> {
     if bounds.unbounded() {
         // No bound asked for: the Delaunay triangulation is the mesh.
-        return Ok(());
+        return Ok(Finish::Done);
     }
     let (mut bad, mut edges) = refiner::inspect_all(t, bounds);
     if points >= tiles::MIN_POINTS {
@@ -236,7 +331,7 @@ fn insert_in_order(
         match locate(t, p, hint) {
             Location::Inside(tri) => {
                 cavity.dig(t, p, tri);
-                cavity.commit(t, p);
+                cavity.commit(t, p, None);
                 vertex_input.push(index);
                 hint = cavity.created()[0];
             }
@@ -253,7 +348,7 @@ fn insert_in_order(
 /// The mesh of a finished triangulation: vertex `k` of the triangulation is vertex `k` of the
 /// mesh (the domain's corners, the points in Morton order, then the Steiner points in order of
 /// insertion), and triangles keep their numbers. `vertex_input` covers the corners and points.
-fn into_mesh(t: Triangulation, mut vertex_input: Vec<u32>, domain: Domain) -> Mesh {
+fn into_mesh(t: Triangulation, mut vertex_input: Vec<u32>, domain: Domain, hull: bool) -> Mesh {
     let Triangulation {
         vertices,
         corners,
@@ -261,8 +356,9 @@ fn into_mesh(t: Triangulation, mut vertex_input: Vec<u32>, domain: Domain) -> Me
         ..
     } = t;
     vertex_input.resize(vertices.len(), NONE);
-    let boundary = boundary_edges(&corners, &across, &vertices, domain);
+    let boundary = boundary_edges(&corners, &across, &vertices, (!hull).then_some(domain));
     Mesh {
+        outline: None,
         vertices,
         vertex_input,
         triangles: corners,
@@ -272,22 +368,29 @@ fn into_mesh(t: Triangulation, mut vertex_input: Vec<u32>, domain: Domain) -> Me
     }
 }
 
-/// The triangle edges on the domain's boundary, with their sides.
+/// The marker of the edges on the points' convex hull (Triangle's).
+pub const HULL_MARKER: i32 = 1;
+
+/// The triangle edges on the domain's boundary, with their markers: a rectangle's sides, or
+/// [`HULL_MARKER`].
 fn boundary_edges(
     corners: &[[u32; 3]],
     across: &[[u32; 3]],
     vertices: &[DVec2],
-    domain: Domain,
+    rectangle: Option<Domain>,
 ) -> Vec<BoundaryEdge> {
     let side_of = |a: DVec2, b: DVec2| {
+        let Some(domain) = rectangle else {
+            return HULL_MARKER;
+        };
         if a.y == domain.lo.y && b.y == domain.lo.y {
-            BoundarySide::Bottom
+            BoundarySide::Bottom.marker()
         } else if a.x == domain.hi.x && b.x == domain.hi.x {
-            BoundarySide::Right
+            BoundarySide::Right.marker()
         } else if a.y == domain.hi.y && b.y == domain.hi.y {
-            BoundarySide::Top
+            BoundarySide::Top.marker()
         } else {
-            BoundarySide::Left
+            BoundarySide::Left.marker()
         }
     };
     corners
@@ -300,7 +403,7 @@ fn boundary_edges(
         })
         .map(|(a, b)| BoundaryEdge {
             vertices: [a, b],
-            side: side_of(vertices[a as usize], vertices[b as usize]),
+            marker: side_of(vertices[a as usize], vertices[b as usize]),
         })
         .collect()
 }

@@ -9,7 +9,8 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::RefineOptions;
-use super::delaunay::{Cavity, Location, NEXT, PREV, Store, Triangulation, locate};
+use super::delaunay::{Cavity, Location, MARK, NEXT, PREV, Store, Triangulation, locate};
+use super::hull::ACUTE_CORNER_DEG;
 use super::queue::{Queued, SizeQueue};
 use crate::error::Error;
 use crate::mesh::NONE;
@@ -49,6 +50,11 @@ pub(super) struct Bounds {
     /// The domain's lower-left corner and the scale that maps it onto 32-bit grid coordinates.
     origin: DVec2,
     scale: f64,
+    /// The domain's corners narrower than [`ACUTE_CORNER_DEG`], at most two in a convex domain:
+    /// their vertex and angle in degrees, or [`NONE`]. Boundary edges from them are split on
+    /// concentric circles around them, and a triangle whose smallest angle lies in one narrower
+    /// than the bound is left as it is (no triangle there can meet it).
+    acute: [(u32, f64); 2],
 }
 
 impl Bounds {
@@ -69,7 +75,31 @@ impl Bounds {
             offset,
             origin: lo,
             scale: 2f64.powi(32) / side * (1.0 - f64::EPSILON),
+            acute: [(NONE, 180.0); 2],
         }
+    }
+
+    /// These bounds with the domain's corners: vertex numbers and interior angles, degrees.
+    pub fn with_corners(mut self, corners: impl IntoIterator<Item = (u32, f64)>) -> Self {
+        let mut acute = corners.into_iter().filter(|&(_, a)| a < ACUTE_CORNER_DEG);
+        self.acute = [0, 1].map(|_| acute.next().unwrap_or((NONE, 180.0)));
+        self
+    }
+
+    /// The angle of the acute domain corner at vertex `v`, if it is one.
+    #[inline]
+    fn acute_angle(&self, v: u32) -> Option<f64> {
+        self.acute.iter().find(|c| c.0 == v).map(|c| c.1)
+    }
+
+    /// Whether vertex `v` is a domain corner narrower than the angle bound: no refinement can
+    /// make the angles there larger.
+    #[inline]
+    fn in_narrow_corner(&self, v: u32) -> bool {
+        self.acute[0].0 != NONE
+            && self
+                .acute_angle(v)
+                .is_some_and(|a| a.to_radians().sin().powi(2) < self.sin2)
     }
 
     /// Whether no triangle can be bad: the Delaunay triangulation is the mesh.
@@ -113,6 +143,15 @@ impl Work {
     }
 }
 
+/// How a refinement loop ended without an error.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Finish {
+    /// Nothing is left to do, or what is left was set aside.
+    Done,
+    /// The whole triangulation reached its vertex budget with work left.
+    OutOfBudget,
+}
+
 /// The refinement loop's state.
 pub(super) struct Refiner<'w, S: Store> {
     s: S,
@@ -142,14 +181,14 @@ impl<'w, S: Store> Refiner<'w, S> {
 
     /// Fixes bad triangles and encroached boundary edges until none is left, or, in a store
     /// without room for more, sets the rest aside.
-    pub fn run(mut self) -> Result<(), Error> {
+    pub fn run(mut self) -> Result<Finish, Error> {
         loop {
             if S::WHOLE && self.s.vertex_count() > self.budget {
-                return Err(self.out_of_budget());
+                return Ok(Finish::OutOfBudget);
             }
             if !self.s.room() {
                 self.defer_all();
-                return Ok(());
+                return Ok(Finish::Done);
             }
             if let Some(e) = self.work.encroached.pop() {
                 if self.is_live(&e) {
@@ -158,13 +197,13 @@ impl<'w, S: Store> Refiner<'w, S> {
                 continue;
             }
             let Some((class, q)) = self.work.bad.pop() else {
-                return Ok(());
+                return Ok(Finish::Done);
             };
             if class > self.class_limit {
                 // The queue gives the smallest class first: all that is left is too large.
                 self.defer(class, q);
                 self.defer_all();
-                return Ok(());
+                return Ok(Finish::Done);
             }
             if self.is_current(&q) {
                 self.fix(class, q)?;
@@ -237,7 +276,7 @@ impl<'w, S: Store> Refiner<'w, S> {
                     requeue(self);
                     return Ok(());
                 }
-                self.work.cavity.commit(&mut self.s, p);
+                self.work.cavity.commit(&mut self.s, p, None);
                 self.inspect_created();
                 Ok(())
             }
@@ -274,16 +313,6 @@ impl<'w, S: Store> Refiner<'w, S> {
         is_current(&self.s, q)
     }
 
-    fn out_of_budget(&self) -> Error {
-        let remaining = (0..self.s.triangle_count() as u32)
-            .filter(|&id| badness(&self.s, &self.bounds, id).is_some())
-            .count();
-        Error::VertexBudget {
-            limit: self.budget,
-            remaining,
-        }
-    }
-
     fn is_live(&self, e: &Encroached) -> bool {
         is_live(&self.s, e)
     }
@@ -309,15 +338,25 @@ impl<'w, S: Store> Refiner<'w, S> {
         }
     }
 
-    /// Splits a boundary edge at its midpoint, which keeps the side's constant coordinate bit
-    /// for bit.
+    /// Splits a boundary edge: at its midpoint, which on an axis-parallel edge keeps the
+    /// side's constant coordinate bit for bit; or, on an edge from an acute domain corner, where
+    /// a circle around the corner of a power-of-two radius meets it nearest the midpoint
+    /// (Ruppert's concentric shells), so that the splits on the corner's two sides stay at
+    /// equal distances from it and stop encroaching on each other.
     fn split_boundary_edge(&mut self, e: Encroached) -> Result<(), Error> {
         let (a, b) = (self.s.point(e.ends.0), self.s.point(e.ends.1));
         let mut m = a * 0.5 + b * 0.5;
+        let acute = |v: u32| self.bounds.acute_angle(v).is_some();
         if a.x == b.x {
             m.x = a.x;
-        } else {
+        } else if a.y == b.y {
             m.y = a.y;
+        } else if acute(e.ends.0) != acute(e.ends.1) {
+            m = if acute(e.ends.0) {
+                on_shell(a, b)
+            } else {
+                on_shell(b, a)
+            };
         }
         if m == a || m == b {
             return Err(Error::RefinementResolution { x: m.x, y: m.y });
@@ -326,7 +365,7 @@ impl<'w, S: Store> Refiner<'w, S> {
             self.work.deferred_edges.push(e);
             return Ok(());
         }
-        self.work.cavity.commit(&mut self.s, m);
+        self.work.cavity.commit(&mut self.s, m, Some(e.ends));
         self.inspect_created();
         Ok(())
     }
@@ -401,7 +440,7 @@ fn place(bounds: &Bounds, p: DVec2) -> u64 {
 }
 
 /// For a bad triangle, the corner opposite its shortest edge and that edge's squared length.
-fn badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usize, f64)> {
+pub(super) fn badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usize, f64)> {
     let c = s.corners(id);
     let v = [s.point(c[0]), s.point(c[1]), s.point(c[2])];
     let len2 = [
@@ -416,8 +455,17 @@ fn badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usize, f64)> {
     // The smallest angle faces the shortest edge, and its sine is twice the area over the
     // product of the two other sides.
     let others = len2[NEXT[shortest]] * len2[PREV[shortest]];
-    let skinny = area2 * area2 < bounds.sin2 * others;
+    let skinny =
+        area2 * area2 < bounds.sin2 * others && !bounds.in_narrow_corner(c[shortest] & !MARK);
     (skinny || area2 > bounds.max_area2).then_some((shortest, len2[shortest]))
+}
+
+/// The point of segment `apex → other` at the power-of-two distance from `apex` nearest its
+/// midpoint: between 0.35 and 0.71 of the way.
+fn on_shell(apex: DVec2, other: DVec2) -> DVec2 {
+    let length = apex.distance(other);
+    let radius = 2f64.powf((length / 2.0).log2().round());
+    apex + (other - apex) * (radius / length)
 }
 
 /// The largest vertex number among a triangle's corners.

@@ -292,7 +292,10 @@ mod tests {
         assert_eq!(inputs, order.len());
         let others = t.vertices.len() - inputs;
         assert!((2 * seams..=2 * seams + 4).contains(&others));
-        (super::super::into_mesh(t, vertex_input, domain), seams + 1)
+        (
+            super::super::into_mesh(t, vertex_input, domain, false),
+            seams + 1,
+        )
     }
 
     fn assert_delaunay_mesh(points: &[DVec2], mesh: &crate::Mesh, what: &str) {

@@ -613,7 +613,7 @@ impl Store for TileStore<'_> {
 
 /// What a tile's pass left: work set aside, and the chunks it used.
 struct TileOutcome {
-    result: Result<(), Error>,
+    result: Result<super::refiner::Finish, Error>,
     deferred: Lists,
     vertex_chunks: Vec<Chunk>,
     triangle_chunks: Vec<Chunk>,

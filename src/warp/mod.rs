@@ -114,6 +114,7 @@ pub fn warp<K: MortonKey>(
     }
     let (lo, hi) = grid.domain();
     let mesh = Mesh {
+        outline: None,
         vertices,
         vertex_input,
         triangles,
@@ -558,12 +559,13 @@ fn boundary_edges<K: MortonKey>(
                     let c = corner as usize;
                     BoundaryEdge {
                         vertices: [tri[(c + 1) % 3], tri[(c + 2) % 3]],
-                        side: match side {
+                        marker: match side {
                             RingSide::South => BoundarySide::Bottom,
                             RingSide::East => BoundarySide::Right,
                             RingSide::North => BoundarySide::Top,
                             RingSide::West => BoundarySide::Left,
-                        },
+                        }
+                        .marker(),
                     }
                 })
         })

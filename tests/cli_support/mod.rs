@@ -122,6 +122,7 @@ pub fn read_triangle_files(prefix: &Path) -> Mesh {
         })
         .collect();
     Mesh {
+        outline: None,
         vertices,
         vertex_input,
         triangles,

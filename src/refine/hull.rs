@@ -1,0 +1,375 @@
+//! The convex hull of the input points as the domain: the Delaunay triangulation of a square
+//! around the points is cut down to the triangles inside their hull.
+//!
+//! The square's corners (and the strips' seam ends on its sides) lie outside the hull. A hull
+//! edge need not be an edge of the square's triangulation: points close inside it can make the
+//! corners' triangles reach across it. Each missing hull edge is put in by flipping the edges
+//! that cross it (Sloan's method); the triangles with a vertex that is not an input point are
+//! then exactly those outside the hull, and go; Lawson's flips from the triangles the recovery
+//! made restore the Delaunay property inside, where the hull edges bound the flips. What stays
+//! is the Delaunay triangulation of the points, whose boundary is their hull.
+
+use std::collections::VecDeque;
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use super::delaunay::{NEXT, PREV, Triangulation, orient};
+use crate::error::Error;
+use crate::mesh::NONE;
+
+/// A hull corner narrower than this (degrees) has its boundary edges split on concentric
+/// circles around it, so that splits on its two sides do not encroach on each other forever.
+pub(super) const ACUTE_CORNER_DEG: f64 = 60.0;
+
+/// The hull of a triangulation's input vertices and what the refinement needs of it.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Hull {
+    /// The hull's vertices counter-clockwise, points on its sides included (as vertex numbers
+    /// of the triangulation before the cut).
+    pub vertices: Vec<u32>,
+}
+
+/// The vertices of the convex hull of the triangulation's input vertices (`vertex_input` not
+/// [`NONE`]), counter-clockwise from the lowest-leftmost, every point on a hull side included.
+///
+/// # Errors
+/// [`Error::Degenerate`] when the points are collinear: their hull has no area.
+pub(super) fn hull_vertices(t: &Triangulation, vertex_input: &[u32]) -> Result<Hull, Error> {
+    let candidates = outside_octagon(t, vertex_input);
+    let mut sorted = candidates;
+    sorted.par_sort_unstable_by(|&a, &b| {
+        let (p, q) = (t.vertices[a as usize], t.vertices[b as usize]);
+        p.x.total_cmp(&q.x).then(p.y.total_cmp(&q.y))
+    });
+    let at = |v: u32| t.vertices[v as usize];
+    let mut chain: Vec<u32> = Vec::with_capacity(2 * sorted.len());
+    // Andrew's monotone chain, keeping collinear points: a point is dropped only on a strict
+    // right turn.
+    for pass in [&sorted[..], &reversed(&sorted)[..]] {
+        let start = chain.len();
+        for &v in pass {
+            while chain.len() >= start + 2
+                && orient(
+                    at(chain[chain.len() - 2]),
+                    at(chain[chain.len() - 1]),
+                    at(v),
+                ) < 0.0
+            {
+                chain.pop();
+            }
+            chain.push(v);
+        }
+        chain.pop();
+    }
+    let area2: f64 = (0..chain.len())
+        .map(|k| at(chain[k]).perp_dot(at(chain[(k + 1) % chain.len()])))
+        .sum();
+    if chain.len() < 3 || area2 <= 0.0 || !spans_area(t, &chain) {
+        let p = at(sorted[0]);
+        return Err(Error::Degenerate { x: p.x, y: p.y });
+    }
+    Ok(Hull { vertices: chain })
+}
+
+fn reversed(v: &[u32]) -> Vec<u32> {
+    v.iter().rev().copied().collect()
+}
+
+/// Whether some three hull vertices make a strict left turn: the hull is not a segment.
+fn spans_area(t: &Triangulation, chain: &[u32]) -> bool {
+    let at = |v: u32| t.vertices[v as usize];
+    let (a, b) = (at(chain[0]), at(chain[1]));
+    chain[2..].iter().any(|&c| orient(a, b, at(c)) > 0.0)
+}
+
+/// The input vertices not strictly inside the octagon of the eight extreme points (Akl and
+/// Toussaint): only they can be on the hull. Exact, so every hull point survives.
+fn outside_octagon(t: &Triangulation, vertex_input: &[u32]) -> Vec<u32> {
+    let directions = [
+        DVec2::new(1.0, 0.0),
+        DVec2::new(1.0, 1.0),
+        DVec2::new(0.0, 1.0),
+        DVec2::new(-1.0, 1.0),
+        DVec2::new(-1.0, 0.0),
+        DVec2::new(-1.0, -1.0),
+        DVec2::new(0.0, -1.0),
+        DVec2::new(1.0, -1.0),
+    ];
+    let inputs = || {
+        (0..t.vertices.len() as u32)
+            .into_par_iter()
+            .filter(|&v| vertex_input[v as usize] != NONE)
+    };
+    // The extreme vertex in each direction; ties to the lower number, so that it is the same
+    // on any thread count.
+    let extreme: Vec<DVec2> = directions
+        .iter()
+        .map(|&d| {
+            let v = inputs()
+                .map(|v| (t.vertices[v as usize].dot(d), v))
+                .reduce(
+                    || (f64::NEG_INFINITY, NONE),
+                    |a, b| match a.0.total_cmp(&b.0) {
+                        std::cmp::Ordering::Less => b,
+                        std::cmp::Ordering::Greater => a,
+                        std::cmp::Ordering::Equal => (a.0, a.1.min(b.1)),
+                    },
+                )
+                .1;
+            t.vertices[v as usize]
+        })
+        .collect();
+    inputs()
+        .filter(|&v| {
+            let p = t.vertices[v as usize];
+            (0..8).any(|k| orient(extreme[k], extreme[(k + 1) % 8], p) <= 0.0)
+        })
+        .collect()
+}
+
+/// Cuts `t` down to the hull of its input vertices: recovers the hull edges, drops every
+/// triangle and vertex outside, renumbers what stays in order, and flips it Delaunay. Returns
+/// the hull with the new vertex numbers; `vertex_input` follows the vertices.
+pub(super) fn cut_to_hull(
+    t: &mut Triangulation,
+    vertex_input: &mut Vec<u32>,
+) -> Result<Hull, Error> {
+    let hull = hull_vertices(t, vertex_input)?;
+    let mut stars = Stars::of(t);
+    let mut touched = Vec::new();
+    let n = hull.vertices.len();
+    for k in 0..n {
+        let edge = (hull.vertices[k], hull.vertices[(k + 1) % n]);
+        recover_edge(t, &mut stars, edge, &mut touched)?;
+    }
+    let (vertex_map, triangle_map) = compact(t, vertex_input);
+    let edges: Vec<(u32, usize)> = touched
+        .iter()
+        .map(|&old| triangle_map[old as usize])
+        .filter(|&new| new != NONE)
+        .flat_map(|new| (0..3).map(move |i| (new, i)))
+        .collect();
+    t.flip_to_delaunay(edges);
+    let vertices = hull
+        .vertices
+        .iter()
+        .map(|&v| vertex_map[v as usize])
+        .collect();
+    Ok(Hull { vertices })
+}
+
+/// A triangle around each vertex, kept current through the recovery's flips.
+struct Stars {
+    triangle_of: Vec<u32>,
+}
+
+impl Stars {
+    fn of(t: &Triangulation) -> Self {
+        let mut triangle_of = vec![NONE; t.vertices.len()];
+        for (id, c) in t.corners.iter().enumerate() {
+            for &v in c {
+                triangle_of[v as usize] = id as u32;
+            }
+        }
+        Stars { triangle_of }
+    }
+
+    /// The triangle holding edge `a → b` counter-clockwise and the corner opposite it, if that
+    /// edge exists; found by turning around `a`.
+    fn edge(&self, t: &Triangulation, a: u32, b: u32) -> Option<(u32, usize)> {
+        self.around(t, a).find_map(|(id, i)| {
+            // Corner i is a; the edge a → c[NEXT[i]] is opposite corner PREV[i].
+            (t.corners[id as usize][NEXT[i]] == b).then_some((id, PREV[i]))
+        })
+    }
+
+    /// The triangles around vertex `a`, each with `a`'s corner in it, turning one way; for a
+    /// vertex on the square's boundary, from the triangle at one end of its open fan.
+    fn around<'t>(&self, t: &'t Triangulation, a: u32) -> impl Iterator<Item = (u32, usize)> + 't {
+        let corner = move |id: u32| (0..3).find(|&i| t.corners[id as usize][i] == a);
+        let mut first = self.triangle_of[a as usize];
+        // Turn the other way to the end of the fan, if it has one.
+        let mut back = first;
+        for _ in 0..t.corners.len() {
+            let Some(i) = corner(back) else { break };
+            back = t.across[back as usize][NEXT[i]];
+            if back == NONE || back == self.triangle_of[a as usize] {
+                break;
+            }
+            first = back;
+        }
+        let mut next = Some(first);
+        std::iter::from_fn(move || {
+            let id = next?;
+            let i = corner(id)?;
+            let after = t.across[id as usize][PREV[i]];
+            next = (after != first && after != NONE).then_some(after);
+            Some((id, i))
+        })
+        .take(t.corners.len())
+    }
+
+    /// Points each corner of the given triangles at one that holds it.
+    fn note(&mut self, t: &Triangulation, ids: [u32; 2]) {
+        for id in ids {
+            for v in t.corners[id as usize] {
+                self.triangle_of[v as usize] = id;
+            }
+        }
+    }
+}
+
+/// Makes `u → v` an edge by flipping the edges that cross it, queueing each one that cannot
+/// be flipped yet (its quadrilateral is not convex) behind the others (Sloan): some crossing
+/// edge can always be flipped, so the crossings run out. No vertex lies on the open segment.
+fn recover_edge(
+    t: &mut Triangulation,
+    stars: &mut Stars,
+    (u, v): (u32, u32),
+    touched: &mut Vec<u32>,
+) -> Result<(), Error> {
+    if stars.edge(t, u, v).is_some() {
+        return Ok(());
+    }
+    let (pu, pv) = (t.vertices[u as usize], t.vertices[v as usize]);
+    let stuck = || Error::Degenerate { x: pu.x, y: pu.y };
+    let mut crossing: VecDeque<(u32, u32)> = crossing_edges(t, stars, (u, v), pu, pv)
+        .ok_or_else(stuck)?
+        .into();
+    let mut stalls = 0;
+    while let Some((a, b)) = crossing.pop_front() {
+        let (id, i) = stars.edge(t, a, b).ok_or_else(stuck)?;
+        let other = t.across[id as usize][i];
+        let j = facing(t, other, id);
+        let (c, w) = (t.corners[id as usize][i], t.corners[other as usize][j]);
+        let [pa, pb, pc, pw] = [a, b, c, w].map(|x| t.vertices[x as usize]);
+        // The quadrilateral is strictly convex when c → w separates a from b.
+        if orient(pc, pw, pa) * orient(pc, pw, pb) >= 0.0 {
+            crossing.push_back((a, b));
+            stalls += 1;
+            if stalls > crossing.len() {
+                return Err(stuck());
+            }
+            continue;
+        }
+        stalls = 0;
+        t.flip(id, i, other, j);
+        stars.note(t, [id, other]);
+        touched.extend([id, other]);
+        let ends_apart = ![u, v].contains(&c) && ![u, v].contains(&w);
+        if ends_apart && orient(pu, pv, pc) * orient(pu, pv, pw) < 0.0 {
+            crossing.push_back((c, w));
+        }
+    }
+    Ok(())
+}
+
+/// The corner of triangle `u` opposite its edge shared with triangle `t`.
+fn facing(t: &Triangulation, u: u32, from: u32) -> usize {
+    (0..3)
+        .find(|&j| t.across[u as usize][j] == from)
+        .expect("neighbours link each other")
+}
+
+/// The edges the segment `u → v` crosses, in order from `u`, each in the direction of the
+/// triangle on `u`'s side; `None` if the walk finds no way through.
+fn crossing_edges(
+    t: &Triangulation,
+    stars: &Stars,
+    (u, v): (u32, u32),
+    pu: DVec2,
+    pv: DVec2,
+) -> Option<Vec<(u32, u32)>> {
+    let side = |x: u32| orient(pu, pv, t.vertices[x as usize]);
+    // The triangle of u's star whose far edge the segment leaves by.
+    let (mut id, corner) = stars.around(t, u).find(|&(id, i)| {
+        let c = t.corners[id as usize];
+        side(c[NEXT[i]]) < 0.0 && side(c[PREV[i]]) > 0.0
+    })?;
+    let mut edge = corner;
+    let mut out = Vec::new();
+    for _ in 0..t.corners.len() {
+        let c = t.corners[id as usize];
+        let a = c[NEXT[edge]];
+        out.push((a, c[PREV[edge]]));
+        let next = t.across[id as usize][edge];
+        if next == NONE {
+            return None;
+        }
+        let j = facing(t, next, id);
+        let far = t.corners[next as usize][j];
+        if far == v {
+            return Some(out);
+        }
+        // In `next`, corner j is `far`, PREV[j] is a and NEXT[j] is b: the segment leaves by
+        // the edge from `far` to whichever of a, b lies on the other side of the line.
+        edge = if (side(far) > 0.0) == (side(a) > 0.0) {
+            PREV[j]
+        } else {
+            NEXT[j]
+        };
+        id = next;
+    }
+    None
+}
+
+/// Drops every triangle with a vertex that is not an input point and every such vertex,
+/// keeping the order of the rest. Returns the new number of each old vertex and triangle
+/// ([`NONE`] for dropped ones).
+fn compact(t: &mut Triangulation, vertex_input: &mut Vec<u32>) -> (Vec<u32>, Vec<u32>) {
+    let mut vertex_map = vec![NONE; t.vertices.len()];
+    let mut kept = 0u32;
+    for v in 0..t.vertices.len() {
+        if vertex_input[v] != NONE {
+            vertex_map[v] = kept;
+            t.vertices[kept as usize] = t.vertices[v];
+            vertex_input[kept as usize] = vertex_input[v];
+            kept += 1;
+        }
+    }
+    t.vertices.truncate(kept as usize);
+    vertex_input.truncate(kept as usize);
+    let inside: Vec<bool> = t
+        .corners
+        .par_iter()
+        .map(|c| c.iter().all(|&v| vertex_map[v as usize] != NONE))
+        .collect();
+    let mut triangle_map = vec![NONE; t.corners.len()];
+    let mut kept = 0u32;
+    for (id, &keep) in inside.iter().enumerate() {
+        if keep {
+            triangle_map[id] = kept;
+            kept += 1;
+        }
+    }
+    let mut next = 0;
+    for id in 0..t.corners.len() {
+        if inside[id] {
+            t.corners[next] = t.corners[id].map(|v| vertex_map[v as usize]);
+            t.across[next] = t.across[id].map(|n| {
+                if n == NONE {
+                    NONE
+                } else {
+                    triangle_map[n as usize]
+                }
+            });
+            next += 1;
+        }
+    }
+    t.corners.truncate(next);
+    t.across.truncate(next);
+    (vertex_map, triangle_map)
+}
+
+/// The interior angle of the hull at each of its vertices, degrees.
+pub(super) fn corner_angles(points: &[DVec2]) -> Vec<f64> {
+    let n = points.len();
+    (0..n)
+        .map(|k| {
+            let (prev, here, next) = (points[(k + n - 1) % n], points[k], points[(k + 1) % n]);
+            let (a, b) = (next - here, prev - here);
+            a.perp_dot(b).atan2(a.dot(b)).to_degrees()
+        })
+        .collect()
+}
