@@ -1,8 +1,6 @@
 //! The stages chained: points → Morton order → framework → unbalanced quadtree, with timings.
 //! The CLI, the benches and the tests all call these.
 
-use std::time::{Duration, Instant};
-
 use glam::DVec2;
 use rayon::prelude::*;
 
@@ -11,32 +9,14 @@ use crate::balance::{
 };
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
-use crate::mesh::{AngleQuality, BoundarySide, Domain, Mesh, MeshReport, Reflection};
+pub use crate::mesh::StageTimes;
+use crate::mesh::{AngleQuality, BoundarySide, Domain, Mesh, MeshReport, Reflection, report_of};
 use crate::morton::{
     Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order, morton_order_on,
     morton_order_wide, validate_points,
 };
 use crate::quadtree::{Quadtree, expand};
 use crate::warp::{leaves_below, point_finer_than_grid, unresolvable, warp};
-
-/// Wall-clock time of each stage, in the order they ran.
-#[derive(Clone, Debug, Default)]
-pub struct StageTimes(pub Vec<(&'static str, Duration)>);
-
-impl StageTimes {
-    /// Runs `f`, recording its wall-clock time under `stage`.
-    pub fn time<T>(&mut self, stage: &'static str, f: impl FnOnce() -> T) -> T {
-        let start = Instant::now();
-        let out = f();
-        self.0.push((stage, start.elapsed()));
-        out
-    }
-
-    /// Sum of all stages.
-    pub fn total(&self) -> Duration {
-        self.0.iter().map(|(_, d)| *d).sum()
-    }
-}
 
 /// The trees of one input on one grid width.
 #[derive(Clone, Debug)]
@@ -456,26 +436,6 @@ fn mesh_on(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport)
         times,
     );
     Ok((mesh, report))
-}
-
-/// The report of a finished mesh of `points` distinct points.
-pub(crate) fn report_of(
-    mesh: &Mesh,
-    points: usize,
-    duplicates: usize,
-    quality: &AngleQuality,
-    times: StageTimes,
-) -> MeshReport {
-    MeshReport {
-        points,
-        duplicates,
-        vertices: mesh.vertices.len(),
-        triangles: mesh.triangles.len(),
-        min_angle: quality.min,
-        max_angle: quality.max,
-        histogram: quality.histogram,
-        stages: times.0,
-    }
 }
 
 type Warped = (Mesh, AngleQuality, usize);

@@ -2,9 +2,8 @@
 //! quality report.
 
 mod delaunay_check;
+mod report;
 mod validate;
-
-use std::time::Duration;
 
 use glam::{DVec2, Vec2Swizzles};
 use rayon::prelude::*;
@@ -12,6 +11,8 @@ use rayon::prelude::*;
 use crate::error::Error;
 
 pub use delaunay_check::check_delaunay;
+pub(crate) use report::report_of;
+pub use report::{AngleQuality, MeshReport, StageTimes};
 pub use validate::{AngleBounds, validate};
 
 /// Marks "no triangle" in [`Mesh::neighbours`] and "no input point" in [`Mesh::vertex_input`].
@@ -202,74 +203,4 @@ pub fn angles_deg(a: DVec2, b: DVec2, c: DVec2) -> [f64; 3] {
         u.perp_dot(v).abs().atan2(u.dot(v)).to_degrees()
     };
     [angle(a, b, c), angle(b, c, a), angle(c, a, b)]
-}
-
-/// Smallest and largest angle (degrees) and the count of angles per 10° bin.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AngleQuality {
-    /// Smallest angle.
-    pub min: f64,
-    /// Largest angle.
-    pub max: f64,
-    /// `histogram[i]` counts angles in `[10 i, 10 (i + 1))` degrees.
-    pub histogram: [u64; 18],
-}
-
-impl AngleQuality {
-    pub(crate) fn empty() -> Self {
-        AngleQuality {
-            min: f64::INFINITY,
-            max: f64::NEG_INFINITY,
-            histogram: [0; 18],
-        }
-    }
-
-    pub(crate) fn add(&mut self, angle: f64, count: u64) {
-        self.min = self.min.min(angle);
-        self.max = self.max.max(angle);
-        self.histogram[((angle / 10.0) as usize).min(17)] += count;
-    }
-
-    /// The same angles `count` times over.
-    pub(crate) fn repeated(mut self, count: u64) -> Self {
-        self.histogram.iter_mut().for_each(|h| *h *= count);
-        self
-    }
-
-    pub(crate) fn merge(mut self, other: Self) -> Self {
-        self.min = self.min.min(other.min);
-        self.max = self.max.max(other.max);
-        for (h, o) in self.histogram.iter_mut().zip(other.histogram) {
-            *h += o;
-        }
-        self
-    }
-}
-
-/// Counts, angles and timings of a mesh run.
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct MeshReport {
-    /// Distinct input points meshed.
-    pub points: usize,
-    /// Exact duplicates merged into an earlier point.
-    pub duplicates: usize,
-    /// Vertices of the mesh.
-    pub vertices: usize,
-    /// Triangles of the mesh.
-    pub triangles: usize,
-    /// Smallest angle, degrees.
-    pub min_angle: f64,
-    /// Largest angle, degrees.
-    pub max_angle: f64,
-    /// Count of angles per 10° bin: `histogram[i]` counts angles in `[10 i, 10 (i + 1))`.
-    pub histogram: [u64; 18],
-    /// Wall-clock time of each stage.
-    pub stages: Vec<(&'static str, Duration)>,
-}
-
-impl MeshReport {
-    /// Sum of the stage times.
-    pub fn total(&self) -> Duration {
-        self.stages.iter().map(|(_, d)| *d).sum()
-    }
 }

@@ -19,10 +19,11 @@ use robust::{Coord, orient2d};
 
 use crate::balance::BalancedTree;
 use crate::error::Error;
-use crate::mesh::{AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, angles_deg};
+use crate::mesh::{
+    AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, StageTimes, angles_deg,
+};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
 use crate::par::{GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, exclusive_scan_u32_by};
-use crate::pipeline::StageTimes;
 use templates::{Across, Kind, Part, RingSide, template};
 use vertices::{LeafGeometry, Numbering};
 
