@@ -52,6 +52,7 @@
 #![deny(missing_docs)]
 
 pub mod balance;
+pub mod domain;
 pub mod dynamic;
 mod error;
 pub mod framework;

@@ -5,11 +5,10 @@ mod delaunay_check;
 mod report;
 mod validate;
 
-use glam::{DVec2, Vec2Swizzles};
+use glam::DVec2;
 use rayon::prelude::*;
 
-use crate::error::Error;
-
+pub use crate::domain::{BoundaryEdge, BoundarySide, Domain, Reflection};
 pub use delaunay_check::check_delaunay;
 pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
@@ -17,138 +16,6 @@ pub use validate::{AngleBounds, validate};
 
 /// Marks "no triangle" in [`Mesh::neighbours`] and "no input point" in [`Mesh::vertex_input`].
 pub const NONE: u32 = u32::MAX;
-
-/// An axis-parallel rectangle `[lo, hi]`, the region a mesh covers.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Domain {
-    /// Lower-left corner.
-    pub lo: DVec2,
-    /// Upper-right corner.
-    pub hi: DVec2,
-}
-
-impl Domain {
-    /// Area of the rectangle.
-    pub fn area(&self) -> f64 {
-        let d = self.hi - self.lo;
-        d.x * d.y
-    }
-
-    /// Whether `p` lies in the closed rectangle.
-    pub fn contains(&self, p: DVec2) -> bool {
-        self.lo.x <= p.x && p.x <= self.hi.x && self.lo.y <= p.y && p.y <= self.hi.y
-    }
-
-    /// Refuses a rectangle that is not finite or has no area.
-    ///
-    /// # Errors
-    /// [`Error::InvalidOption`] for the `domain` option.
-    pub fn check(&self) -> Result<(), Error> {
-        let (lo, hi) = (self.lo, self.hi);
-        if lo.is_finite() && hi.is_finite() && lo.x < hi.x && lo.y < hi.y {
-            return Ok(());
-        }
-        Err(Error::InvalidOption {
-            option: "domain",
-            message: format!(
-                "[{}, {}] x [{}, {}] is not a rectangle of positive area",
-                lo.x, hi.x, lo.y, hi.y
-            ),
-        })
-    }
-
-    /// Refuses points outside the rectangle (its sides count as inside).
-    ///
-    /// # Errors
-    /// [`Error::OutsideDomain`] for the first such point.
-    pub fn check_holds(&self, points: &[DVec2]) -> Result<(), Error> {
-        match points.par_iter().position_first(|&p| !self.contains(p)) {
-            Some(index) => Err(Error::OutsideDomain {
-                index,
-                x: points[index].x,
-                y: points[index].y,
-            }),
-            None => Ok(()),
-        }
-    }
-
-    /// The rectangle's mirror image.
-    pub fn reflected(&self, r: Reflection) -> Domain {
-        let (a, b) = (r.point(self.lo), r.point(self.hi));
-        Domain {
-            lo: a.min(b),
-            hi: a.max(b),
-        }
-    }
-}
-
-/// A mirror image the mesher may work in and map back from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Reflection {
-    /// Across the diagonal `x = y`: coordinates swapped.
-    Diagonal,
-    /// Across the x axis: `y` negated.
-    Horizontal,
-}
-
-impl Reflection {
-    /// The image of a point (exact: a swap or a sign change).
-    pub fn point(self, p: DVec2) -> DVec2 {
-        match self {
-            Reflection::Diagonal => p.yx(),
-            Reflection::Horizontal => DVec2::new(p.x, -p.y),
-        }
-    }
-
-    /// The image of a domain side.
-    pub fn side(self, side: BoundarySide) -> BoundarySide {
-        use BoundarySide::{Bottom, Left, Right, Top};
-        match (self, side) {
-            (Reflection::Diagonal, Bottom) => Left,
-            (Reflection::Diagonal, Left) => Bottom,
-            (Reflection::Diagonal, Right) => Top,
-            (Reflection::Diagonal, Top) => Right,
-            (Reflection::Horizontal, Bottom) => Top,
-            (Reflection::Horizontal, Top) => Bottom,
-            (Reflection::Horizontal, other) => other,
-        }
-    }
-}
-
-/// Which side of the domain a boundary edge lies on; the value is the edge's marker in the
-/// output files (Triangle's convention: 0 is interior, nonzero is boundary).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-#[repr(u8)]
-pub enum BoundarySide {
-    /// `y = lo.y`.
-    Bottom = 1,
-    /// `x = hi.x`.
-    Right = 2,
-    /// `y = hi.y`.
-    Top = 3,
-    /// `x = lo.x`.
-    Left = 4,
-}
-
-impl std::fmt::Display for BoundarySide {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            BoundarySide::Bottom => "bottom",
-            BoundarySide::Right => "right",
-            BoundarySide::Top => "top",
-            BoundarySide::Left => "left",
-        })
-    }
-}
-
-/// A triangle edge on the domain boundary, oriented counter-clockwise around the domain.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct BoundaryEdge {
-    /// Its two vertices, the domain's interior on their left.
-    pub vertices: [u32; 2],
-    /// The side of the domain it lies on.
-    pub side: BoundarySide,
-}
 
 /// A conforming triangle mesh of a rectangular domain.
 ///
