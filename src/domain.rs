@@ -1,7 +1,12 @@
 //! The region a mesh covers: an axis-parallel rectangle, its sides and the mirror images the
-//! mesher may work in. A leaf: it imports nothing from the rest of the crate.
+//! mesher may work in; and the crate's one "no index" sentinel. A leaf: it imports nothing
+//! from the rest of the crate.
 
 use glam::{DVec2, Vec2Swizzles};
+
+/// "No index" in the crate's 32-bit index arrays: no triangle, no input point, no such node,
+/// leaf or point. Indices stay below it.
+pub const NONE: u32 = u32::MAX;
 
 /// An axis-parallel rectangle `[lo, hi]`, the region a mesh covers.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

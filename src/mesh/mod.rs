@@ -8,14 +8,13 @@ mod validate;
 use glam::DVec2;
 use rayon::prelude::*;
 
+/// Marks "no triangle" in [`Mesh::neighbours`] and "no input point" in [`Mesh::vertex_input`].
+pub use crate::domain::NONE;
 pub use crate::domain::{BoundaryEdge, BoundarySide, Domain, Reflection};
 pub use delaunay_check::check_delaunay;
 pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
 pub use validate::{AngleBounds, validate};
-
-/// Marks "no triangle" in [`Mesh::neighbours`] and "no input point" in [`Mesh::vertex_input`].
-pub const NONE: u32 = u32::MAX;
 
 /// A conforming triangle mesh of a rectangular domain.
 ///
