@@ -8,6 +8,7 @@
 //! thread count.
 
 mod cut;
+pub mod placement;
 mod templates;
 mod vertices;
 
