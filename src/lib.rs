@@ -62,6 +62,7 @@ pub mod mesh;
 pub mod morton;
 pub mod par;
 pub mod pipeline;
+mod predicates;
 pub mod pslg;
 pub mod quadtree;
 pub mod refine;
