@@ -60,7 +60,7 @@ pub mod generate;
 pub mod io;
 pub mod mesh;
 pub mod morton;
-pub mod par;
+pub(crate) mod par;
 pub mod pipeline;
 mod predicates;
 pub mod pslg;
