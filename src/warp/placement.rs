@@ -1,7 +1,7 @@
 //! Where a given domain goes on the warp's grid: the mirror image the mesher works in (the
 //! side it lines with equal cells on top), and the graded columns that put the domain's right
 //! side on a grid line so that leaves meet its top side graded. The domain's geometry only;
-//! [`crate::pipeline`] builds the trees on it.
+//! the pipeline builds the trees on it.
 
 use glam::DVec2;
 use rayon::prelude::*;
