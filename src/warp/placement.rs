@@ -59,8 +59,8 @@ const MAX_GRADED_LEVEL: u32 = 22;
 
 /// The mirror images, in order, that turn `domain` into one at least as wide as tall whose top
 /// side is the better of its two long sides to line with equal cells: the one whose nearest
-/// point not on it, and closest two points on it, are further apart. [`crate::mesh_points`] meshes
-/// that image and maps the mesh back.
+/// point not on it, and closest two points on it, are further apart. [`crate::mesh_points`]
+/// meshes that image and maps the mesh back.
 pub fn domain_reflections(points: &[DVec2], domain: Domain) -> Vec<Reflection> {
     let extent = domain.hi - domain.lo;
     let mut reflections = Vec::new();
