@@ -1,9 +1,11 @@
 //! The crate's error type: every way an input can be refused, with what to fix.
 
 use glam::DVec2;
+use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::mesh::{BoundarySide, Mesh, MeshReport, Reflection};
+use crate::domain::{BoundarySide, Domain, Reflection};
+use crate::mesh::{Mesh, MeshReport};
 
 /// Why an input was refused. Nothing is dropped silently: each variant names the offending data.
 #[derive(Debug, Error, Clone, PartialEq)]
@@ -237,6 +239,43 @@ impl Error {
             *side = r.side(*side);
         }
         self
+    }
+}
+
+/// The domain's checks of itself and of the points, here with the errors they raise, so that
+/// [`crate::domain`] stays a leaf.
+impl Domain {
+    /// Refuses a rectangle that is not finite or has no area.
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] for the `domain` option.
+    pub fn check(&self) -> Result<(), Error> {
+        let (lo, hi) = (self.lo, self.hi);
+        if lo.is_finite() && hi.is_finite() && lo.x < hi.x && lo.y < hi.y {
+            return Ok(());
+        }
+        Err(Error::InvalidOption {
+            option: "domain",
+            message: format!(
+                "[{}, {}] x [{}, {}] is not a rectangle of positive area",
+                lo.x, hi.x, lo.y, hi.y
+            ),
+        })
+    }
+
+    /// Refuses points outside the rectangle (its sides count as inside).
+    ///
+    /// # Errors
+    /// [`Error::OutsideDomain`] for the first such point.
+    pub fn check_holds(&self, points: &[DVec2]) -> Result<(), Error> {
+        match points.par_iter().position_first(|&p| !self.contains(p)) {
+            Some(index) => Err(Error::OutsideDomain {
+                index,
+                x: points[index].x,
+                y: points[index].y,
+            }),
+            None => Ok(()),
+        }
     }
 }
 

@@ -52,6 +52,7 @@
 #![deny(missing_docs)]
 
 pub mod balance;
+pub mod domain;
 pub mod dynamic;
 mod error;
 pub mod framework;
@@ -60,8 +61,9 @@ pub mod io;
 pub mod mesh;
 pub mod morton;
 mod options;
-pub mod par;
+pub(crate) mod par;
 pub mod pipeline;
+mod predicates;
 pub mod pslg;
 pub mod quadtree;
 pub mod refine;

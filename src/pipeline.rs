@@ -1,8 +1,6 @@
 //! The stages chained: points → Morton order → framework → unbalanced quadtree, with timings.
 //! The CLI, the benches and the tests all call these.
 
-use std::time::{Duration, Instant};
-
 use glam::DVec2;
 use rayon::prelude::*;
 
@@ -11,7 +9,8 @@ use crate::balance::{
 };
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
-use crate::mesh::{AngleQuality, BoundarySide, Domain, Mesh, MeshReport, Reflection};
+pub use crate::mesh::StageTimes;
+use crate::mesh::{AngleQuality, BoundarySide, Domain, Mesh, MeshReport, report_of};
 use crate::morton::{
     Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order, morton_order_on,
     morton_order_wide, validate_points,
@@ -19,26 +18,9 @@ use crate::morton::{
 use crate::options::{Input, Mode, Options, Region};
 use crate::quadtree::{Quadtree, expand};
 use crate::refine::{RefineDomain, RefineOptions, refine_points};
+pub use crate::warp::placement::domain_reflections;
+use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{leaves_below, point_finer_than_grid, unresolvable, warp};
-
-/// Wall-clock time of each stage, in the order they ran.
-#[derive(Clone, Debug, Default)]
-pub struct StageTimes(pub Vec<(&'static str, Duration)>);
-
-impl StageTimes {
-    /// Runs `f`, recording its wall-clock time under `stage`.
-    pub fn time<T>(&mut self, stage: &'static str, f: impl FnOnce() -> T) -> T {
-        let start = Instant::now();
-        let out = f();
-        self.0.push((stage, start.elapsed()));
-        out
-    }
-
-    /// Sum of all stages.
-    pub fn total(&self) -> Duration {
-        self.0.iter().map(|(_, d)| *d).sum()
-    }
-}
 
 /// The trees of one input on one grid width.
 #[derive(Clone, Debug)]
@@ -234,52 +216,6 @@ fn separated_tree_on(
     Ok(Some(Tree::Wide(build)))
 }
 
-/// A root for a domain shorter than wide whose top side lies just above a grid line of
-/// `level`: the domain is `columns` cells of `level` wide, and the side keeps less than 1/16
-/// of the cells it crosses at every level down to `finest`. Leaves of those levels can then meet
-/// the side side by side, graded like the rest of the tree, all with their bottoms on that line.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct GradedColumns {
-    level: u32,
-    columns: u64,
-    finest: u32,
-}
-
-/// The root that lets leaves meet a short domain's top side graded (see [`GradedColumns`]):
-/// the coarsest level whose number of columns puts the side just above a grid line, for leaves
-/// as fine as the points near the side (within about an eighth of their clearance) need.
-fn graded_columns(points: &[DVec2], domain: Domain) -> Option<GradedColumns> {
-    let extent = domain.hi - domain.lo;
-    if extent.y >= extent.x {
-        return None;
-    }
-    let clearance = side_clearance(points, |p| p, domain, BoundarySide::Top);
-    // Leaves meeting the side near a point are about an eighth of its clearance or larger, on
-    // a root at most twice as wide as the domain.
-    let finest = (16.0 * extent.x / clearance.min(extent.y))
-        .log2()
-        .ceil()
-        .clamp(2.0, 64.0) as u32;
-    (2..=MAX_GRADED_LEVEL.min(finest)).find_map(|level| {
-        let limit = (2.0f64).powi(level as i32 - finest as i32 - 4);
-        let first = (1u64 << (level - 1)) + 1;
-        (first..=1u64 << level).find_map(|columns| {
-            // The top side in cells of `level`, rounded as `Grid::on_domain_columns` rounds it.
-            let side = extent.x * (2.0f64).powi(level as i32) / columns as f64;
-            let rows = extent.y / side * (2.0f64).powi(level as i32);
-            (rows >= 1.0 && rows.fract() < limit).then_some(GradedColumns {
-                level,
-                columns,
-                finest,
-            })
-        })
-    })
-}
-
-/// The finest level of the grid line a domain's right side is put on: past it, the search for
-/// columns costs more than the uniform band saves.
-const MAX_GRADED_LEVEL: u32 = 22;
-
 /// The framework, the unbalanced tree and the well-separated tree on `morton`'s grid, with the
 /// band along the domain's top side if it has one inside the root (the grid then moves the
 /// band's top row onto that side); graded as `columns` says if given, `None` if leaves finer
@@ -369,78 +305,16 @@ pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, Mes
     if reflections.is_empty() {
         return mesh_on(points, options);
     }
-    let image = |p: DVec2| reflections.iter().fold(p, |p, r| r.point(p));
-    let mirrored: Vec<DVec2> = points.par_iter().map(|&p| image(p)).collect();
+    let (image, image_domain) = mirrored(points, domain, &reflections);
     let options = MeshOptions {
-        domain: Some(reflections.iter().fold(domain, |d, &r| d.reflected(r))),
+        domain: Some(image_domain),
         ..*options
     };
     let back = reflections.iter().rev();
-    match mesh_on(&mirrored, &options) {
+    match mesh_on(&image, &options) {
         Ok((mesh, report)) => Ok((back.fold(mesh, |m, &r| m.reflected(r)), report)),
         Err(e) => Err(back.fold(e, |e, &r| e.reflected(r))),
     }
-}
-
-/// The mirror images, in order, that turn `domain` into one at least as wide as tall whose top
-/// side is the better of its two long sides to line with equal cells: the one whose nearest
-/// point not on it, and closest two points on it, are further apart. [`mesh_points`] meshes
-/// that image and maps the mesh back.
-pub fn domain_reflections(points: &[DVec2], domain: Domain) -> Vec<Reflection> {
-    let extent = domain.hi - domain.lo;
-    let mut reflections = Vec::new();
-    let mut image = domain;
-    if extent.y > extent.x {
-        reflections.push(Reflection::Diagonal);
-        image = domain.reflected(Reflection::Diagonal);
-    }
-    let diagonal = reflections.first().copied();
-    let flip = |p: DVec2| diagonal.map_or(p, |r| r.point(p));
-    if extent.x != extent.y
-        && side_clearance(points, flip, image, BoundarySide::Bottom)
-            > side_clearance(points, flip, image, BoundarySide::Top)
-    {
-        reflections.push(Reflection::Horizontal);
-    }
-    reflections
-}
-
-/// How far points keep from the top or bottom `side` of `domain` (after `image` maps them into
-/// it): the least distance from the side to a point not on it, or between two points on it, or
-/// from a point on it to the side's ends (the corners; a point on a corner keeps clear of it).
-fn side_clearance(
-    points: &[DVec2],
-    image: impl Fn(DVec2) -> DVec2 + Sync,
-    domain: Domain,
-    side: BoundarySide,
-) -> f64 {
-    let height = |p: DVec2| match side {
-        BoundarySide::Bottom => p.y - domain.lo.y,
-        _ => domain.hi.y - p.y,
-    };
-    let off_side = points
-        .par_iter()
-        .map(|&p| height(image(p)))
-        .filter(|&h| h > 0.0)
-        .reduce(|| f64::INFINITY, f64::min);
-    let mut on_side: Vec<f64> = points
-        .par_iter()
-        .map(|&p| image(p))
-        .filter(|&p| height(p) == 0.0)
-        .map(|p| p.x)
-        .collect();
-    on_side.par_sort_unstable_by(f64::total_cmp);
-    let ends: Vec<f64> = [domain.lo.x]
-        .into_iter()
-        .chain(on_side)
-        .chain([domain.hi.x])
-        .collect();
-    let apart = ends
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .filter(|&d| d > 0.0)
-        .fold(f64::INFINITY, f64::min);
-    off_side.min(apart)
 }
 
 /// [`mesh_points`] once the domain, if any, is at least as wide as it is tall.
@@ -458,26 +332,6 @@ fn mesh_on(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport)
         times,
     );
     Ok((mesh, report))
-}
-
-/// The report of a finished mesh of `points` distinct points.
-pub(crate) fn report_of(
-    mesh: &Mesh,
-    points: usize,
-    duplicates: usize,
-    quality: &AngleQuality,
-    times: StageTimes,
-) -> MeshReport {
-    MeshReport {
-        points,
-        duplicates,
-        vertices: mesh.vertices.len(),
-        triangles: mesh.triangles.len(),
-        min_angle: quality.min,
-        max_angle: quality.max,
-        histogram: quality.histogram,
-        stages: times.0,
-    }
 }
 
 type Warped = (Mesh, AngleQuality, usize);

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use crate::par::{chunk_offsets, collect_segments, collect_segments_reversed};
 
 /// No such index.
-pub const NONE: u32 = u32::MAX;
+pub use crate::domain::NONE;
 
 /// Values this module accepts: quadtree levels, at most 64.
 pub const VALUE_LIMIT: usize = 65;

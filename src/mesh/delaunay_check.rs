@@ -3,15 +3,15 @@
 //! A triangulation is Delaunay when every interior edge is locally Delaunay: the vertex of the
 //! neighbour opposite the edge is not strictly inside the triangle's circumcircle. Each edge is
 //! decided once, from its lower-numbered triangle (the in-circle sign of the four points is the
-//! same seen from either side), with the exact `robust::incircle` predicate, so cocircular
+//! same seen from either side), with the exact in-circle predicate, so cocircular
 //! vertices pass whichever diagonal the mesh chose. Runs in parallel, O(n), and reports the
 //! lowest-indexed fault.
 
 use glam::DVec2;
-use robust::{Coord, incircle};
 
 use super::validate::{first_fault, pt};
 use super::{Mesh, NONE};
+use crate::predicates::in_circle_value;
 
 /// Checks that every interior edge of `mesh` is locally Delaunay, which makes the whole mesh
 /// Delaunay; returns the first fault found.
@@ -61,7 +61,7 @@ fn edge_fault(mesh: &Mesh, t: usize, i: usize) -> Option<String> {
     };
     let v = other[j];
     let [pa, pb, pc, pd] = [tri[0], tri[1], tri[2], v].map(|k| vertex(mesh, k));
-    let det = incircle(pa?, pb?, pc?, pd?);
+    let det = in_circle_value(pa?, pb?, pc?, pd?);
     (det > 0.0).then(|| {
         let [a, b, c, d] = [tri[0], tri[1], tri[2], v].map(|k| pt(mesh.vertices[k as usize]));
         format!(
@@ -74,10 +74,8 @@ fn edge_fault(mesh: &Mesh, t: usize, i: usize) -> Option<String> {
 
 /// Vertex `k`'s coordinates for the predicate, `None` when `k` is out of range (then
 /// [`edge_fault`] reports nothing and leaves the index to `validate`).
-fn vertex(mesh: &Mesh, k: u32) -> Option<Coord<f64>> {
-    mesh.vertices
-        .get(k as usize)
-        .map(|&p: &DVec2| Coord { x: p.x, y: p.y })
+fn vertex(mesh: &Mesh, k: u32) -> Option<DVec2> {
+    mesh.vertices.get(k as usize).copied()
 }
 
 #[cfg(test)]

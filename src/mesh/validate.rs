@@ -9,9 +9,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use glam::DVec2;
 use rayon::prelude::*;
-use robust::{Coord, orient2d};
 
 use super::{BoundarySide, Domain, Mesh, NONE, angles_deg};
+use crate::predicates::orient_value;
 
 /// The angle range a meshing mode guarantees, in degrees.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -157,8 +157,7 @@ fn check_orientation(mesh: &Mesh) -> Result<(), String> {
     first_fault(mesh.triangles.len(), |t| {
         let tri = mesh.triangles[t];
         let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
-        let coord = |p: DVec2| Coord { x: p.x, y: p.y };
-        let det = orient2d(coord(a), coord(b), coord(c));
+        let det = orient_value(a, b, c);
         (det <= 0.0).then(|| {
             let how = if det == 0.0 {
                 "degenerate"

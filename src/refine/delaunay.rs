@@ -6,9 +6,9 @@
 //! [`Triangulation::locate`], [`Triangulation::dig`] and [`Triangulation::commit`].
 
 use glam::DVec2;
-use robust::{Coord, incircle, orient2d};
 
 use crate::mesh::NONE;
+use crate::predicates::{InCircle, Orientation, in_circle, orientation};
 
 /// Corner `i + 1` and corner `i + 2` of a triangle: the ends of the edge opposite corner `i`.
 pub(crate) const NEXT: [usize; 3] = [1, 2, 0];
@@ -108,17 +108,6 @@ pub(crate) struct Triangulation {
     pub vertices: Vec<DVec2>,
     pub corners: Vec<[u32; 3]>,
     pub across: Vec<[u32; 3]>,
-}
-
-#[inline]
-fn coord(p: DVec2) -> Coord<f64> {
-    Coord { x: p.x, y: p.y }
-}
-
-/// Positive if `c` is left of `a → b`, zero if collinear; exact.
-#[inline]
-pub(crate) fn orient(a: DVec2, b: DVec2, c: DVec2) -> f64 {
-    orient2d(coord(a), coord(b), coord(c))
 }
 
 impl Triangulation {
@@ -347,7 +336,7 @@ fn step<S: Store>(s: &S, p: DVec2, t: u32, came_from: u32) -> Step {
             continue;
         }
         let (a, b) = tri.edge(i);
-        if orient(s.point(a), s.point(b), p) < 0.0 {
+        if orientation(s.point(a), s.point(b), p) == Orientation::Right {
             return Step::Leave(i);
         }
     }
@@ -374,7 +363,7 @@ fn locate_by_scan<S: Store>(s: &S, p: DVec2) -> Location {
         .find(|&(t, i)| {
             let tri = s.triangle(t);
             let (a, b) = tri.edge(i);
-            tri.n[i] == NONE && orient(s.point(a), s.point(b), p) < 0.0
+            tri.n[i] == NONE && orientation(s.point(a), s.point(b), p) == Orientation::Right
         })
         .expect("a point in no triangle lies beyond some boundary edge");
     Location::Outside {
@@ -387,12 +376,8 @@ fn locate_by_scan<S: Store>(s: &S, p: DVec2) -> Location {
 #[inline]
 fn in_circumcircle<S: Store>(s: &S, t: u32, p: DVec2) -> bool {
     let v = s.corners(t);
-    let (a, b, c) = (
-        coord(s.point(v[0])),
-        coord(s.point(v[1])),
-        coord(s.point(v[2])),
-    );
-    incircle(a, b, c, coord(p)) > 0.0
+    let (a, b, c) = (s.point(v[0]), s.point(v[1]), s.point(v[2]));
+    in_circle(a, b, c, p) == InCircle::Inside
 }
 
 /// The scratch space of insertions: the cavity of the point being inserted, its rim, and the
@@ -502,7 +487,8 @@ impl Cavity {
         let v = s.push_vertex(p);
         self.rim.retain(|e| {
             e.outer != NONE
-                || (Some((e.a, e.b)) != split && orient(s.point(e.a), s.point(e.b), p) != 0.0)
+                || (Some((e.a, e.b)) != split
+                    && orientation(s.point(e.a), s.point(e.b), p) != Orientation::On)
         });
         // A fan has one triangle more than an interior cavity (one less for a boundary edge
         // split), so every cavity slot is reused, which also clears its mark.
@@ -632,7 +618,7 @@ mod tests {
             .map(|tri| {
                 let [a, b, c] = tri.map(|v| t.vertices[v as usize]);
                 assert!(
-                    orient(a, b, c) > 0.0,
+                    orientation(a, b, c) == Orientation::Left,
                     "triangle {tri:?} is not counter-clockwise"
                 );
                 (b - a).perp_dot(c - a) / 2.0

@@ -14,9 +14,10 @@ use std::collections::VecDeque;
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::delaunay::{NEXT, PREV, Triangulation, orient};
+use super::delaunay::{NEXT, PREV, Triangulation};
 use crate::error::Error;
 use crate::mesh::NONE;
+use crate::predicates::{Orientation, orientation};
 
 /// A hull corner narrower than this (degrees) has its boundary edges split on concentric
 /// circles around it, so that splits on its two sides do not encroach on each other forever.
@@ -50,11 +51,11 @@ pub(super) fn hull_vertices(t: &Triangulation, vertex_input: &[u32]) -> Result<H
         let start = chain.len();
         for &v in pass {
             while chain.len() >= start + 2
-                && orient(
+                && orientation(
                     at(chain[chain.len() - 2]),
                     at(chain[chain.len() - 1]),
                     at(v),
-                ) < 0.0
+                ) == Orientation::Right
             {
                 chain.pop();
             }
@@ -80,7 +81,9 @@ fn reversed(v: &[u32]) -> Vec<u32> {
 fn spans_area(t: &Triangulation, chain: &[u32]) -> bool {
     let at = |v: u32| t.vertices[v as usize];
     let (a, b) = (at(chain[0]), at(chain[1]));
-    chain[2..].iter().any(|&c| orient(a, b, at(c)) > 0.0)
+    chain[2..]
+        .iter()
+        .any(|&c| orientation(a, b, at(c)) == Orientation::Left)
 }
 
 /// The input vertices not strictly inside the octagon of the eight extreme points (Akl and
@@ -123,7 +126,7 @@ fn outside_octagon(t: &Triangulation, vertex_input: &[u32]) -> Vec<u32> {
     inputs()
         .filter(|&v| {
             let p = t.vertices[v as usize];
-            (0..8).any(|k| orient(extreme[k], extreme[(k + 1) % 8], p) <= 0.0)
+            (0..8).any(|k| orientation(extreme[k], extreme[(k + 1) % 8], p) != Orientation::Left)
         })
         .collect()
 }
@@ -245,7 +248,7 @@ fn recover_edge(
         let (c, w) = (t.corners[id as usize][i], t.corners[other as usize][j]);
         let [pa, pb, pc, pw] = [a, b, c, w].map(|x| t.vertices[x as usize]);
         // The quadrilateral is strictly convex when c → w separates a from b.
-        if orient(pc, pw, pa) * orient(pc, pw, pb) >= 0.0 {
+        if !separates((pc, pw), pa, pb) {
             crossing.push_back((a, b));
             stalls += 1;
             if stalls > crossing.len() {
@@ -258,11 +261,20 @@ fn recover_edge(
         stars.note(t, [id, other]);
         touched.extend([id, other]);
         let ends_apart = ![u, v].contains(&c) && ![u, v].contains(&w);
-        if ends_apart && orient(pu, pv, pc) * orient(pu, pv, pw) < 0.0 {
+        if ends_apart && separates((pu, pv), pc, pw) {
             crossing.push_back((c, w));
         }
     }
     Ok(())
+}
+
+/// Whether the line through `line` has `p` and `q` strictly on opposite sides.
+fn separates((a, b): (DVec2, DVec2), p: DVec2, q: DVec2) -> bool {
+    use Orientation::{Left, Right};
+    matches!(
+        (orientation(a, b, p), orientation(a, b, q)),
+        (Left, Right) | (Right, Left)
+    )
 }
 
 /// The corner of triangle `u` opposite its edge shared with triangle `t`.
@@ -281,11 +293,11 @@ fn crossing_edges(
     pu: DVec2,
     pv: DVec2,
 ) -> Option<Vec<(u32, u32)>> {
-    let side = |x: u32| orient(pu, pv, t.vertices[x as usize]);
+    let side = |x: u32| orientation(pu, pv, t.vertices[x as usize]);
     // The triangle of u's star whose far edge the segment leaves by.
     let (mut id, corner) = stars.around(t, u).find(|&(id, i)| {
         let c = t.corners[id as usize];
-        side(c[NEXT[i]]) < 0.0 && side(c[PREV[i]]) > 0.0
+        side(c[NEXT[i]]) == Orientation::Right && side(c[PREV[i]]) == Orientation::Left
     })?;
     let mut edge = corner;
     let mut out = Vec::new();
@@ -304,7 +316,7 @@ fn crossing_edges(
         }
         // In `next`, corner j is `far`, PREV[j] is a and NEXT[j] is b: the segment leaves by
         // the edge from `far` to whichever of a, b lies on the other side of the line.
-        edge = if (side(far) > 0.0) == (side(a) > 0.0) {
+        edge = if side(far) == side(a) {
             PREV[j]
         } else {
             NEXT[j]

@@ -43,10 +43,10 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Incomplete, Unmet};
 use crate::mesh::{
-    AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE, angles_deg,
+    AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE, StageTimes,
+    angles_deg, report_of,
 };
 use crate::morton::{FloatOrder, SortAlgorithm, float_morton_order};
-use crate::pipeline::{StageTimes, report_of};
 use delaunay::{Cavity, Location, MAX_VERTICES, NEXT, PREV, Triangulation, locate};
 use refiner::{Bounds, Finish, Refiner, Work};
 

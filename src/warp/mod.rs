@@ -8,6 +8,7 @@
 //! thread count.
 
 mod cut;
+pub mod placement;
 mod templates;
 mod vertices;
 
@@ -15,14 +16,15 @@ pub use cut::leaves_below;
 
 use glam::DVec2;
 use rayon::prelude::*;
-use robust::{Coord, orient2d};
 
 use crate::balance::BalancedTree;
 use crate::error::Error;
-use crate::mesh::{AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, angles_deg};
+use crate::mesh::{
+    AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, StageTimes, angles_deg,
+};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
 use crate::par::{GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, exclusive_scan_u32_by};
-use crate::pipeline::StageTimes;
+use crate::predicates::{Orientation, orientation};
 use templates::{Across, Kind, Part, RingSide, template};
 use vertices::{LeafGeometry, Numbering};
 
@@ -470,7 +472,7 @@ fn max_min_diagonal(
         let mut quality = AngleQuality::empty();
         for tri in &template(kind.code()).triangles {
             let [a, b, c] = tri.map(at);
-            if orient2d(coord(a), coord(b), coord(c)) <= 0.0 {
+            if orientation(a, b, c) != Orientation::Left {
                 return None;
             }
             angles_deg(a, b, c)
@@ -493,10 +495,6 @@ fn max_min_diagonal(
         (Some(a), Some(b)) => Some(if b.1.min > a.1.min { b } else { a }),
         (a, b) => a.or(b),
     }
-}
-
-fn coord(p: DVec2) -> Coord<f64> {
-    Coord { x: p.x, y: p.y }
 }
 
 /// The link side of a ring side.
@@ -654,7 +652,7 @@ mod tests {
                 let mut hi: f64 = 0.0;
                 for t in tris {
                     let [a, b, c] = t.map(|k| corners[k]);
-                    if orient2d(coord(a), coord(b), coord(c)) <= 0.0 {
+                    if orientation(a, b, c) != Orientation::Left {
                         return f64::INFINITY;
                     }
                     hi = angles_deg(a, b, c).into_iter().fold(hi, f64::max);

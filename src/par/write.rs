@@ -1,93 +1,11 @@
-//! Data-parallel helpers the stages share: prefix sums for allocation, and filling an output
-//! array whose segments belong to different input items.
+//! Parallel writes into one output: segments owned by items (filled in place, straight into
+//! fresh memory), per-block scratch, scatters by index, and streaming stores past the caches.
 
 use rayon::prelude::*;
 
-/// Items per task in scans and segment fills: large enough that rayon's task overhead is small.
-pub const GRAIN: usize = 1 << 13;
-
-/// Exclusive prefix sum of `counts`, with the total appended (`len + 1` entries).
-///
-/// # Complexity
-/// O(n) work in two parallel passes over chunks and one sequential pass over chunk sums.
-pub fn exclusive_scan(counts: &[u32]) -> Vec<usize> {
-    exclusive_scan_by(counts.len(), |i| counts[i] as usize)
-}
-
-/// Exclusive prefix sum of `count(0), ..., count(n - 1)`, with the total appended; `count` is
-/// called twice per item instead of storing the counts.
-pub fn exclusive_scan_by<F>(n: usize, count: F) -> Vec<usize>
-where
-    F: Fn(usize) -> usize + Sync,
-{
-    let (starts, total) = chunk_starts(n, &count);
-    scan_from_chunk_starts(n, &count, &starts, total, |at| at)
-}
-
-/// As [`exclusive_scan_by`], in 32 bits: half the memory on arrays as long as the items, for
-/// offsets that are 32-bit indices themselves.
-///
-/// # Errors
-/// The total, when it reaches `u32::MAX` (the indices' "none").
-pub fn exclusive_scan_u32_by<F>(n: usize, count: F) -> Result<Vec<u32>, usize>
-where
-    F: Fn(usize) -> usize + Sync,
-{
-    let (starts, total) = chunk_starts(n, &count);
-    if total >= u32::MAX as usize {
-        return Err(total);
-    }
-    Ok(scan_from_chunk_starts(n, &count, &starts, total, |at| {
-        at as u32
-    }))
-}
-
-/// Where each chunk of [`GRAIN`] items starts in the sum of the counts, and the total.
-fn chunk_starts<F>(n: usize, count: &F) -> (Vec<usize>, usize)
-where
-    F: Fn(usize) -> usize + Sync,
-{
-    let chunks = chunk_offsets(n, GRAIN);
-    let sums: Vec<usize> = collect_indexed(chunks.len() - 1, |c| {
-        (chunks[c]..chunks[c + 1]).map(count).sum()
-    });
-    let mut starts = Vec::with_capacity(sums.len());
-    let mut total = 0usize;
-    for s in &sums {
-        starts.push(total);
-        total += s;
-    }
-    (starts, total)
-}
-
-/// The prefix sums from the chunks' starts, each stored as `store(sum)`.
-fn scan_from_chunk_starts<T, F, S>(
-    n: usize,
-    count: &F,
-    starts: &[usize],
-    total: usize,
-    store: S,
-) -> Vec<T>
-where
-    T: Send,
-    F: Fn(usize) -> usize + Sync,
-    S: Fn(usize) -> T + Sync,
-{
-    // Output position `i` of chunk `c` is `starts[c]` plus the counts before `i` in the chunk;
-    // the extra last position holds the total.
-    let chunks = chunk_offsets(n + 1, GRAIN);
-    collect_segments(&chunks, |c| {
-        let mut acc = starts.get(c).copied().unwrap_or(total);
-        let store = &store;
-        (chunks[c]..chunks[c + 1]).map(move |i| {
-            let here = store(acc);
-            if i < n {
-                acc += count(i);
-            }
-            here
-        })
-    })
-}
+use super::memory::with_capacity_huge;
+use super::scan::exclusive_scan_by;
+use super::{GRAIN, chunk_offsets};
 
 /// Fills `out` in parallel, where item `i` owns `out[offsets[i]..offsets[i + 1]]`:
 /// `fill(i, segment)` is called once per item with its segment. The result does not depend on
@@ -259,11 +177,6 @@ impl<T> SegmentWriter<'_, T> {
     /// How many values have been written.
     pub fn len(&self) -> usize {
         self.written
-    }
-
-    /// Whether nothing has been written.
-    pub fn is_empty(&self) -> bool {
-        self.written == 0
     }
 }
 
@@ -570,95 +483,13 @@ impl Drop for StreamFence {
     }
 }
 
-/// Arrays at least this large ask the kernel for transparent huge pages.
-const HUGE_PAGE_MIN_BYTES: usize = 4 << 20;
-
-/// An empty vector with room for `n` values. Large buffers are marked for transparent huge pages
-/// before they are first touched: a 4 KiB page fault costs about 2.3 µs here, so first touch of
-/// fresh memory would otherwise cost more than the stages' own work.
-pub fn with_capacity_huge<T>(n: usize) -> Vec<T> {
-    let v = Vec::with_capacity(n);
-    let bytes = n.saturating_mul(std::mem::size_of::<T>());
-    if bytes >= HUGE_PAGE_MIN_BYTES {
-        advise_huge_pages(v.as_ptr() as usize, bytes);
-    }
-    v
-}
-
-/// An empty vector with room for `capacity` values, the pages of the first `touched` of them
-/// already touched by all threads in parallel: for a buffer that is then filled by sequential
-/// code, first touch would otherwise run on one core.
-pub fn prefaulted_within<T: Copy + Send + Sync>(
-    capacity: usize,
-    touched: usize,
-    fill: T,
-) -> Vec<T> {
-    let mut v = with_capacity_huge(capacity);
-    v.par_extend(rayon::iter::repeat_n(fill, touched.min(capacity)));
-    v.clear();
-    v
-}
-
-#[cfg(target_os = "linux")]
-#[allow(unsafe_code)]
-fn advise_huge_pages(start: usize, bytes: usize) {
-    const HUGE: usize = 2 << 20;
-    let first = start.next_multiple_of(HUGE);
-    let end = (start + bytes) / HUGE * HUGE;
-    if end > first {
-        // SAFETY: the range lies inside an allocation this process owns; MADV_HUGEPAGE only
-        // changes how the kernel backs it, never its contents. Failure is harmless and ignored.
-        unsafe { libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE) };
-    }
-}
-
-#[cfg(not(target_os = "linux"))]
-fn advise_huge_pages(_start: usize, _bytes: usize) {}
-
-/// Items of a fixed-size chunking, as segment offsets: `0, chunk, 2 chunk, ..., n`.
-pub fn chunk_offsets(n: usize, chunk: usize) -> Vec<usize> {
-    (0..n)
-        .step_by(chunk.max(1))
-        .chain(std::iter::once(n))
-        .collect()
-}
-
-/// Asks the processor to bring the cache line at `p` in, for a read soon; a hint only.
-#[inline]
-pub fn prefetch<T>(p: *const T) {
-    #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults and changes no memory, whatever the address; it only
-    // needs SSE, which every x86-64 processor has.
-    #[allow(unsafe_code)]
-    unsafe {
-        std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast::<i8>());
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = p;
-}
-
 #[cfg(test)]
 mod tests {
     use std::mem::MaybeUninit;
 
     use super::*;
+    use crate::par::exclusive_scan_by;
 
-    #[test]
-    fn scan_matches_sequential() {
-        for n in [0usize, 1, 5, GRAIN, 3 * GRAIN + 7] {
-            let counts: Vec<u32> = (0..n).map(|i| (i * 7 % 5) as u32).collect();
-            let got = exclusive_scan(&counts);
-            let mut acc = 0usize;
-            for (i, &c) in counts.iter().enumerate() {
-                assert_eq!(got[i], acc);
-                acc += c as usize;
-            }
-            assert_eq!(got[n], acc);
-        }
-    }
-
-    /// Streaming writes land as plain ones do, at 16-byte aligned slots (streamed) and at
-    /// slots off that grid (written plainly), from several threads.
     #[test]
     #[allow(unsafe_code)]
     fn streaming_writes_land_where_plain_ones_do() {
@@ -742,21 +573,9 @@ mod tests {
     }
 
     #[test]
-    fn the_32_bit_scan_matches_the_wide_one_and_refuses_overflow() {
-        let count = |i: usize| i % 5;
-        let n = 3 * GRAIN + 7;
-        let wide = exclusive_scan_by(n, count);
-        let narrow = exclusive_scan_u32_by(n, count).expect("fits");
-        assert_eq!(narrow.len(), n + 1);
-        assert!(narrow.iter().zip(&wide).all(|(&a, &b)| a as usize == b));
-        let half = u32::MAX as usize / 2 + 1;
-        assert_eq!(exclusive_scan_u32_by(2, |_| half), Err(2 * half));
-    }
-
-    #[test]
     fn segments_are_filled_by_their_owner() {
         let counts: Vec<u32> = (0..3 * GRAIN + 5).map(|i| (i % 4) as u32).collect();
-        let offsets = exclusive_scan(&counts);
+        let offsets = exclusive_scan_by(counts.len(), |i| counts[i] as usize);
         let mut out = vec![usize::MAX; offsets[counts.len()]];
         fill_segments(&offsets, &mut out, |i, seg| {
             seg.iter_mut().for_each(|x| *x = i)

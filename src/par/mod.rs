@@ -1,0 +1,26 @@
+//! Data-parallel helpers the stages share: prefix sums for allocation ([`scan`]), filling an
+//! output array whose segments belong to different input items and other parallel writes
+//! ([`write`]), and fresh memory and cache hints ([`memory`]).
+
+mod memory;
+mod scan;
+mod write;
+
+pub use memory::{prefaulted_within, prefetch, with_capacity_huge};
+pub use scan::{exclusive_scan_by, exclusive_scan_u32_by};
+pub use write::{
+    BlockScratch, DisjointWrites, SegmentWriter, SharedSlots, StreamFence, collect_indexed,
+    collect_segment_pairs_by, collect_segments, collect_segments_by, collect_segments_reversed,
+    collect_segments_with_capacity, concat,
+};
+
+/// Items per task in scans and segment fills: large enough that rayon's task overhead is small.
+pub const GRAIN: usize = 1 << 13;
+
+/// Items of a fixed-size chunking, as segment offsets: `0, chunk, 2 chunk, ..., n`.
+pub fn chunk_offsets(n: usize, chunk: usize) -> Vec<usize> {
+    (0..n)
+        .step_by(chunk.max(1))
+        .chain(std::iter::once(n))
+        .collect()
+}
