@@ -1,7 +1,8 @@
-//! The triangle mesh every meshing mode produces, its validity and Delaunay checks and its
-//! quality report.
+//! The triangle mesh every meshing mode produces, its validity and Delaunay checks, its
+//! topology (edges, boundary markers, neighbours) and its quality report.
 
 mod delaunay_check;
+mod topology;
 mod validate;
 
 use std::time::Duration;
@@ -12,6 +13,8 @@ use rayon::prelude::*;
 use crate::error::Error;
 
 pub use delaunay_check::check_delaunay;
+pub use topology::Edge;
+pub(crate) use topology::{EdgeLister, edges_listed_with, opposite_edge};
 pub use validate::{AngleBounds, validate};
 
 /// Marks "no triangle" in [`Mesh::neighbours`] and "no input point" in [`Mesh::vertex_input`].
