@@ -14,7 +14,9 @@ use std::path::{Path, PathBuf};
 use glam::DVec2;
 use rayon::prelude::*;
 
-use crate::mesh::{BoundarySide, Mesh, NONE, angles_deg};
+use crate::mesh::{
+    BoundarySide, EdgeLister, Mesh, NONE, angles_deg, edges_listed_with, opposite_edge,
+};
 use crate::par::exclusive_scan_by;
 
 /// Items formatted per rayon task.
@@ -89,72 +91,19 @@ fn number(index: u32) -> i64 {
 
 /// The input index of vertex `v`, or -1 for a Steiner vertex.
 fn input_index(mesh: &Mesh, v: usize) -> i64 {
-    match mesh.vertex_input[v] {
-        NONE => -1,
-        i => i64::from(i),
-    }
-}
-
-/// The edge opposite corner `i` of `triangle`, in the triangle's counter-clockwise direction.
-fn opposite_edge(triangle: [u32; 3], i: usize) -> [u32; 2] {
-    [triangle[(i + 1) % 3], triangle[(i + 2) % 3]]
-}
-
-/// Whether triangle `t` writes the edge opposite its corner `i`: a boundary edge always, an
-/// interior edge only from the lower-numbered of its two triangles, so every edge once.
-fn owns_edge(mesh: &Mesh, t: usize, i: usize) -> bool {
-    let across = mesh.neighbours[t][i];
-    across == NONE || t < across as usize
-}
-
-/// Whether each vertex lies on a boundary edge.
-fn boundary_vertices(mesh: &Mesh) -> Vec<bool> {
-    let mut on_boundary = vec![false; mesh.vertices.len()];
-    for edge in &mesh.boundary {
-        for v in edge.vertices {
-            on_boundary[v as usize] = true;
-        }
-    }
-    on_boundary
-}
-
-/// The side markers of the boundary edges, found by their two vertices in either order.
-struct SideMarkers(Vec<([u32; 2], u8)>);
-
-impl SideMarkers {
-    fn new(mesh: &Mesh) -> SideMarkers {
-        let mut markers: Vec<([u32; 2], u8)> = mesh
-            .boundary
-            .par_iter()
-            .map(|e| (Self::key(e.vertices), e.marker as u8))
-            .collect();
-        markers.par_sort_unstable();
-        SideMarkers(markers)
-    }
-
-    fn key([a, b]: [u32; 2]) -> [u32; 2] {
-        [a.min(b), a.max(b)]
-    }
-
-    /// The side marker of edge `ab`, or 0 when it is not a boundary edge.
-    fn get(&self, ab: [u32; 2]) -> u8 {
-        let key = Self::key(ab);
-        self.0
-            .binary_search_by(|(k, _)| k.cmp(&key))
-            .map_or(0, |i| self.0[i].1)
-    }
+    mesh.input_index(v as u32).map_or(-1, i64::from)
 }
 
 /// Writes the vertices as a Triangle `.node` file: the header `<#vertices> 2 1 1`, then
 /// `<vertex> <x> <y> <input index> <marker>` per vertex, numbered from 1 as in Triangle's own
 /// output. The attribute is the vertex's 0-based input index, or -1 for a Steiner vertex; the
-/// boundary marker is 1 for a vertex on a boundary edge and 0 otherwise. A comment line before
-/// the header says so.
+/// boundary marker is 1 for a vertex on a boundary edge (a nonzero [`Mesh::vertex_markers`]
+/// entry) and 0 otherwise. A comment line before the header says so.
 ///
 /// # Errors
 /// Whatever `w` returns.
 pub fn write_node<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
-    let on_boundary = boundary_vertices(mesh);
+    let markers = mesh.vertex_markers();
     writeln!(
         w,
         "# vertex (numbered from 1), x, y, input index (0-based, -1 for none), boundary marker"
@@ -162,7 +111,7 @@ pub fn write_node<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
     writeln!(w, "{} 2 1 1", mesh.vertices.len())?;
     write_items(&mut w, mesh.vertices.len(), |buf, v| {
         let p = mesh.vertices[v];
-        let marker = u8::from(on_boundary[v]);
+        let marker = u8::from(markers[v] != 0);
         let input = input_index(mesh, v);
         writeln!(buf, "{} {} {} {input} {marker}", v + 1, p.x, p.y)
     })?;
@@ -215,18 +164,17 @@ pub fn write_neigh<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
 /// `<edge> <v0> <v1> <marker>` per edge, where the marker is the [`BoundarySide`] value (1 to 4)
 /// of a boundary edge and 0 for an interior edge; numbered from 1 as in [`write_node`].
 ///
-/// Edges come by triangle, then by the corner they are opposite; an interior edge is listed with
-/// the lower-numbered of its two triangles, in that triangle's counter-clockwise direction.
+/// The edges are those of [`Mesh::edges`], in its order: by triangle, then by the corner they
+/// are opposite; an interior edge is listed with the lower-numbered of its two triangles, in that
+/// triangle's counter-clockwise direction.
 ///
 /// # Errors
 /// Whatever `w` returns.
 pub fn write_edge<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
-    let markers = SideMarkers::new(mesh);
+    let lister = EdgeLister::new(mesh);
     let triangles = mesh.triangles.len();
     // The 0-based number of each triangle's first edge, and the edge count after the last.
-    let first_edge = exclusive_scan_by(triangles, |t| {
-        (0..3).filter(|&i| owns_edge(mesh, t, i)).count()
-    });
+    let first_edge = exclusive_scan_by(triangles, |t| edges_listed_with(mesh, t));
     writeln!(
         w,
         "# edge (numbered from 1), its vertices, side marker (1 bottom, 2 right, 3 top, 4 left, \
@@ -234,16 +182,10 @@ pub fn write_edge<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
     )?;
     writeln!(w, "{} 1", first_edge[triangles])?;
     write_items(&mut w, triangles, |buf, t| {
-        let mut edge = first_edge[t];
-        for i in (0..3).filter(|&i| owns_edge(mesh, t, i)) {
-            edge += 1;
-            let ab = opposite_edge(mesh.triangles[t], i);
-            let marker = match mesh.neighbours[t][i] {
-                NONE => markers.get(ab),
-                _ => 0,
-            };
-            let [a, b] = ab.map(number);
-            push_line(buf, &[edge as i64, a, b, i64::from(marker)]);
+        for (k, edge) in lister.edges_of(t).enumerate() {
+            let [a, b] = edge.vertices.map(number);
+            let id = (first_edge[t] + k + 1) as i64;
+            push_line(buf, &[id, a, b, i64::from(edge.marker)]);
         }
         Ok(())
     })?;

@@ -1,8 +1,9 @@
-//! The triangle mesh every meshing mode produces, its validity and Delaunay checks and its
-//! quality report.
+//! The triangle mesh every meshing mode produces, its validity and Delaunay checks, its
+//! topology (edges, boundary markers, neighbours) and its quality report.
 
 mod delaunay_check;
 mod report;
+mod topology;
 mod validate;
 
 use glam::DVec2;
@@ -14,6 +15,8 @@ pub use crate::domain::{BoundaryEdge, BoundarySide, Domain, Reflection};
 pub use delaunay_check::check_delaunay;
 pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
+pub use topology::Edge;
+pub(crate) use topology::{EdgeLister, edges_listed_with, opposite_edge};
 pub use validate::{AngleBounds, validate};
 
 /// A conforming triangle mesh of a rectangular domain.
