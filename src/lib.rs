@@ -2,18 +2,34 @@
 //! level-parallel balancing) and quality triangle meshes from them, in parallel with rayon.
 //!
 //! The stages are functions from flat, Morton-sorted arrays to flat arrays:
-//! [`morton`] → [`framework`] → [`quadtree`] → [`balance`] → [`warp`] → [`mesh`].
+//! [`morton`] → [`framework`] → [`quadtree`] → [`balance`] → [`warp`] → [`mesh`](mod@mesh).
 //! See `ARCHITECTURE.md` for the module graph.
 //!
-//! ```
-//! use quadmesh::mesh::AngleBounds;
-//! use quadmesh::warp::ANGLE_BOUNDS;
-//! use quadmesh::{DVec2, MeshOptions, mesh_points};
+//! One call meshes in either mode: by default a quality Delaunay mesh of the points' convex
+//! hull with every angle at least 20°, one option away the warped quadtree mesh.
 //!
-//! let points = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.5), DVec2::new(0.25, 0.75)];
-//! let (mesh, report) = mesh_points(&points, &MeshOptions::default())?;
-//! let (min_deg, max_deg) = ANGLE_BOUNDS;
-//! mesh.validate(&points, AngleBounds { min_deg, max_deg }).expect("a valid mesh");
+//! ```
+//! use quadmesh::{DVec2, Input, NONE, Options, mesh};
+//!
+//! let points = vec![
+//!     DVec2::new(0.0, 0.0),
+//!     DVec2::new(1.0, 0.0),
+//!     DVec2::new(0.5, 1.0),
+//!     DVec2::new(0.4, 0.3),
+//! ];
+//! let options = Options::default().min_angle(25.0).max_area(0.01);
+//! let (m, report) = mesh(&Input::points(points.clone()), &options)?;
+//! m.validate(&points, options.angle_bounds()).expect("a valid mesh");
+//! m.check_delaunay().expect("a Delaunay mesh");
+//! assert!(report.min_angle >= 25.0);
+//! // Every edge once, with its triangles (the second is NONE on the boundary) and its marker.
+//! let edges = m.edges();
+//! assert!(edges.iter().all(|e| (e.triangles[1] == NONE) == (e.marker != 0)));
+//! assert_eq!(m.vertex_markers().len(), m.vertices.len());
+//!
+//! let warped = Options::default().warp();
+//! let (w, report) = mesh(&Input::points(points.clone()), &warped)?;
+//! w.validate(&points, warped.angle_bounds()).expect("a valid mesh");
 //! assert!(report.min_angle >= 22.5 - 1e-9 && report.max_angle <= 112.5 + 1e-9);
 //! # Ok::<(), quadmesh::Error>(())
 //! ```

@@ -132,7 +132,7 @@ impl Default for Options {
 }
 
 impl Options {
-    /// The same options in another mode.
+    /// The mode.
     pub fn mode(self) -> Mode {
         self.mode
     }

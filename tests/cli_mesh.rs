@@ -19,7 +19,7 @@ fn mesh_files_read_back_as_a_valid_mesh() {
     let dir = TempDir::new("valid");
     let (input, points) = generate(&dir, 300, "cluster");
     let prefix = dir.file("out");
-    let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--check"]);
+    let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--check", "--warp"]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(stderr(&out).contains("check                   passed"));
     let mesh = read_triangle_files(&prefix);
@@ -57,6 +57,8 @@ fn a_given_domain_is_meshed_exactly() {
         ];
         if bounds.min_deg == 25.0 {
             args.extend(["--min-angle", "25"]);
+        } else {
+            args.push("--warp");
         }
         let out = quadmesh(&args);
         assert!(out.status.success(), "{domain}: {}", stderr(&out));
@@ -87,6 +89,7 @@ fn every_format_is_written_and_one_and_two_threads_agree() {
             s(&input),
             "-o",
             s(&prefix),
+            "--warp",
             "--format",
             "node,vtu,msh,svg",
             "--threads",
@@ -140,6 +143,7 @@ fn bench_prints_one_json_object_last() {
         "--threads",
         "2",
         "--json",
+        "--warp",
     ]);
     for key in [
         "\"points\":3000",

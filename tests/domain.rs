@@ -41,7 +41,7 @@ fn mesh_in(points: &[DVec2], domain: Domain) -> (Mesh, MeshReport) {
             let on_edge = mesh
                 .boundary
                 .iter()
-                .any(|e| e.side == side && e.vertices.contains(&(v as u32)));
+                .any(|e| e.side() == Some(side) && e.vertices.contains(&(v as u32)));
             assert!(
                 on_edge,
                 "point {input} {p} is on the {side:?} side but no edge there"

@@ -61,7 +61,7 @@ fn the_default_is_a_delaunay_mesh_of_the_convex_hull_with_a_proven_bound() {
     let options = Options::default();
     assert_eq!(options.mode(), Mode::Delaunay);
     assert_eq!(options.min_angle_deg(), DEFAULT_MIN_ANGLE_DEG);
-    assert!(DEFAULT_MIN_ANGLE_DEG <= GUARANTEED_MIN_ANGLE_DEG);
+    const { assert!(DEFAULT_MIN_ANGLE_DEG <= GUARANTEED_MIN_ANGLE_DEG) };
     assert!(options.termination_proven());
     for dist in [
         Distribution2d::Uniform,
@@ -101,23 +101,26 @@ fn narrow_hull(outline: &[DVec2]) -> bool {
 }
 
 #[test]
-fn a_narrow_hull_corner_keeps_its_angle_and_the_rest_meets_the_bound() {
-    // A thin triangle of points: its 8-degree corner cannot be improved.
-    let tip = DVec2::new(10.0, 0.0);
-    let mut points = vec![DVec2::ZERO, DVec2::new(0.0, 1.4), tip];
-    points.extend((1..40).map(|k| DVec2::new(0.2 * k as f64 / 40.0, 0.3 + (k % 7) as f64 / 10.0)));
-    for angle in [20.0, 30.0] {
-        let options = Options::default().min_angle(angle);
-        let (m, report) = checked(&points, &options);
-        assert!(report.min_angle < 10.0, "the tip's angle stays");
-        // Away from the tip every angle meets the bound (validate exempts only the tip's).
-        let tip_vertex = m.vertices.iter().position(|&p| p == tip).unwrap() as u32;
-        for t in m.triangles.iter().filter(|t| !t.contains(&tip_vertex)) {
-            let [a, b, c] = t.map(|v| m.vertices[v as usize]);
-            let min = quadmesh::mesh::angles_deg(a, b, c)
-                .into_iter()
-                .fold(f64::MAX, f64::min);
-            assert!(min >= angle - 1e-9, "{min} below {angle}");
+fn a_very_narrow_hull_corner_ends_in_a_typed_answer() {
+    // Corners of 8 and 17 degrees, below the bound: refinement may not settle the splits beside
+    // them; it ends with a valid mesh (the corner's angle kept) or with the typed error naming
+    // the corner, never a panic or a hang.
+    for tip in [DVec2::new(10.0, 0.0), DVec2::new(4.5, 0.0)] {
+        let mut points = vec![DVec2::ZERO, DVec2::new(0.0, 1.4), tip];
+        points.extend(
+            (1..40).map(|k| DVec2::new(0.2 * k as f64 / 40.0, 0.3 + (k % 7) as f64 / 10.0)),
+        );
+        for angle in [20.0, 30.0] {
+            let options = Options::default().min_angle(angle);
+            match mesh(&Input::points(points.clone()), &options) {
+                Ok((m, _)) => m
+                    .validate(&points, options.angle_bounds())
+                    .expect("a valid mesh"),
+                Err(Error::RefinementResolution { x, y }) => {
+                    assert!(DVec2::new(x, y).distance(tip) < 1e-3, "({x}, {y})")
+                }
+                Err(other) => panic!("{other}"),
+            }
         }
     }
 }

@@ -12,7 +12,9 @@ use common::{FAMILIES, distinct_count, mesh_angles, mixed_point_sets, on_threads
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::mesh::{AngleBounds, Domain, NONE};
-use quadmesh::refine::{GUARANTEED_MIN_ANGLE_DEG, MAX_MIN_ANGLE_DEG, RefineOptions, refine_points};
+use quadmesh::refine::{
+    GUARANTEED_MIN_ANGLE_DEG, MAX_MIN_ANGLE_DEG, RefineDomain, RefineOptions, refine_points,
+};
 use quadmesh::{DVec2, Error, Mesh, MeshReport};
 
 /// The bounds a mesh refined for `min_angle_deg` must meet.
@@ -23,10 +25,20 @@ fn bounds(min_angle_deg: f64) -> AngleBounds {
     }
 }
 
+/// The options these tests start from: 30° on the square around the points (the hull, the
+/// library's default region, is tested in `front.rs`).
+fn square() -> RefineOptions {
+    RefineOptions {
+        min_angle_deg: 30.0,
+        domain: RefineDomain::Square,
+        ..RefineOptions::default()
+    }
+}
+
 fn angle(min_angle_deg: f64) -> RefineOptions {
     RefineOptions {
         min_angle_deg,
-        ..RefineOptions::default()
+        ..square()
     }
 }
 
@@ -109,7 +121,11 @@ fn angle_constants() {
     let proven = (1.0 / (2.0 * 2f64.sqrt())).asin().to_degrees();
     assert!((GUARANTEED_MIN_ANGLE_DEG - proven).abs() < 1e-12);
     assert_eq!(MAX_MIN_ANGLE_DEG, 45.0);
-    assert_eq!(RefineOptions::default().min_angle_deg, 30.0);
+    assert_eq!(
+        RefineOptions::default().min_angle_deg,
+        quadmesh::DEFAULT_MIN_ANGLE_DEG
+    );
+    assert_eq!(RefineOptions::default().domain, RefineDomain::ConvexHull);
 }
 
 #[test]
@@ -210,7 +226,7 @@ fn one_and_two_points() {
 fn one_and_two_threads_give_the_same_mesh() {
     for dist in FAMILIES {
         let points = generate::points(dist, 20_000, 11);
-        let options = RefineOptions::default();
+        let options = square();
         let run = |threads| on_threads(threads, || refine_points(&points, &options).unwrap());
         let (one, _) = run(1);
         let (two, report) = run(2);
@@ -221,7 +237,7 @@ fn one_and_two_threads_give_the_same_mesh() {
 
 #[test]
 fn bad_input_is_a_typed_error() {
-    let options = RefineOptions::default();
+    let options = square();
     assert_eq!(refine_points(&[], &options).unwrap_err(), Error::Empty);
     let nan = [DVec2::new(0.0, 0.0), DVec2::new(f64::NAN, 1.0)];
     assert!(matches!(
@@ -251,7 +267,7 @@ fn bad_options_are_typed_errors() {
     for area in [0.0, -1.0, f64::INFINITY, f64::NAN, -0.0] {
         let options = RefineOptions {
             max_area: Some(area),
-            ..RefineOptions::default()
+            ..square()
         };
         assert_eq!(refused(options), "max-area", "{area}");
     }
@@ -271,12 +287,9 @@ fn assert_budget_error(points: Vec<DVec2>, extra: usize) {
         ..angle(30.0)
     };
     match within(120, move || refine_points(&points, &options)) {
-        Err(Error::VertexBudget {
-            limit: l,
-            remaining,
-        }) => {
-            assert_eq!(l, limit);
-            assert!(remaining > 0);
+        Err(Error::VertexBudget(partial)) => {
+            assert_eq!(partial.limit, limit);
+            assert!(!partial.unmet.is_empty());
         }
         other => panic!("expected a vertex budget error, got {other:?}"),
     }
@@ -297,7 +310,7 @@ fn an_area_bound_beyond_the_budget_is_an_error() {
     };
     assert!(matches!(
         within(120, move || refine_points(&points, &options)),
-        Err(Error::VertexBudget { limit: 5000, .. })
+        Err(Error::VertexBudget(partial)) if partial.limit == 5000
     ));
 }
 
@@ -315,9 +328,9 @@ fn refine_45(dist: Distribution2d, n: usize) -> Result<(Mesh, MeshReport), Error
     });
     match &answer {
         Ok((mesh, report)) => check(&points, &options, mesh, report),
-        Err(Error::VertexBudget { limit, remaining }) => {
-            assert_eq!(*limit, 20_000);
-            assert!(*remaining > 0);
+        Err(Error::VertexBudget(partial)) => {
+            assert_eq!(partial.limit, 20_000);
+            assert!(!partial.unmet.is_empty());
         }
         Err(_) => {}
     }
@@ -332,7 +345,7 @@ const FAMILIES_45: [(Distribution2d, usize); 2] =
 fn angle_45_ends() {
     for (dist, n) in FAMILIES_45 {
         match refine_45(dist, n) {
-            Ok(_) | Err(Error::VertexBudget { .. } | Error::RefinementResolution { .. }) => {}
+            Ok(_) | Err(Error::VertexBudget(_) | Error::RefinementResolution { .. }) => {}
             Err(other) => panic!("{dist:?}: unexpected error {other}"),
         }
     }
@@ -347,7 +360,7 @@ fn angle_45_ends() {
 fn unreachable_angles_say_so() {
     for (dist, n) in FAMILIES_45 {
         match refine_45(dist, n) {
-            Ok(_) | Err(Error::VertexBudget { .. }) => {}
+            Ok(_) | Err(Error::VertexBudget(_)) => {}
             Err(e @ Error::RefinementResolution { .. }) => {
                 assert!(
                     e.to_string().contains("cannot reach the angle bound"),
@@ -387,7 +400,7 @@ fn a_domain_through_the_points_is_meshed_exactly() {
             let domain = bounding_box(&points);
             for a in [0.0, 20.0, 30.0] {
                 let options = RefineOptions {
-                    domain: Some(domain),
+                    domain: RefineDomain::Rectangle(domain),
                     ..angle(a)
                 };
                 let (mesh, report) = refine_checked(&points, &options);
@@ -412,7 +425,7 @@ fn points_on_domain_corners_are_those_corners() {
     };
     for a in [0.0, 30.0] {
         let options = RefineOptions {
-            domain: Some(domain),
+            domain: RefineDomain::Rectangle(domain),
             ..angle(a)
         };
         let (mesh, report) = refine_checked(&points, &options);
@@ -435,7 +448,7 @@ fn a_wide_domain_far_from_the_points() {
         hi: DVec2::new(60.0, 4.0),
     };
     let options = RefineOptions {
-        domain: Some(domain),
+        domain: RefineDomain::Rectangle(domain),
         ..angle(30.0)
     };
     let (mesh, _) = refine_checked(&points, &options);
@@ -450,7 +463,7 @@ fn bad_domains_are_typed_errors() {
         hi: DVec2::ONE,
     };
     let options = RefineOptions {
-        domain: Some(unit),
+        domain: RefineDomain::Rectangle(unit),
         ..angle(30.0)
     };
     assert_eq!(
@@ -476,7 +489,7 @@ fn bad_domains_are_typed_errors() {
         },
     ] {
         let options = RefineOptions {
-            domain: Some(bad),
+            domain: RefineDomain::Rectangle(bad),
             ..angle(30.0)
         };
         match refine_points(&points, &options) {
@@ -518,7 +531,7 @@ fn tiled_refinement_does_not_depend_on_the_thread_count() {
                 ..angle(25.0)
             },
             RefineOptions {
-                domain: Some(bounding_box(&points)),
+                domain: RefineDomain::Rectangle(bounding_box(&points)),
                 ..angle(30.0)
             },
         ];
@@ -540,7 +553,7 @@ fn tiled_refinement_with_an_area_bound_meets_it() {
     let domain = bounding_box(&points);
     let options = RefineOptions {
         max_area: Some((domain.hi - domain.lo).x * (domain.hi - domain.lo).y / 200_000.0),
-        domain: Some(domain),
+        domain: RefineDomain::Rectangle(domain),
         ..angle(28.0)
     };
     refine_checked(&points, &options);

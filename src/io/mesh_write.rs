@@ -799,9 +799,10 @@ mod tests {
             ),
         ];
         for (side, edges) in sides {
-            let edges = edges
-                .into_iter()
-                .map(|vertices| BoundaryEdge { vertices, side });
+            let edges = edges.into_iter().map(|vertices| BoundaryEdge {
+                vertices,
+                marker: side.marker(),
+            });
             mesh.boundary.extend(edges);
         }
         mesh
@@ -934,7 +935,7 @@ mod tests {
             }
             for e in &mesh.boundary {
                 let [a, b] = e.vertices;
-                expected.insert([a.min(b), a.max(b)], e.side as u8);
+                expected.insert([a.min(b), a.max(b)], e.marker as u8);
             }
             assert_eq!(edges, expected);
             // Euler's formula for a disc.

@@ -160,6 +160,9 @@ mod tests {
 
     use glam::DVec2;
 
+    use crate::domain::BoundaryEdge;
+    use crate::refine::RefineDomain;
+
     use super::*;
     use crate::generate::{Distribution2d, points};
     use crate::mesh::{AngleBounds, BoundarySide, Domain};
@@ -185,6 +188,7 @@ mod tests {
         use BoundarySide::*;
         let corners = [0, 1, 2, 3];
         Mesh {
+            outline: None,
             vertices: vec![
                 DVec2::new(0.0, 0.0),
                 DVec2::new(1.0, 0.0),
@@ -199,7 +203,7 @@ mod tests {
                 .enumerate()
                 .map(|(k, side)| BoundaryEdge {
                     vertices: [corners[k], corners[(k + 1) % 4]],
-                    side,
+                    marker: side.marker(),
                 })
                 .collect(),
             domain: Domain {
@@ -267,7 +271,7 @@ mod tests {
                 let [[i0, j0], [i1, j1]] = [path[k], path[k + 1]];
                 mesh.boundary.push(BoundaryEdge {
                     vertices: [vertex(i0, j0), vertex(i1, j1)],
-                    side,
+                    marker: side.marker(),
                 });
             }
         }
@@ -312,7 +316,7 @@ mod tests {
         let listed: HashMap<[u32; 2], i32> = mesh
             .boundary
             .iter()
-            .map(|e| (e.vertices, e.side as i32))
+            .map(|e| (e.vertices, e.marker))
             .collect();
         assert_eq!(listed.len(), mesh.boundary.len());
         assert_eq!(boundary, listed);
@@ -322,7 +326,7 @@ mod tests {
         let starts: HashMap<u32, i32> = mesh
             .boundary
             .iter()
-            .map(|e| (e.vertices[0], e.side as i32))
+            .map(|e| (e.vertices[0], e.marker))
             .collect();
         let on_boundary: HashSet<u32> = mesh.boundary.iter().flat_map(|e| e.vertices).collect();
         for (vertex, &marker) in markers.iter().enumerate() {
@@ -421,9 +425,10 @@ mod tests {
             lo: DVec2::new(-0.5, 0.0),
             hi: DVec2::new(1.0, 1.25),
         };
-        for domain in [None, Some(domain)] {
+        for domain in [RefineDomain::Square, RefineDomain::Rectangle(domain)] {
             let options = RefineOptions {
                 domain,
+                min_angle_deg: 30.0,
                 ..RefineOptions::default()
             };
             let (mesh, _) = refine_points(&points, &options).unwrap();

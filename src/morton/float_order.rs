@@ -4,8 +4,9 @@
 //! Each coordinate maps to a u64 whose unsigned order is the order of the floats (the sign bit
 //! is flipped for positive values, every bit for negative ones, and `-0.0` maps like `0.0`). Two
 //! points compare on the axis whose keys differ in the most significant bit, x on a tie, as
-//! [`super::interleave`] puts the x bit above the y bit: this is the lexicographic order of the
-//! two keys interleaved into 128 bits, so it is a total order.
+//! [`super::interleave`] puts the x bit above the y bit: this is the order of the two keys
+//! interleaved into one u128 Morton key, a total order, so the points are put in it by the same
+//! radix sort of (key, index) pairs as [`super::morton_order`]'s.
 //!
 //! The curve is a Z-order on the float bit patterns, not on an affine grid. Within a binade of
 //! each axis the mantissa bits are a fixed-point grid and the curve is the usual one (the same
@@ -14,13 +15,15 @@
 //! is an axis-aligned box of the plane, and points close in this order stay close in the plane
 //! within a binade; that is all an insertion order for short walks needs.
 
-use std::cmp::Ordering;
-
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::{DUPLICATE_EXAMPLES, Duplicates, validate_points};
+use super::{
+    Duplicates, MortonKey, Pair, SortAlgorithm, SortPairs, duplicates_of, equal_key_runs,
+    validate_points,
+};
 use crate::error::Error;
+use crate::par::collect_indexed;
 
 /// Distinct points in Morton order on their float bit patterns.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -42,43 +45,29 @@ pub struct FloatOrder {
 /// as [`validate_points`].
 ///
 /// # Complexity
-/// O(n log n) comparisons of two u64 keys; all steps run on the current rayon pool.
+/// O(n) work for the keys plus a radix sort of n (u128, u32) pairs; all steps run on the current
+/// rayon pool.
 pub fn float_morton_order(points: &[DVec2]) -> Result<FloatOrder, Error> {
     validate_points(points)?;
-    let mut keyed: Vec<(u64, u64, u32)> = points
-        .par_iter()
-        .enumerate()
-        .map(|(i, p)| (float_key(p.x), float_key(p.y), i as u32))
-        .collect();
-    keyed.par_sort_unstable_by(z_cmp);
-    let same = |i: usize| keyed[i].0 == keyed[i - 1].0 && keyed[i].1 == keyed[i - 1].1;
+    let mut pairs: Vec<Pair<u128>> = collect_indexed(points.len(), |i| {
+        let p = points[i];
+        Pair::new(u128::encode(float_key(p.x), float_key(p.y)), i as u32)
+    });
+    // Equal keys (equal points) are put in index order, so the result is unique.
+    u128::sort_pairs(&mut pairs, SortAlgorithm::Voracious);
     // Equal points are adjacent, in index order: the first of each run is the one kept.
-    let order: Vec<u32> = (0..keyed.len())
-        .into_par_iter()
-        .filter(|&i| i == 0 || !same(i))
-        .map(|i| keyed[i].2)
-        .collect();
-    let count = keyed.len() - order.len();
-    let examples = if count == 0 {
-        Vec::new()
+    let runs = equal_key_runs(&pairs);
+    let duplicates = duplicates_of(&pairs, &runs);
+    let order = if runs.is_empty() {
+        collect_indexed(pairs.len(), |i| pairs[i].idx)
     } else {
-        let mut kept = 0;
-        (1..keyed.len())
-            .filter_map(|i| {
-                if same(i) {
-                    Some((keyed[kept].2, keyed[i].2))
-                } else {
-                    kept = i;
-                    None
-                }
-            })
-            .take(DUPLICATE_EXAMPLES)
+        (0..pairs.len())
+            .into_par_iter()
+            .filter(|&i| i == 0 || pairs[i].key != pairs[i - 1].key)
+            .map(|i| pairs[i].idx)
             .collect()
     };
-    Ok(FloatOrder {
-        order,
-        duplicates: Duplicates { count, examples },
-    })
+    Ok(FloatOrder { order, duplicates })
 }
 
 /// A u64 whose unsigned order is the order of the finite float `v`; `-0.0` and `0.0` map alike.
@@ -93,35 +82,47 @@ pub fn float_key(v: f64) -> u64 {
     }
 }
 
-/// Whether the most significant bit of `a` is below that of `b`.
-#[inline(always)]
-fn less_msb(a: u64, b: u64) -> bool {
-    a < b && a < (a ^ b)
-}
-
-/// Morton order of two `(x key, y key, index)` triples, then index order.
-#[inline(always)]
-fn z_cmp(a: &(u64, u64, u32), b: &(u64, u64, u32)) -> Ordering {
-    let (dx, dy) = (a.0 ^ b.0, a.1 ^ b.1);
-    let by_key = if less_msb(dx, dy) {
-        a.1.cmp(&b.1)
-    } else {
-        a.0.cmp(&b.0)
-    };
-    by_key.then(a.2.cmp(&b.2))
-}
-
 #[cfg(test)]
 mod tests {
+    use std::cmp::Ordering;
+
     use super::*;
     use crate::generate::{Distribution2d, points as generate};
-    use crate::morton::{Morton, SortAlgorithm, morton_order, morton_order_on};
+    use crate::morton::{DUPLICATE_EXAMPLES, Morton, morton_order, morton_order_on};
+
+    /// Whether the most significant bit of `a` is below that of `b`.
+    fn less_msb(a: u64, b: u64) -> bool {
+        a < b && a < (a ^ b)
+    }
+
+    /// Morton order of two `(x key, y key, index)` triples, then index order: a comparator to
+    /// check the sorted output against, independent of the interleaving.
+    fn z_cmp(a: &(u64, u64, u32), b: &(u64, u64, u32)) -> Ordering {
+        let (dx, dy) = (a.0 ^ b.0, a.1 ^ b.1);
+        let by_key = if less_msb(dx, dy) {
+            a.1.cmp(&b.1)
+        } else {
+            a.0.cmp(&b.0)
+        };
+        by_key.then(a.2.cmp(&b.2))
+    }
 
     fn pts(v: &[(f64, f64)]) -> Vec<DVec2> {
         v.iter().map(|&(x, y)| DVec2::new(x, y)).collect()
     }
 
-    /// The order and the duplicate count of either grid's result.
+    /// The (key, index) pairs of the points' interleaved float keys, sorted.
+    fn interleaved_order(points: &[DVec2]) -> Vec<Pair<u128>> {
+        let mut v: Vec<Pair<u128>> = points
+            .par_iter()
+            .enumerate()
+            .map(|(i, q)| Pair::new(u128::encode(float_key(q.x), float_key(q.y)), i as u32))
+            .collect();
+        u128::sort_pairs(&mut v, SortAlgorithm::default());
+        v
+    }
+
+    /// The order and the duplicates of either grid's result.
     fn grid_order(m: &Morton) -> (&[u32], &Duplicates) {
         match m {
             Morton::Narrow(m) => (&m.order, &m.duplicates),
@@ -201,6 +202,20 @@ mod tests {
         assert_eq!(f.order, vec![3, 2, 1, 0]);
         let m = morton_order(&corners, SortAlgorithm::default()).unwrap();
         assert_eq!(f.order, grid_order(&m).0);
+    }
+
+    #[test]
+    fn equals_a_sort_of_the_interleaved_keys() {
+        // The comparator is the order of the two keys interleaved into 128 bits, x bit first.
+        let mut p = generate(Distribution2d::Cluster, 20_000, 9);
+        p.extend_from_within(..500);
+        p.push(DVec2::new(-3.0, 1e-300));
+        let f = float_morton_order(&p).unwrap();
+        let mut sorted = interleaved_order(&p);
+        sorted.dedup_by_key(|q| q.key);
+        assert_eq!(f.order, sorted.iter().map(|q| q.idx).collect::<Vec<_>>());
+        assert_eq!(f.duplicates.count, 500);
+        assert_valid(&p, &f);
     }
 
     #[test]
@@ -308,6 +323,7 @@ mod tests {
         };
         let one = on(1);
         assert_eq!(one, on(3));
+        assert_eq!(one, on(8));
         assert_eq!(one.duplicates.count, 2000);
         assert_valid(&p, &one);
     }
@@ -350,8 +366,13 @@ mod tests {
         let float = best(&|| {
             std::hint::black_box(float_morton_order(&p).unwrap());
         });
+        // The same order by the radix sort of the interleaved keys, for comparison.
+        let radix = best(&|| {
+            std::hint::black_box(interleaved_order(&p));
+        });
         println!(
-            "1e6 uniform, {} threads: morton_order {grid:.1} ms, float_morton_order {float:.1} ms",
+            "1e6 uniform, {} threads: morton_order {grid:.1} ms, float_morton_order {float:.1} ms, \
+             radix sort of interleaved float keys {radix:.1} ms",
             rayon::current_num_threads()
         );
     }

@@ -356,8 +356,8 @@ fn compact(t: &mut Triangulation, vertex_input: &mut Vec<u32>) -> (Vec<u32>, Vec
         }
     }
     let mut next = 0;
-    for id in 0..t.corners.len() {
-        if inside[id] {
+    for (id, &keep) in inside.iter().enumerate() {
+        if keep {
             t.corners[next] = t.corners[id].map(|v| vertex_map[v as usize]);
             t.across[next] = t.across[id].map(|n| {
                 if n == NONE {

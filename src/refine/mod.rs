@@ -78,7 +78,7 @@ pub struct RefineOptions {
 impl Default for RefineOptions {
     fn default() -> Self {
         RefineOptions {
-            min_angle_deg: 30.0,
+            min_angle_deg: crate::options::DEFAULT_MIN_ANGLE_DEG,
             max_area: None,
             max_vertices: None,
             domain: RefineDomain::default(),
@@ -237,8 +237,14 @@ fn refine_order(
         None => square,
     };
     let angles = hull::corner_angles(&corners);
-    let hull_corners = outline.iter().flat_map(|h| h.vertices.iter().copied());
-    let bounds = Bounds::new(options, domain.lo, domain.hi).with_corners(hull_corners.zip(angles));
+    let hull_corners: Vec<(u32, DVec2, f64)> = outline
+        .iter()
+        .flat_map(|h| h.vertices.iter().copied())
+        .zip(&corners)
+        .zip(angles)
+        .map(|((v, &p), a)| (v, p, a))
+        .collect();
+    let bounds = Bounds::new(options, domain.lo, domain.hi).with_corners(&hull_corners);
     let budget = options.budget(distinct);
     let refined = times.time("refine", || {
         refine(&mut triangulation, &bounds, domain, distinct, budget)

@@ -55,6 +55,8 @@ pub(super) struct Bounds {
     /// concentric circles around them, and a triangle whose smallest angle lies in one narrower
     /// than the bound is left as it is (no triangle there can meet it).
     acute: [(u32, f64); 2],
+    /// For each acute corner, its position and the directions of its two sides.
+    sides: [(DVec2, DVec2, DVec2); 2],
 }
 
 impl Bounds {
@@ -76,14 +78,43 @@ impl Bounds {
             origin: lo,
             scale: 2f64.powi(32) / side * (1.0 - f64::EPSILON),
             acute: [(NONE, 180.0); 2],
+            sides: [(DVec2::ZERO, DVec2::ZERO, DVec2::ZERO); 2],
         }
     }
 
-    /// These bounds with the domain's corners: vertex numbers and interior angles, degrees.
-    pub fn with_corners(mut self, corners: impl IntoIterator<Item = (u32, f64)>) -> Self {
-        let mut acute = corners.into_iter().filter(|&(_, a)| a < ACUTE_CORNER_DEG);
-        self.acute = [0, 1].map(|_| acute.next().unwrap_or((NONE, 180.0)));
+    /// These bounds with the domain's corners, counter-clockwise: vertex numbers, positions
+    /// and interior angles, degrees.
+    pub fn with_corners(mut self, corners: &[(u32, DVec2, f64)]) -> Self {
+        let n = corners.len();
+        let mut acute = (0..n).filter(|&k| corners[k].2 < ACUTE_CORNER_DEG);
+        for slot in 0..2 {
+            if let Some(k) = acute.next() {
+                let (v, here, angle) = corners[k];
+                let (next, prev) = (corners[(k + 1) % n].1, corners[(k + n - 1) % n].1);
+                self.acute[slot] = (v, angle);
+                self.sides[slot] = (here, next - here, prev - here);
+            }
+        }
         self
+    }
+
+    /// Whether `p` and `q` lie on the two sides of a domain corner narrower than the bound
+    /// (Shewchuk's rule): a triangle whose shortest edge spans such a corner cannot be made
+    /// better, and splitting it would only shrink the splits on the sides towards the corner.
+    #[inline]
+    fn spans_narrow_corner(&self, p: DVec2, q: DVec2) -> bool {
+        (0..2).any(|k| {
+            let (v, angle) = self.acute[k];
+            if v == NONE || angle.to_radians().sin().powi(2) >= self.sin2 {
+                return false;
+            }
+            let (c, a, b) = self.sides[k];
+            let on = |x: DVec2, d: DVec2| {
+                let r = x - c;
+                r.perp_dot(d).abs() <= 1e-9 * r.length() * d.length() && r.dot(d) > 0.0
+            };
+            (on(p, a) && on(q, b)) || (on(p, b) && on(q, a))
+        })
     }
 
     /// The angle of the acute domain corner at vertex `v`, if it is one.
@@ -455,8 +486,9 @@ pub(super) fn badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usiz
     // The smallest angle faces the shortest edge, and its sine is twice the area over the
     // product of the two other sides.
     let others = len2[NEXT[shortest]] * len2[PREV[shortest]];
-    let skinny =
-        area2 * area2 < bounds.sin2 * others && !bounds.in_narrow_corner(c[shortest] & !MARK);
+    let skinny = area2 * area2 < bounds.sin2 * others
+        && !bounds.in_narrow_corner(c[shortest] & !MARK)
+        && !bounds.spans_narrow_corner(v[NEXT[shortest]], v[PREV[shortest]]);
     (skinny || area2 > bounds.max_area2).then_some((shortest, len2[shortest]))
 }
 

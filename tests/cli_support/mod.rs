@@ -7,7 +7,7 @@ use std::process::{Command, Output};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use quadmesh::DVec2;
-use quadmesh::mesh::{BoundaryEdge, BoundarySide, Domain, Mesh, NONE};
+use quadmesh::mesh::{BoundaryEdge, Domain, Mesh, NONE};
 
 /// A directory in the temporary directory, unique to this test, removed when dropped.
 pub struct TempDir(PathBuf);
@@ -108,17 +108,12 @@ pub fn read_triangle_files(prefix: &Path) -> Mesh {
         .filter(|r| r[3] != "0")
         .map(|r| {
             let (a, b) = (index(&r[1]), index(&r[2]));
-            let side = match r[3].as_str() {
-                "1" => BoundarySide::Bottom,
-                "2" => BoundarySide::Right,
-                "3" => BoundarySide::Top,
-                _ => BoundarySide::Left,
-            };
+            let marker: i32 = r[3].parse().expect("an integer marker");
             let forward = triangles
                 .iter()
                 .any(|t: &[u32; 3]| (0..3).any(|i| t[i] == a && t[(i + 1) % 3] == b));
             let vertices = if forward { [a, b] } else { [b, a] };
-            BoundaryEdge { vertices, side }
+            BoundaryEdge { vertices, marker }
         })
         .collect();
     Mesh {
