@@ -5,7 +5,7 @@ Usage (from the repository root):
 
     pip install triangle numpy          # once; the script installs nothing itself
     python3 scripts/compare_peers.py [--sizes 100000,1000000] [--dists uniform,cluster,kuzmin]
-        [--threads 1,2] [--repeats 3] [--angles 20,30,33]
+        [--threads 1,2] [--repeats 3] [--angles 20,30] [--domain hull|square]
         [--tools triangle,spade,quadmesh,quadmesh-refine]
         [--quadmesh-args='--some-flag value'] [--timeout 600] [--out results.json] [--markdown]
 
@@ -18,48 +18,73 @@ What it does:
   the binaries are taken from ``$CARGO_TARGET_DIR`` when it is set, ``target/`` otherwise;
 * for every distribution and size, writes the points with
   ``target/release/quadmesh generate --points N --dist D --seed 1`` into a temporary directory;
-* computes the square every tool meshes, the one quadmesh meshes: centred on the centre of the
-  points' bounding box, half-side equal to the box's larger extent (so side twice that extent).
-  Its four corners are added to the points given to Triangle and spade, so that for them too the
-  square is the convex hull and the mesh covers it;
+* meshes one of two regions, shown in each row's ``domain`` column, and every tool of a row
+  group meshes the same one:
+
+  - ``hull``, the points' convex hull: what Triangle meshes for a bare point set, and the
+    region of quadmesh's Delaunay refinement by default. Triangle gets the points alone;
+  - ``square``: centred on the centre of the points' bounding box, half-side equal to the box's
+    larger extent (so side twice that extent), the region of quadmesh's warped mesh. Its four
+    corners are added to the points given to Triangle and spade, so that for them too the
+    square is the convex hull and the mesh covers it.
+
+  ``--domain`` (``hull`` by default) picks the region of Triangle's plain Delaunay row and of
+  every refinement row (Triangle ``qA``, spade at A, quadmesh's refinement). The warped mesh
+  always covers the square: with ``--domain hull`` its rows come with rows of their own for
+  Triangle's and spade's Delaunay triangulations of the points and the square's corners; with
+  ``--domain square`` every row is on the square. spade meshes only the square: its example
+  ``spade_mesh`` always adds the corners of a square to the points, so with ``--domain hull``
+  spade has only its Delaunay row beside the warp's (none without tool ``quadmesh``), and a
+  note under the tables says so;
 * Triangle, through the ``triangle`` Python package, in a fresh Python process per run:
-  switches ``Q`` (plain Delaunay triangulation of the points and corners) and ``q<A>Q`` for every
-  angle A of ``--angles`` (quality refinement, no angle below A degrees). Only the
-  ``triangle.triangulate`` call is timed; it includes the package's copying of the input and output
-  arrays. Above about 34 degrees Triangle's refinement does not finish: it grows until the
-  timeout or the system kills it (shown as "killed by SIGKILL (out of memory?)"). Its peak memory is the child's ``ru_maxrss`` taken right after that call, so it includes
-  the Python interpreter, numpy and the numpy arrays of the input points (the raw results also
-  give ``peak_rss_before_mesh_bytes``, the child's high-water mark just before the call);
-* spade, through ``target/release/examples/spade_mesh`` (one process per run): plain Delaunay
-  (bulk load) and ``--min-angle A`` for every angle A. Its time is the bulk load and refinement,
-  not reading the file; its peak memory is the process's high-water mark, which includes the
-  points as read (``peak_rss_before_mesh_bytes`` in the raw results is the mark after reading).
-  The example uses mimalloc, as the quadmesh CLI does;
-* quadmesh (tool ``quadmesh``, the warped quadtree mesh), through ``target/release/quadmesh bench
-  --points N --dist D --seed 1 --threads T --json`` plus ``--quadmesh-args``, once per thread
-  count of ``--threads``. It generates the same points in memory and prints one JSON object as
-  its last line of output; its time is that object's ``total_s``. If the subcommand is missing
-  or fails, quadmesh rows say so and the other tools still run;
-* quadmesh's Delaunay refinement (tool ``quadmesh-refine``): the same command with
-  ``--min-angle A`` for every angle A of ``--angles`` and every thread count of ``--threads``
-  (``--quadmesh-args`` too). Above 20.7 degrees quadmesh warns on standard error that
-  termination is not proven; the warning is kept in the raw results (``stderr``). If this quadmesh
-  has no ``--min-angle``, these rows say so.
+  switches ``Q`` (plain Delaunay triangulation) and ``q<A>Q`` for every angle A of ``--angles``
+  (quality refinement, no angle below A degrees). Only the ``triangle.triangulate`` call is
+  timed; it includes the package's copying of the input and output arrays. Above about 34
+  degrees Triangle's refinement does not finish: it grows until the timeout or the system kills
+  it (shown as "killed by SIGKILL (out of memory?)"). Its peak memory is the child's
+  ``ru_maxrss`` taken right after that call, so it includes the Python interpreter, numpy and
+  the numpy arrays of the input points (the raw results also give
+  ``peak_rss_before_mesh_bytes``, the child's high-water mark just before the call);
+* spade, through ``target/release/examples/spade_mesh --corners X0,Y0,X1,Y1`` (one process per
+  run): plain Delaunay (bulk load) and ``--min-angle A`` for every angle A. Its time is the bulk
+  load and refinement, not reading the file; its peak memory is the process's high-water mark,
+  which includes the points as read (``peak_rss_before_mesh_bytes`` in the raw results is the
+  mark after reading). The example uses mimalloc, as the quadmesh CLI does;
+* quadmesh's warped quadtree mesh (tool ``quadmesh``), through ``target/release/quadmesh bench
+  --points N --dist D --seed 1 --threads T --json --warp --domain square`` plus
+  ``--quadmesh-args``, once per thread count of ``--threads``. It generates the same points in
+  memory and prints one JSON object as its last line of output; its time is that object's
+  ``total_s``. If the subcommand is missing or fails, quadmesh rows say so and the other tools
+  still run;
+* quadmesh's quality Delaunay mesh (tool ``quadmesh-refine``, the CLI's default mode): the same
+  command without ``--warp``, with ``--domain hull`` or ``--domain square`` (as ``--domain``
+  says) and ``--min-angle A`` for every angle A of ``--angles`` and every thread count of
+  ``--threads`` (``--quadmesh-args`` too). Above 20.7 degrees quadmesh warns on standard error
+  that termination is not proven; the warning is kept in the raw results (``stderr``). If this
+  quadmesh lacks an option these rows need, they say so.
 
 Triangle and spade are sequential and run once per size and distribution, whatever ``--threads``
 says.
 
 Each run is repeated ``--repeats`` times; the tables give the median time and the largest peak
 memory. Rows come in groups: the unrefined meshes (Triangle ``Q``, spade's Delaunay, quadmesh's
-warped mesh), then for each angle A Triangle ``qA``, spade at A and quadmesh's refinement at A.
-Columns: tool and mode, threads, time (s, median), time relative to Triangle at the same angle
-(``qA`` for refinement rows, plain ``Q`` for the others), output triangles per input point,
-triangles relative to Triangle at the same angle, smallest and largest angle of the output
-(degrees), peak resident memory (MB, 10^6 bytes) and peak memory per output triangle (bytes).
-A spade row marked "incomplete" ran out of its vertex allowance before meeting the angle; a
-refinement row marked "below the bound" has a smaller angle than it was asked for. Below
-each table a line checks quadmesh's target at 30 degrees on 2 threads: time at most 0.25 times
-Triangle ``q30``'s and no more triangles per point than Triangle ``q30``.
+warped mesh; with ``--domain hull``, Triangle ``Q`` on the hull, then Triangle ``Q`` and spade
+on the square beside the warp), then for each angle A Triangle ``qA``, spade at A and
+quadmesh's refinement at A.
+Columns: tool and mode, threads, domain, time (s, median), time relative to Triangle on the same
+domain at the same angle (``qA`` for refinement rows, plain ``Q`` for the others), output
+triangles per input point, triangles relative to that same Triangle row, smallest and largest
+angle of the output (degrees), peak resident memory (MB, 10^6 bytes) and peak memory per output
+triangle (bytes). A spade row marked "incomplete" ran out of its vertex allowance before meeting
+the angle; a refinement row marked "below the bound" has a smaller angle than it was asked for
+(on the hull that is also what a corner of the hull narrower than the bound gives: neither
+Triangle nor quadmesh changes the angles of the input's boundary).
+
+Below each table, for every angle A of ``--angles``, a line compares quadmesh's refinement at A
+on the largest thread count of ``--threads`` with Triangle ``qA``: the ratio of their times and
+their triangles per point (with its ratio). A last line checks quadmesh's target at 30 degrees
+on 2 threads: time at most 0.25 times Triangle ``q30``'s and no more triangles per point than
+Triangle ``q30``.
 
 Every subprocess has a timeout (``--timeout``, 600 s by default); failures and timeouts are
 shown in the tables and never stop the script. A configuration that timed out is skipped for
@@ -76,6 +101,7 @@ import argparse
 import json
 import os
 import platform
+import re
 import shlex
 import signal
 import statistics
@@ -95,6 +121,9 @@ CHILD_MARK = "__triangle_child__"
 
 # The --tools names.
 TOOLS = ("triangle", "spade", "quadmesh", "quadmesh-refine")
+
+# The --domain choices: the points' convex hull, or the square the warped mesh covers.
+DOMAINS = ("hull", "square")
 
 # The issue's target for quadmesh's refinement: at this angle and thread count, at most this
 # fraction of Triangle's time and no more triangles per point than Triangle.
@@ -127,8 +156,9 @@ def angle_range(vertices, triangles):
     return lo, hi
 
 
-def triangle_child(points_npy, switches):
-    """Runs in a fresh interpreter: mesh with Triangle and print one JSON line."""
+def triangle_child(points_npy, switches, added):
+    """Runs in a fresh interpreter: mesh with Triangle and print one JSON line. The last
+    `added` vertices of the file are the square's corners, not input points."""
     import resource
 
     import numpy as np
@@ -148,7 +178,7 @@ def triangle_child(points_npy, switches):
             {
                 "tool": "triangle",
                 "switches": switches,
-                "points": int(len(vertices)) - 4,
+                "points": int(len(vertices)) - int(added),
                 "time_s": elapsed,
                 "vertices": int(len(verts)),
                 "triangles": int(len(tris)),
@@ -202,9 +232,13 @@ def parse_args():
     parser.add_argument("--threads", type=int_list, default=sorted({1, cores}),
                         help=f"quadmesh thread counts (default 1,{cores})")
     parser.add_argument("--repeats", type=int, default=3, help="runs of each configuration")
-    parser.add_argument("--angles", type=float_list, default=[20.0, 30.0, 33.0],
+    parser.add_argument("--angles", type=float_list, default=[20.0, 30.0],
                         help="minimum angles for Triangle's, spade's and quadmesh's refinement "
-                             "(default 20,30,33)")
+                             "(default 20,30)")
+    parser.add_argument("--domain", choices=DOMAINS, default="hull",
+                        help="region of the refinement rows: the points' convex hull (default; "
+                             "spade's refinement is then left out) or the square around them; "
+                             "the warped mesh's rows always use the square")
     parser.add_argument("--tools", type=str_list, default=list(TOOLS),
                         help=f"which tools to run (default {','.join(TOOLS)}; quadmesh is the "
                              f"warped mesh, quadmesh-refine the Delaunay refinement)")
@@ -289,13 +323,14 @@ def angle_text(angle):
 
 
 class Config:
-    """One row of a table: a tool, a mode, a thread count and the command that runs it.
+    """One row of a table: a tool, a mode, a thread count, a domain and the command that runs it.
 
     `selector` is the --tools name that asked for it; `angle` the minimum angle of a
-    refinement, None for an unrefined mesh (Triangle Q, spade's Delaunay, quadmesh's warp)."""
+    refinement, None for an unrefined mesh (Triangle Q, spade's Delaunay, quadmesh's warp);
+    `domain` the region meshed, "hull" or "square"."""
 
     def __init__(self, tool, mode, threads, command, time_key="time_s", selector=None,
-                 angle=None):
+                 angle=None, domain="square"):
         self.tool = tool
         self.mode = mode
         self.threads = threads
@@ -303,41 +338,63 @@ class Config:
         self.time_key = time_key
         self.selector = selector or tool
         self.angle = angle
+        self.domain = domain
 
 
-def configs_for(args, dist, size, points_txt, points_npy, corners):
+def configs_for(args, dist, size, points_txt, npy, corners):
     """The rows of one table: the unrefined meshes first, then one group per angle, each with
-    Triangle, spade and quadmesh side by side."""
-    child = [sys.executable, str(Path(__file__).resolve()), CHILD_MARK, str(points_npy)]
+    Triangle, spade and quadmesh side by side. `npy` maps a domain to Triangle's input file
+    and the number of corners added to its points."""
+
+    def child(domain, switches):
+        path, added = npy[domain]
+        return [sys.executable, str(Path(__file__).resolve()), CHILD_MARK, str(path), switches,
+                str(added)]
+
     spade = [str(SPADE), str(points_txt), "--corners=" + ",".join(repr(c) for c in corners)]
     extra = shlex.split(args.quadmesh_args)
     suffix = f" {args.quadmesh_args}" if extra else ""
+    domain = args.domain
 
     def bench(t, more):
         return ([str(QUADMESH), "bench", "--points", str(size), "--dist", dist, "--seed", "1",
                  "--threads", str(t), "--json"] + more + extra)
 
     configs = []
+    # Plain Delaunay on the refinement's domain, the reference of the table's first group.
     if "triangle" in args.tools:
-        configs.append(Config("Triangle", "Delaunay", 1, child + ["Q"], selector="triangle"))
-    if "spade" in args.tools:
-        configs.append(Config("spade", "Delaunay", 1, spade, selector="spade"))
+        configs.append(Config("Triangle", "Delaunay", 1, child(domain, "Q"),
+                              selector="triangle", domain=domain))
+    if "spade" in args.tools and domain == "square":
+        configs.append(Config("spade", "Delaunay", 1, spade, selector="spade", domain="square"))
     if "quadmesh" in args.tools:
+        # The warp covers the square: on the hull, its peers get their own rows on the square.
+        if domain != "square":
+            if "triangle" in args.tools:
+                configs.append(Config("Triangle", "Delaunay", 1, child("square", "Q"),
+                                      selector="triangle", domain="square"))
+            if "spade" in args.tools:
+                configs.append(Config("spade", "Delaunay", 1, spade, selector="spade",
+                                      domain="square"))
         for t in args.threads:
-            configs.append(Config("quadmesh", "warp" + suffix, t, bench(t, []),
-                                  time_key="total_s", selector="quadmesh"))
+            configs.append(Config("quadmesh", "warp" + suffix, t,
+                                  bench(t, ["--warp", "--domain", "square"]),
+                                  time_key="total_s", selector="quadmesh", domain="square"))
     for a in args.angles:
         if "triangle" in args.tools:
-            configs.append(Config("Triangle", f"q{angle_text(a)}", 1, child + [f"q{a:g}Q"],
-                                  selector="triangle", angle=a))
-        if "spade" in args.tools:
+            configs.append(Config("Triangle", f"q{angle_text(a)}", 1,
+                                  child(domain, f"q{a:g}Q"), selector="triangle", angle=a,
+                                  domain=domain))
+        if "spade" in args.tools and domain == "square":
             configs.append(Config("spade", f"refine {angle_text(a)}°", 1,
-                                  spade + ["--min-angle", f"{a:g}"], selector="spade", angle=a))
+                                  spade + ["--min-angle", f"{a:g}"], selector="spade", angle=a,
+                                  domain="square"))
         if "quadmesh-refine" in args.tools:
             for t in args.threads:
                 configs.append(Config("quadmesh", f"refine {angle_text(a)}°{suffix}", t,
-                                      bench(t, ["--min-angle", f"{a:g}"]), time_key="total_s",
-                                      selector="quadmesh-refine", angle=a))
+                                      bench(t, ["--domain", domain, "--min-angle", f"{a:g}"]),
+                                      time_key="total_s", selector="quadmesh-refine", angle=a,
+                                      domain=domain))
     return configs
 
 
@@ -360,13 +417,14 @@ def summarize(runs, time_key):
 def measure(config, repeats, timeout, skip_note):
     """Runs one configuration `repeats` times; stops at the first failure."""
     result = {"tool": config.tool, "mode": config.mode, "threads": config.threads,
-              "angle": config.angle, "selector": config.selector,
+              "angle": config.angle, "domain": config.domain, "selector": config.selector,
               "command": config.command, "runs": [], "error": None}
     if skip_note:
         result["error"] = skip_note
         return result
     for i in range(repeats):
-        log(f"  {config.tool} {config.mode} threads={config.threads} run {i + 1}/{repeats}")
+        log(f"  {config.tool} {config.mode} threads={config.threads} {config.domain} "
+            f"run {i + 1}/{repeats}")
         record, error = run_json(config.command, timeout)
         if error is None and not isinstance(record.get(config.time_key), (int, float)):
             error = f"output has no numeric {config.time_key!r}: {tail(json.dumps(record))}"
@@ -392,7 +450,7 @@ def square_of(points):
             float(centre[0] + half), float(centre[1] + half))
 
 
-HEADER = ["tool / mode", "threads", "time s (median)", "vs Triangle", "triangles/point",
+HEADER = ["tool / mode", "threads", "domain", "time s (median)", "vs Triangle", "triangles/point",
           "triangles vs Triangle", "min angle", "max angle", "peak MB", "bytes/triangle"]
 
 
@@ -403,12 +461,14 @@ def ratio_of(value, base):
 
 
 def format_row(result, size, baseline):
-    """One table row; `baseline` is Triangle's result at the row's angle, or None."""
+    """One table row; `baseline` is Triangle's result on the row's domain at its angle, or
+    None."""
     name = f"{result['tool']} {result['mode']}"
     if not result["runs"]:
         error = " ".join(result["error"].split())
         status = error if error.startswith("skipped") else "failed: " + error
-        return [name, str(result["threads"]), status] + [""] * (len(HEADER) - 3)
+        return ([name, str(result["threads"]), result["domain"], status]
+                + [""] * (len(HEADER) - 4))
     t = result["median_time_s"]
     tris = result["triangles"]
     peak = result["max_peak_rss_bytes"]
@@ -421,6 +481,7 @@ def format_row(result, size, baseline):
     cells = [
         name,
         str(result["threads"]),
+        result["domain"],
         num(t, ".3f"),
         num(ratio_of(t, base_time), ".2f"),
         num(tris / size if isinstance(tris, int) else None, ".3f"),
@@ -441,57 +502,104 @@ def format_row(result, size, baseline):
 
 
 def triangle_baselines(results):
-    """Triangle's successful results by angle (None for plain Delaunay)."""
-    return {r["angle"]: r for r in results if r["tool"] == "Triangle" and r["runs"]}
+    """Triangle's successful results by (domain, angle), angle None for plain Delaunay."""
+    return {(r["domain"], r["angle"]): r for r in results if r["tool"] == "Triangle" and r["runs"]}
 
 
-def target_line(size, results):
-    """quadmesh's refinement at the target angle and thread count against Triangle's, or None."""
-    base = triangle_baselines(results).get(TARGET_ANGLE)
+def versus_triangle(size, results, angle, threads):
+    """quadmesh's refinement at `angle` on `threads` threads and Triangle q`angle` on the same
+    domain: (time ratio, quadmesh's triangles per point, Triangle's), or None."""
     ours = [r for r in results if r["selector"] == "quadmesh-refine" and r["runs"]
-            and r["angle"] == TARGET_ANGLE and r["threads"] == TARGET_THREADS]
-    if base is None or not ours:
+            and r["angle"] == angle and r["threads"] == threads]
+    if not ours:
         return None
     ours = ours[0]
+    base = triangle_baselines(results).get((ours["domain"], angle))
+    if base is None:
+        return None
     time_ratio = ratio_of(ours["median_time_s"], base["median_time_s"])
     ours_tpp = ours["triangles"] / size if isinstance(ours["triangles"], int) else None
     base_tpp = base["triangles"] / size if isinstance(base["triangles"], int) else None
     if time_ratio is None or ours_tpp is None or base_tpp is None:
         return None
+    return time_ratio, ours_tpp, base_tpp
+
+
+def target_verdict(time_ratio, ours_tpp, base_tpp):
+    """Whether quadmesh's refinement meets the target, in words."""
     time_ok = time_ratio <= TARGET_TIME_RATIO
     tris_ok = ours_tpp <= base_tpp
-    a = angle_text(TARGET_ANGLE)
-    return (f"target, quadmesh refine {a}° on {TARGET_THREADS} threads vs Triangle q{a}: "
-            f"time {time_ratio:.2f}x (target <= {TARGET_TIME_RATIO:g}x: "
-            f"{'met' if time_ok else 'NOT met'}), triangles/point {ours_tpp:.3f} vs "
-            f"{base_tpp:.3f} ({'met' if tris_ok else 'NOT met'})")
+    return (f"target (time <= {TARGET_TIME_RATIO:g}x, no more triangles/point): time "
+            f"{'met' if time_ok else 'NOT met'}, triangles {'met' if tris_ok else 'NOT met'}")
 
 
-def print_table(dist, size, results, markdown):
+def check_lines(size, results, angles, threads):
+    """Below a table: quadmesh's refinement against Triangle at every angle on the largest
+    thread count, and the target at TARGET_ANGLE on TARGET_THREADS threads (on the line of
+    that angle when the largest thread count is TARGET_THREADS, on a line of its own
+    otherwise)."""
+    lines = []
+    target_done = False
+    for angle in angles:
+        found = versus_triangle(size, results, angle, threads)
+        if found is None:
+            continue
+        time_ratio, ours_tpp, base_tpp = found
+        a = angle_text(angle)
+        line = (f"quadmesh refine {a}° on {threads} threads vs Triangle q{a}: "
+                f"time {time_ratio:.2f}x, triangles/point {ours_tpp:.3f} vs {base_tpp:.3f} "
+                f"({ours_tpp / base_tpp:.2f}x)")
+        if angle == TARGET_ANGLE and threads == TARGET_THREADS:
+            line += "; " + target_verdict(*found)
+            target_done = True
+        lines.append(line)
+    found = versus_triangle(size, results, TARGET_ANGLE, TARGET_THREADS)
+    if found is not None and not target_done:
+        time_ratio, ours_tpp, base_tpp = found
+        a = angle_text(TARGET_ANGLE)
+        lines.append(f"quadmesh refine {a}° on {TARGET_THREADS} threads vs Triangle q{a}: "
+                     f"time {time_ratio:.2f}x, triangles/point {ours_tpp:.3f} vs "
+                     f"{base_tpp:.3f}; " + target_verdict(*found))
+    return lines
+
+
+# Columns aligned left (the others are numbers, aligned right), and the time column, which holds
+# the whole message of a failed row.
+LEFT_COLUMNS = (0, 2)
+TIME_COLUMN = 3
+
+
+def print_table(dist, size, results, markdown, angles, threads):
     baselines = triangle_baselines(results)
-    rows = [format_row(r, size, baselines.get(r["angle"])) for r in results]
+    rows = [format_row(r, size, baselines.get((r["domain"], r["angle"]))) for r in results]
     title = f"{dist}, {size:,} points"
     if markdown:
         print(f"\n#### {title}\n")
         print("| " + " | ".join(HEADER) + " |")
-        print("|" + "|".join(["---"] + ["---:"] * (len(HEADER) - 1)) + "|")
+        print("|" + "|".join("---" if i in LEFT_COLUMNS else "---:"
+                             for i in range(len(HEADER))) + "|")
         for row in rows:
             print("| " + " | ".join(cell.replace("|", "\\|") for cell in row) + " |")
     else:
         print(f"\n{title}")
         widths = [max([len(HEADER[i])] + [len(row[i]) for row in rows if row[i] != ""])
-                  if i != 2 else len(HEADER[i]) for i in range(len(HEADER))]
-        print("  ".join(h.ljust(widths[i]) if i == 0 else h.rjust(widths[i])
-                        for i, h in enumerate(HEADER)))
+                  if i != TIME_COLUMN else len(HEADER[i]) for i in range(len(HEADER))]
+
+        def line(cells):
+            return "  ".join(c.ljust(widths[i]) if i in LEFT_COLUMNS else c.rjust(widths[i])
+                             for i, c in enumerate(cells)).rstrip()
+
+        print(line(HEADER))
         for row in rows:
-            if row[3] == "" and row[2] != "":
-                print("  ".join([row[0].ljust(widths[0]), row[1].rjust(widths[1]), row[2]]))
+            if row[TIME_COLUMN + 1] == "" and row[TIME_COLUMN] != "":
+                print(line(row[:TIME_COLUMN]) + "  " + row[TIME_COLUMN])
             else:
-                print("  ".join(c.ljust(widths[i]) if i == 0 else c.rjust(widths[i])
-                                for i, c in enumerate(row)))
-    target = target_line(size, results)
-    if target:
-        print(f"\n{target}")
+                print(line(row))
+    checks = check_lines(size, results, angles, threads)
+    if checks:
+        print()
+        for check in checks:
+            print(f"- {check}" if markdown else check)
     sys.stdout.flush()
 
 
@@ -512,7 +620,8 @@ def main():
                                 "--example", "spade_mesh"], cwd=REPO)
         if build.returncode != 0:
             sys.exit("compare_peers: cargo build failed")
-    for binary in (QUADMESH, SPADE):
+    needed = [QUADMESH] + ([SPADE] if "spade" in args.tools else [])
+    for binary in needed:
         if not binary.exists():
             sys.exit(f"compare_peers: {binary} is missing; build it or drop --no-build")
 
@@ -531,6 +640,7 @@ def main():
                 log(f"{dist}, {size} points")
                 points_txt = tmp / f"{dist}-{size}.txt"
                 points_npy = tmp / f"{dist}-{size}.npy"
+                square_npy = tmp / f"{dist}-{size}-square.npy"
                 generated = None
                 try:
                     done = subprocess.run(
@@ -551,11 +661,17 @@ def main():
                 points = np.loadtxt(points_txt, dtype=np.float64, ndmin=2)
                 corners = square_of(points)
                 x0, y0, x1, y1 = corners
-                np.save(points_npy, np.vstack([points, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]]))
+                # Triangle's input on each domain: the points alone mesh their convex hull; with
+                # the square's corners they mesh the square.
+                np.save(points_npy, points)
+                np.save(square_npy,
+                        np.vstack([points, [[x0, y0], [x1, y0], [x1, y1], [x0, y1]]]))
+                npy = {"hull": (points_npy, 0), "square": (square_npy, 4)}
+                table["domain"] = args.domain
                 table["square"] = list(corners)
                 del points
-                for config in configs_for(args, dist, size, points_txt, points_npy, corners):
-                    key = (dist, config.tool, config.mode, config.threads)
+                for config in configs_for(args, dist, size, points_txt, npy, corners):
+                    key = (dist, config.tool, config.mode, config.threads, config.domain)
                     skip = skips.get(config.selector)
                     if skip is None and key in timed_out and size >= timed_out[key]:
                         skip = (f"skipped: timed out at {timed_out[key]:,} points "
@@ -563,24 +679,28 @@ def main():
                     result = measure(config, args.repeats, args.timeout, skip)
                     error = result["error"] or ""
                     if config.tool == "quadmesh" and not result["runs"] and error:
+                        unknown = re.search(r"unexpected argument '(--[\w-]+)'", error)
                         if "unrecognized subcommand" in error:
                             note = ("skipped: this quadmesh has no `bench` subcommand yet "
                                     "(`quadmesh bench ... --json` failed)")
                             skips["quadmesh"] = skips["quadmesh-refine"] = note
                             result["error"] = note
-                        elif (config.selector == "quadmesh-refine"
-                              and "unexpected argument '--min-angle'" in error):
-                            note = ("skipped: this quadmesh has no refinement yet "
-                                    "(`quadmesh bench --min-angle` failed)")
-                            skips["quadmesh-refine"] = note
+                        elif unknown:
+                            what = ("warped mesh" if config.selector == "quadmesh"
+                                    else "refinement")
+                            note = (f"skipped: this quadmesh's `bench` has no "
+                                    f"`{unknown.group(1)}`, which its {what} rows need")
+                            skips[config.selector] = note
                             result["error"] = note
                     if error.startswith("timeout"):
                         timed_out[key] = min(size, timed_out.get(key, size))
                     table["results"].append(result)
                 everything["tables"].append(table)
-                print_table(dist, size, table["results"], args.markdown)
+                print_table(dist, size, table["results"], args.markdown, args.angles,
+                            max(args.threads))
                 points_txt.unlink(missing_ok=True)
                 points_npy.unlink(missing_ok=True)
+                square_npy.unlink(missing_ok=True)
                 if args.out:
                     args.out.write_text(json.dumps(everything, indent=1) + "\n")
     if args.out:
@@ -588,10 +708,14 @@ def main():
         log(f"raw results written to {args.out}")
     for note in dict.fromkeys(skips.values()):
         print(f"\nnote: quadmesh {note}")
+    if "spade" in args.tools and args.domain != "square":
+        print(f"\nnote: spade has no rows on the convex hull: {SPADE.name} always adds a "
+              f"square's corners to the points, so it meshes that square, not their hull "
+              f"(--domain square compares it on the square)")
 
 
 if __name__ == "__main__":
-    if len(sys.argv) == 4 and sys.argv[1] == CHILD_MARK:
-        triangle_child(sys.argv[2], sys.argv[3])
+    if len(sys.argv) == 5 and sys.argv[1] == CHILD_MARK:
+        triangle_child(sys.argv[2], sys.argv[3], sys.argv[4])
     else:
         main()
