@@ -161,8 +161,10 @@ pub fn write_neigh<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
 }
 
 /// Writes every edge of the mesh once as a Triangle `.edge` file: the header `<#edges> 1`, then
-/// `<edge> <v0> <v1> <marker>` per edge, where the marker is the [`BoundarySide`] value (1 to 4)
-/// of a boundary edge and 0 for an interior edge; numbered from 1 as in [`write_node`].
+/// `<edge> <v0> <v1> <marker>` per edge, where the marker is the boundary edge's marker (on a
+/// rectangle its [`BoundarySide`] value, 1 to 4; with a [`Mesh::outline`], 1) and 0 for an
+/// interior edge; numbered from 1 as in [`write_node`]. The comment line before the header says
+/// which.
 ///
 /// The edges are those of [`Mesh::edges`], in its order: by triangle, then by the corner they
 /// are opposite; an interior edge is listed with the lower-numbered of its two triangles, in that
@@ -175,11 +177,12 @@ pub fn write_edge<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
     let triangles = mesh.triangles.len();
     // The 0-based number of each triangle's first edge, and the edge count after the last.
     let first_edge = exclusive_scan_by(triangles, |t| edges_listed_with(mesh, t));
-    writeln!(
-        w,
-        "# edge (numbered from 1), its vertices, side marker (1 bottom, 2 right, 3 top, 4 left, \
-         0 interior)"
-    )?;
+    let markers = if mesh.outline.is_some() {
+        "boundary marker (1 boundary, 0 interior)"
+    } else {
+        "side marker (1 bottom, 2 right, 3 top, 4 left, 0 interior)"
+    };
+    writeln!(w, "# edge (numbered from 1), its vertices, {markers}")?;
     writeln!(w, "{} 1", first_edge[triangles])?;
     write_items(&mut w, triangles, |buf, t| {
         for (k, edge) in lister.edges_of(t).enumerate() {
@@ -349,30 +352,48 @@ const SIDES: [(BoundarySide, &str); 4] = [
 
 /// Writes the mesh as a Gmsh MSH 4.1 ASCII file.
 ///
-/// The geometry is the domain: four corner points (entity tags 1 to 4, from the lower-left
-/// corner counter-clockwise), four curves, one per side, whose entity and physical tags are the
-/// [`BoundarySide`] markers (1 bottom, 2 right, 3 top, 4 left, named in `$PhysicalNames`), and
-/// one surface with entity and physical tag 1 (`"domain"`). All vertices are nodes of the
-/// surface, tagged 1 to V in vertex order. Elements are the boundary edges as 2-node lines
-/// (type 1) on their side's curve, tagged from 1 side by side in boundary order, then the
-/// triangles (type 2, counter-clockwise) on the surface, tagged on from there in triangle order.
+/// On a rectangle (no [`Mesh::outline`]) the geometry is the domain: four corner points (entity
+/// tags 1 to 4, from the lower-left corner counter-clockwise), four curves, one per side, whose
+/// entity and physical tags are the [`BoundarySide`] markers (1 bottom, 2 right, 3 top, 4 left,
+/// named in `$PhysicalNames`), and one surface with entity and physical tag 1 (`"domain"`).
+/// Elements are the boundary edges as 2-node lines (type 1) on their side's curve, tagged from 1
+/// side by side in boundary order.
+///
+/// With an outline, the boundary is one closed curve: no point entities, one curve with entity
+/// and physical tag 1 (`"boundary"`), the outline's bounding box ([`Mesh::domain`]) and no
+/// bounding points, and the surface (entity and physical tag 1, `"domain"`) bounded by it. The
+/// outline is not split into one curve per side, since the Steiner vertices refinement puts on
+/// its sides are rounded and need not lie exactly on them. Elements are all boundary edges as
+/// 2-node lines on that curve, in one block, tagged from 1 in boundary order.
+///
+/// In both cases all vertices are nodes of the surface, tagged 1 to V in vertex order, and the
+/// triangles (type 2, counter-clockwise) follow the lines on the surface, tagged on from the
+/// last line in triangle order.
 ///
 /// # Errors
 /// Whatever `w` returns.
 pub fn write_msh<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
     writeln!(w, "$MeshFormat\n4.1 0 8\n$EndMeshFormat")?;
-    writeln!(w, "$PhysicalNames\n{}", SIDES.len() + 1)?;
-    for (side, name) in SIDES {
-        writeln!(w, "1 {} \"{name}\"", side as u8)?;
+    if mesh.outline.is_some() {
+        writeln!(w, "$PhysicalNames\n2\n1 1 \"boundary\"")?;
+    } else {
+        writeln!(w, "$PhysicalNames\n{}", SIDES.len() + 1)?;
+        for (side, name) in SIDES {
+            writeln!(w, "1 {} \"{name}\"", side as u8)?;
+        }
     }
     writeln!(w, "2 1 \"domain\"\n$EndPhysicalNames")?;
-    write_msh_entities(&mut w, mesh)?;
+    if mesh.outline.is_some() {
+        write_msh_outline_entities(&mut w, mesh)?;
+    } else {
+        write_msh_entities(&mut w, mesh)?;
+    }
     write_msh_nodes(&mut w, mesh)?;
     write_msh_elements(&mut w, mesh)?;
     w.flush()
 }
 
-/// The `$Entities` section: the domain's corners, sides and interior.
+/// The `$Entities` section of a rectangle: its corners, sides and interior.
 fn write_msh_entities<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
     let (lo, hi) = (mesh.domain.lo, mesh.domain.hi);
     let corners = [lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
@@ -399,6 +420,15 @@ fn write_msh_entities<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
     )
 }
 
+/// The `$Entities` section of an outline mesh: one closed boundary curve and the surface inside.
+fn write_msh_outline_entities<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
+    let (lo, hi) = (mesh.domain.lo, mesh.domain.hi);
+    let bounds = format!("{} {} 0 {} {} 0", lo.x, lo.y, hi.x, hi.y);
+    writeln!(w, "$Entities\n0 1 1 0")?;
+    writeln!(w, "1 {bounds} 1 1 0")?;
+    writeln!(w, "1 {bounds} 1 1 1 1\n$EndEntities")
+}
+
 /// The `$Nodes` section: one block of all vertices on the surface.
 fn write_msh_nodes<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
     let n = mesh.vertices.len();
@@ -419,17 +449,21 @@ fn write_msh_nodes<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
     writeln!(w, "$EndNodes")
 }
 
-/// The `$Elements` section: a block of lines per side that has boundary edges, then a block of
-/// the triangles.
+/// The `$Elements` section: a block of lines per curve that has boundary edges (per side on a
+/// rectangle, all of them on an outline's one curve), then a block of the triangles.
 fn write_msh_elements<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
-    let sides: Vec<(u8, Vec<[u32; 2]>)> = SIDES
-        .iter()
-        .map(|&(side, _)| {
-            let edges = mesh.boundary.iter().filter(|e| e.marker == side.marker());
-            (side as u8, edges.map(|e| e.vertices).collect::<Vec<_>>())
-        })
-        .filter(|(_, edges)| !edges.is_empty())
-        .collect();
+    let mut sides: Vec<(u8, Vec<[u32; 2]>)> = if mesh.outline.is_some() {
+        vec![(1, mesh.boundary.iter().map(|e| e.vertices).collect())]
+    } else {
+        SIDES
+            .iter()
+            .map(|&(side, _)| {
+                let edges = mesh.boundary.iter().filter(|e| e.marker == side.marker());
+                (side as u8, edges.map(|e| e.vertices).collect())
+            })
+            .collect()
+    };
+    sides.retain(|(_, edges)| !edges.is_empty());
     let lines: usize = sides.iter().map(|(_, edges)| edges.len()).sum();
     let triangles = mesh.triangles.len();
     let blocks = sides.len() + usize::from(triangles > 0);
@@ -551,7 +585,7 @@ fn svg_y(y: f64) -> f64 {
 
 /// Writes an SVG picture of the mesh, about 1000 pixels wide: the triangle edges as one thin
 /// black path, the vertices that are input points as small red dots, y pointing up, the view
-/// fitted to the domain with a small margin.
+/// fitted to the domain (with a [`Mesh::outline`], its bounding box) with a small margin.
 ///
 /// A mesh of more than `max_triangles` triangles is shown only in part: the triangles that meet
 /// the smallest window around the domain's centre, of the domain's shape, that holds about
@@ -1101,6 +1135,158 @@ mod tests {
         let msh = text(&Mesh::default(), |m, w| write_msh(m, w));
         assert_eq!(msh_section(&msh, "Nodes"), ["0 0 0 0"]);
         assert_eq!(msh_section(&msh, "Elements"), ["0 0 0 0"]);
+    }
+
+    /// A refined mesh of a pentagon's convex hull with a few points inside, validated.
+    fn pentagon() -> Mesh {
+        let points: Vec<DVec2> = (0..5)
+            .map(|k| {
+                let a = f64::from(k) * std::f64::consts::TAU / 5.0 + 0.3;
+                DVec2::new(3.0 * a.cos(), 2.0 * a.sin())
+            })
+            .chain([DVec2::new(0.1, 0.2), DVec2::new(-0.7, 0.4)])
+            .collect();
+        let options = crate::refine::RefineOptions {
+            min_angle_deg: 20.0,
+            ..crate::refine::RefineOptions::default()
+        };
+        let (mesh, _) = crate::refine::refine_points(&points, &options).unwrap();
+        let bounds = crate::mesh::AngleBounds {
+            min_deg: 20.0,
+            max_deg: 140.0,
+        };
+        mesh.validate(&points, bounds).unwrap();
+        assert_eq!(mesh.outline.as_ref().map(Vec::len), Some(5));
+        assert!(mesh.boundary.len() > 5, "refinement splits the hull sides");
+        mesh
+    }
+
+    #[test]
+    fn msh_of_an_outline_has_one_boundary_curve() {
+        let mesh = pentagon();
+        let msh = text(&mesh, |m, w| write_msh(m, w));
+        assert!(msh.starts_with("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n"));
+        assert_eq!(
+            msh_section(&msh, "PhysicalNames"),
+            ["2", "1 1 \"boundary\"", "2 1 \"domain\""]
+        );
+
+        let (lo, hi) = (mesh.domain.lo, mesh.domain.hi);
+        let outline = mesh.outline.as_ref().unwrap();
+        let min = outline.iter().fold(DVec2::INFINITY, |m, &p| m.min(p));
+        let max = outline.iter().fold(DVec2::NEG_INFINITY, |m, &p| m.max(p));
+        assert_eq!(
+            (lo, hi),
+            (min, max),
+            "the domain is the outline's bounding box"
+        );
+        let entities = msh_section(&msh, "Entities");
+        assert_eq!(entities.len(), 3);
+        assert_eq!(fields(entities[0]), [0, 1, 1, 0]);
+        let bounds = |line: &str| -> Vec<f64> {
+            line.split(' ')
+                .skip(1)
+                .take(6)
+                .map(|f| f.parse().unwrap())
+                .collect()
+        };
+        let tail = |line: &str| -> Vec<i64> {
+            fields(&line.split(' ').skip(7).collect::<Vec<_>>().join(" "))
+        };
+        let expected = [lo.x, lo.y, 0.0, hi.x, hi.y, 0.0];
+        assert!(entities[1].starts_with("1 ") && entities[2].starts_with("1 "));
+        assert_eq!(bounds(entities[1]), expected);
+        assert_eq!(bounds(entities[2]), expected);
+        // The curve: physical tag 1, no bounding points; the surface: physical tag 1, bounded by
+        // curve 1.
+        assert_eq!(tail(entities[1]), [1, 1, 0]);
+        assert_eq!(tail(entities[2]), [1, 1, 1, 1]);
+
+        let v = mesh.vertices.len() as i64;
+        let nodes = msh_section(&msh, "Nodes");
+        assert_eq!(fields(nodes[0]), [1, v, 1, v]);
+        assert_eq!(fields(nodes[1]), [2, 1, 0, v]);
+        assert_eq!(nodes.len(), 2 + 2 * v as usize);
+
+        let elements = msh_section(&msh, "Elements");
+        let (lines, triangles) = (mesh.boundary.len(), mesh.triangles.len());
+        let total = (lines + triangles) as i64;
+        assert_eq!(fields(elements[0]), [2, total, 1, total]);
+        assert_eq!(fields(elements[1]), [1, 1, 1, lines as i64]);
+        assert_eq!(fields(elements[2 + lines]), [2, 1, 2, triangles as i64]);
+        assert_eq!(elements.len(), 3 + lines + triangles);
+        let mut tags = Vec::new();
+        let mut edges = HashMap::new();
+        for line in &elements[2..2 + lines] {
+            let f = fields(line);
+            assert_eq!(f.len(), 3);
+            tags.push(f[0]);
+            assert!(edges.insert([f[1], f[2]], ()).is_none(), "{line}");
+        }
+        let mut cells = HashMap::new();
+        for line in &elements[3 + lines..] {
+            let f = fields(line);
+            assert_eq!(f.len(), 4);
+            tags.push(f[0]);
+            assert!(cells.insert([f[1], f[2], f[3]], ()).is_none(), "{line}");
+        }
+        assert_eq!(tags, (1..=total).collect::<Vec<_>>());
+        let node = |v: u32| i64::from(v) + 1;
+        assert_eq!(edges.len(), lines);
+        for e in &mesh.boundary {
+            assert!(edges.contains_key(&e.vertices.map(node)), "{e:?}");
+        }
+        assert_eq!(cells.len(), triangles);
+        for t in &mesh.triangles {
+            assert!(cells.contains_key(&t.map(node)), "{t:?}");
+        }
+    }
+
+    #[test]
+    fn edge_file_of_an_outline_says_its_markers() {
+        let mesh = pentagon();
+        let edge = text(&mesh, |m, w| write_edge(m, w));
+        assert!(edge.starts_with(
+            "# edge (numbered from 1), its vertices, boundary marker (1 boundary, 0 interior)\n"
+        ));
+        let markers = read_edges(&edge);
+        assert_eq!(
+            markers.values().filter(|&&m| m == 1).count(),
+            mesh.boundary.len()
+        );
+        assert!(markers.values().all(|&m| m <= 1));
+        let square = text(&two_triangles(), |m, w| write_edge(m, w));
+        assert!(square.starts_with(
+            "# edge (numbered from 1), its vertices, side marker (1 bottom, 2 right, 3 top, 4 \
+             left, 0 interior)\n"
+        ));
+    }
+
+    #[test]
+    fn svg_of_an_outline_frames_its_bounding_box() {
+        let mesh = pentagon();
+        let svg = text(&mesh, |m, w| write_svg(m, w, usize::MAX));
+        let (lo, hi) = (mesh.domain.lo, mesh.domain.hi);
+        let margin = 0.02 * (hi - lo).max_element();
+        let (corner, size) = (lo - margin, hi - lo + 2.0 * margin);
+        let view = format!(
+            "viewBox=\"{} {} {} {}\"",
+            corner.x,
+            svg_y(corner.y + size.y),
+            size.x,
+            size.y
+        );
+        assert!(
+            svg.contains(&view),
+            "{view} in {}",
+            svg.lines().next().unwrap()
+        );
+        for [a, b] in svg_path(&svg) {
+            for p in [a, b] {
+                let p = DVec2::new(p.x, -p.y);
+                assert!(p.cmpge(lo).all() && p.cmple(hi).all(), "{p}");
+            }
+        }
     }
 
     /// The segments of the path of an SVG picture, in SVG coordinates.
