@@ -101,25 +101,34 @@ fn narrow_hull(outline: &[DVec2]) -> bool {
 }
 
 #[test]
-fn a_very_narrow_hull_corner_ends_in_a_typed_answer() {
-    // Corners of 8 and 17 degrees, below the bound: refinement may not settle the splits beside
-    // them; it ends with a valid mesh (the corner's angle kept) or with the typed error naming
-    // the corner, never a panic or a hang.
-    for tip in [DVec2::new(10.0, 0.0), DVec2::new(4.5, 0.0)] {
+fn narrow_hull_corners_keep_their_angle_and_the_rest_meets_the_bound() {
+    // Thin triangles of points with tips of 35 down to 0.08 degrees: the splits beside a tip
+    // lie on circles around it, a triangle whose shortest edge spans the tip between it and the
+    // tip is left as it is, and every other angle meets the bound.
+    for tip_x in [2.0, 4.5, 10.0, 100.0, 1000.0] {
+        let tip = DVec2::new(tip_x, 0.0);
         let mut points = vec![DVec2::ZERO, DVec2::new(0.0, 1.4), tip];
         points.extend(
             (1..40).map(|k| DVec2::new(0.2 * k as f64 / 40.0, 0.3 + (k % 7) as f64 / 10.0)),
         );
-        for angle in [20.0, 30.0] {
+        let tip_angle = (1.4f64 / tip_x).atan().to_degrees();
+        for angle in [20.0, 30.0, 33.0] {
             let options = Options::default().min_angle(angle);
-            match mesh(&Input::points(points.clone()), &options) {
-                Ok((m, _)) => m
-                    .validate(&points, options.angle_bounds())
-                    .expect("a valid mesh"),
-                Err(Error::RefinementResolution { x, y }) => {
-                    assert!(DVec2::new(x, y).distance(tip) < 1e-3, "({x}, {y})")
-                }
-                Err(other) => panic!("{other}"),
+            let (m, report) = checked(&points, &options);
+            let want = if tip_angle < angle { tip_angle } else { angle };
+            assert!(
+                report.min_angle >= want - 1e-6,
+                "{tip_x} {angle}: {}",
+                report.min_angle
+            );
+            // Away from the tip every angle meets the bound.
+            let tip_vertex = m.vertices.iter().position(|&p| p == tip).unwrap() as u32;
+            for t in m.triangles.iter().filter(|t| !t.contains(&tip_vertex)) {
+                let [a, b, c] = t.map(|v| m.vertices[v as usize]);
+                let min = quadmesh::mesh::angles_deg(a, b, c)
+                    .into_iter()
+                    .fold(f64::MAX, f64::min);
+                assert!(min >= angle - 1e-9, "{tip_x} {angle}: {min}");
             }
         }
     }

@@ -19,7 +19,7 @@ pub use topology::Edge;
 pub(crate) use topology::{EdgeLister, edges_listed_with, opposite_edge};
 pub use validate::{AngleBounds, validate};
 
-/// A conforming triangle mesh of a rectangular domain.
+/// A conforming triangle mesh of a rectangle, or of the points' convex hull (`outline`).
 ///
 /// Every distinct input point is a vertex with its exact input coordinates; `vertex_input` says
 /// which. Triangles are counter-clockwise; `neighbours[t][i]` is the triangle across the edge
@@ -51,6 +51,8 @@ impl Mesh {
     /// each boundary edge's ends exchanged, so that orientations stay counter-clockwise.
     pub fn reflected(self, r: Reflection) -> Mesh {
         let swap = |[a, b, c]: [u32; 3]| [a, c, b];
+        // A rectangle's markers name its sides, which the reflection moves.
+        let rectangle = self.outline.is_none();
         Mesh {
             outline: self
                 .outline
@@ -64,7 +66,10 @@ impl Mesh {
                 .into_par_iter()
                 .map(|e| BoundaryEdge {
                     vertices: [e.vertices[1], e.vertices[0]],
-                    marker: e.side().map_or(e.marker, |s| r.side(s).marker()),
+                    marker: match e.side() {
+                        Some(s) if rectangle => r.side(s).marker(),
+                        _ => e.marker,
+                    },
                 })
                 .collect(),
             domain: self.domain.reflected(r),

@@ -98,11 +98,12 @@ impl Bounds {
         self
     }
 
-    /// Whether `p` and `q` lie on the two sides of a domain corner narrower than the bound
-    /// (Shewchuk's rule): a triangle whose shortest edge spans such a corner cannot be made
-    /// better, and splitting it would only shrink the splits on the sides towards the corner.
+    /// Whether `p` and `q` lie on the two sides of a domain corner narrower than the bound and
+    /// `apex` no further from it (Shewchuk's rule): a triangle whose shortest edge spans such a
+    /// corner between it and the corner cannot be made better, and splitting it would only
+    /// shrink the splits on the sides towards the corner.
     #[inline]
-    fn spans_narrow_corner(&self, p: DVec2, q: DVec2) -> bool {
+    fn spans_narrow_corner(&self, p: DVec2, q: DVec2, apex: DVec2) -> bool {
         (0..2).any(|k| {
             let (v, angle) = self.acute[k];
             if v == NONE || angle.to_radians().sin().powi(2) >= self.sin2 {
@@ -113,7 +114,8 @@ impl Bounds {
                 let r = x - c;
                 r.perp_dot(d).abs() <= 1e-9 * r.length() * d.length() && r.dot(d) > 0.0
             };
-            (on(p, a) && on(q, b)) || (on(p, b) && on(q, a))
+            let spans = (on(p, a) && on(q, b)) || (on(p, b) && on(q, a));
+            spans && apex.distance(c) <= 1.001 * p.distance(c).max(q.distance(c))
         })
     }
 
@@ -376,18 +378,16 @@ impl<'w, S: Store> Refiner<'w, S> {
     /// equal distances from it and stop encroaching on each other.
     fn split_boundary_edge(&mut self, e: Encroached) -> Result<(), Error> {
         let (a, b) = (self.s.point(e.ends.0), self.s.point(e.ends.1));
-        let mut m = a * 0.5 + b * 0.5;
         let acute = |v: u32| self.bounds.acute_angle(v).is_some();
+        let mut m = match (acute(e.ends.0), acute(e.ends.1)) {
+            (true, false) => on_shell(a, b),
+            (false, true) => on_shell(b, a),
+            _ => a * 0.5 + b * 0.5,
+        };
         if a.x == b.x {
             m.x = a.x;
         } else if a.y == b.y {
             m.y = a.y;
-        } else if acute(e.ends.0) != acute(e.ends.1) {
-            m = if acute(e.ends.0) {
-                on_shell(a, b)
-            } else {
-                on_shell(b, a)
-            };
         }
         if m == a || m == b {
             return Err(Error::RefinementResolution { x: m.x, y: m.y });
@@ -488,7 +488,7 @@ pub(super) fn badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usiz
     let others = len2[NEXT[shortest]] * len2[PREV[shortest]];
     let skinny = area2 * area2 < bounds.sin2 * others
         && !bounds.in_narrow_corner(c[shortest] & !MARK)
-        && !bounds.spans_narrow_corner(v[NEXT[shortest]], v[PREV[shortest]]);
+        && !bounds.spans_narrow_corner(v[NEXT[shortest]], v[PREV[shortest]], v[shortest]);
     (skinny || area2 > bounds.max_area2).then_some((shortest, len2[shortest]))
 }
 
