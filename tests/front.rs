@@ -266,3 +266,25 @@ fn the_warp_mode_is_one_option_away() {
     assert!(report.min_angle >= 22.5 - 1e-9 && report.max_angle <= 112.5 + 1e-9);
     assert!(m.outline.is_none());
 }
+
+#[test]
+fn a_point_a_rounding_inside_a_hull_side_becomes_a_boundary_vertex() {
+    // The middle point is the two ends' midpoint written in decimal: a rounding off their side
+    // (Triangle's spiral example has it). Splitting that side would need a vertex where the
+    // point already is; the outline bends through the point instead.
+    let (a, b) = (DVec2::new(0.005, 1.963), DVec2::new(-1.35, 0.436));
+    let middle = DVec2::new(-0.6725, 1.1995);
+    let points = vec![
+        a,
+        middle,
+        b,
+        DVec2::new(0.0, 0.0),
+        DVec2::new(1.0, 0.2),
+        DVec2::new(0.3, 0.9),
+    ];
+    for angle in [20.0, 30.0] {
+        let (m, _) = checked(&points, &Options::default().min_angle(angle));
+        let outline = m.outline.as_ref().unwrap();
+        assert!(outline.contains(&middle), "{outline:?}");
+    }
+}

@@ -10,7 +10,7 @@ use common::{
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::mesh::AngleBounds;
-use quadmesh::{DVec2, Error, Mesh, MeshOptions, MeshReport, mesh_points};
+use quadmesh::{DVec2, Error, Input, Mesh, MeshOptions, MeshReport, Options, mesh_points};
 
 fn mesh_checked(points: &[DVec2]) -> (Mesh, MeshReport) {
     let (mesh, report) = mesh_points(points, &MeshOptions::default()).unwrap();
@@ -185,6 +185,18 @@ fn triangle_package_examples_mesh_validly() {
         let (mesh, _) = mesh_points(&points, &MeshOptions::default()).unwrap();
         if let Err(fault) = mesh.validate(&points, WARP) {
             panic!("{}: {fault}", path.display());
+        }
+        // The default mode (the convex hull at 20°) and 30°, each checked Delaunay too.
+        for options in [Options::default(), Options::default().min_angle(30.0)] {
+            let input = Input::points(points.clone());
+            let (mesh, _) = quadmesh::mesh(&input, &options)
+                .unwrap_or_else(|e| panic!("{} {options:?}: {e}", path.display()));
+            let checked = mesh
+                .validate(&points, options.angle_bounds())
+                .and_then(|()| mesh.check_delaunay());
+            if let Err(fault) = checked {
+                panic!("{} {options:?}: {fault}", path.display());
+            }
         }
         meshed += 1;
     }

@@ -40,9 +40,10 @@ pub struct Mesh {
     pub boundary: Vec<BoundaryEdge>,
     /// The rectangle the triangles cover exactly, or, with an `outline`, its bounding box.
     pub domain: Domain,
-    /// The convex polygon the triangles cover exactly when it is not the rectangle `domain`
-    /// (the points' convex hull), its corners counter-clockwise, every input point on its
-    /// sides included.
+    /// The polygon the triangles cover exactly when it is not the rectangle `domain`: the
+    /// points' convex hull, its corners counter-clockwise, every input point on its sides
+    /// included, and bent through any point within 1e-11 of a side's length inside it (see
+    /// [`crate::refine`]).
     pub outline: Option<Vec<DVec2>>,
 }
 

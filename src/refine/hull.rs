@@ -9,7 +9,7 @@
 //! made restore the Delaunay property inside, where the hull edges bound the flips. What stays
 //! is the Delaunay triangulation of the points, whose boundary is their hull.
 
-use std::collections::VecDeque;
+use std::collections::{HashMap, VecDeque};
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -154,12 +154,105 @@ pub(super) fn cut_to_hull(
         .flat_map(|new| (0..3).map(move |i| (new, i)))
         .collect();
     t.flip_to_delaunay(edges);
-    let vertices = hull
+    let vertices: Vec<u32> = hull
         .vertices
         .iter()
         .map(|&v| vertex_map[v as usize])
         .collect();
-    Ok(Hull { vertices })
+    Ok(Hull {
+        vertices: peel_slivers(t, &vertices),
+    })
+}
+
+/// How close to a hull side, relative to its length, a point inside makes that side bend
+/// through it: closer than this, refinement would need splits of the side closer together
+/// than f64 places them near the point.
+const NEAR_SIDE: f64 = 1e-11;
+
+/// Bends the boundary through every point that lies within [`NEAR_SIDE`] of a hull side: the
+/// sliver triangle between the side and such a point goes, and the outline runs through the
+/// point (an angle a hair above 180°). Returns the outline's vertices counter-clockwise.
+fn peel_slivers(t: &mut Triangulation, hull: &[u32]) -> Vec<u32> {
+    let mut inner: HashMap<(u32, u32), (u32, usize)> = HashMap::new();
+    for (id, n) in t.across.iter().enumerate() {
+        for i in (0..3).filter(|&i| n[i] == NONE) {
+            let c = t.corners[id];
+            inner.insert((c[NEXT[i]], c[PREV[i]]), (id as u32, i));
+        }
+    }
+    let mut removed = Vec::new();
+    let mut outline = Vec::with_capacity(hull.len());
+    let mut sides: Vec<(u32, u32)> = (0..hull.len())
+        .rev()
+        .map(|k| (hull[k], hull[(k + 1) % hull.len()]))
+        .collect();
+    while let Some((a, b)) = sides.pop() {
+        let Some(&(id, i)) = inner.get(&(a, b)) else {
+            outline.push(a);
+            continue;
+        };
+        let x = t.corners[id as usize][i];
+        if !near_side(
+            t.vertices[a as usize],
+            t.vertices[b as usize],
+            t.vertices[x as usize],
+        ) {
+            outline.push(a);
+            continue;
+        }
+        // The neighbours across x → a and b → x become the boundary a → x, x → b.
+        for k in [NEXT[i], PREV[i]] {
+            let n = t.across[id as usize][k];
+            if n != NONE {
+                let j = facing(t, n, id);
+                t.across[n as usize][j] = NONE;
+                let c = t.corners[n as usize];
+                inner.insert((c[NEXT[j]], c[PREV[j]]), (n, j));
+            }
+        }
+        removed.push(id);
+        sides.extend([(x, b), (a, x)]);
+    }
+    drop_triangles(t, &removed);
+    outline
+}
+
+/// Whether `x` lies left of `a → b`, between its ends, within [`NEAR_SIDE`] of its length.
+fn near_side(a: DVec2, b: DVec2, x: DVec2) -> bool {
+    let d = b - a;
+    let along = (x - a).dot(d) / d.length_squared();
+    orientation(a, b, x) == Orientation::Left
+        && (0.0..=1.0).contains(&along)
+        && d.perp_dot(x - a) <= NEAR_SIDE * d.length_squared()
+}
+
+/// Removes the triangles `removed` (already unlinked from their neighbours), keeping the
+/// order of the rest.
+fn drop_triangles(t: &mut Triangulation, removed: &[u32]) {
+    if removed.is_empty() {
+        return;
+    }
+    let mut gone = vec![false; t.corners.len()];
+    for &id in removed {
+        gone[id as usize] = true;
+    }
+    let mut map = vec![NONE; t.corners.len()];
+    let mut next = 0;
+    for id in 0..t.corners.len() {
+        if !gone[id] {
+            map[id] = next as u32;
+            t.corners[next] = t.corners[id];
+            t.across[next] = t.across[id];
+            next += 1;
+        }
+    }
+    t.corners.truncate(next);
+    t.across.truncate(next);
+    for n in t.across.iter_mut().flatten() {
+        if *n != NONE {
+            *n = map[*n as usize];
+        }
+    }
 }
 
 /// A triangle around each vertex, kept current through the recovery's flips.
