@@ -87,7 +87,10 @@ pub mod warp;
 
 pub use error::{Error, Incomplete, Unmet};
 pub use glam::DVec2;
-pub use mesh::{AngleBounds, BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE};
+pub use mesh::{
+    AngleBounds, BoundaryEdge, BoundarySide, Domain, Edge, InvalidMesh, Mesh, MeshCheck,
+    MeshReport, NONE,
+};
 pub use morton::SortAlgorithm;
 pub use options::{DEFAULT_MIN_ANGLE_DEG, Input, Mode, Options, Region, RegionSeed, Segment};
 pub use pipeline::{

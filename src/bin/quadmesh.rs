@@ -375,7 +375,7 @@ fn mesh(
                 if options.mode() == Mode::Delaunay {
                     mesh.check_delaunay()?;
                 }
-                Ok::<_, String>(())
+                Ok::<_, quadmesh::InvalidMesh>(())
             })
             .map_err(|fault| anyhow::anyhow!("the mesh failed its check: {fault}"))?;
         }

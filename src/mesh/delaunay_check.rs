@@ -9,7 +9,7 @@
 
 use glam::DVec2;
 
-use super::validate::{first_fault, pt};
+use super::validate::{InvalidMesh, MeshCheck, fault, first_fault, pt};
 use super::{Mesh, NONE};
 use crate::predicates::in_circle_value;
 
@@ -18,22 +18,32 @@ use crate::predicates::in_circle_value;
 ///
 /// Expects a mesh that passes [`super::validate`]; on one that does not, it reports broken
 /// indices or neighbour links it meets instead of panicking.
-pub fn check_delaunay(mesh: &Mesh) -> Result<(), String> {
+///
+/// # Errors
+/// [`InvalidMesh`] with [`MeshCheck::Delaunay`] and the first fault.
+pub fn check_delaunay(mesh: &Mesh) -> Result<(), InvalidMesh> {
     if mesh.neighbours.len() != mesh.triangles.len() {
-        return Err(format!(
-            "neighbours has {} entries for {} triangles",
-            mesh.neighbours.len(),
-            mesh.triangles.len()
-        ));
+        return Err(InvalidMesh {
+            check: MeshCheck::Delaunay,
+            message: format!(
+                "neighbours has {} entries for {} triangles",
+                mesh.neighbours.len(),
+                mesh.triangles.len()
+            ),
+        });
     }
     first_fault(mesh.triangles.len(), |t| {
         (0..3).find_map(|i| edge_fault(mesh, t, i))
     })
+    .map_err(fault(MeshCheck::Delaunay))
 }
 
 impl Mesh {
     /// Checks that the mesh is Delaunay, exactly; see [`check_delaunay`].
-    pub fn check_delaunay(&self) -> Result<(), String> {
+    ///
+    /// # Errors
+    /// [`InvalidMesh`] with [`MeshCheck::Delaunay`].
+    pub fn check_delaunay(&self) -> Result<(), InvalidMesh> {
         check_delaunay(self)
     }
 }
@@ -145,7 +155,7 @@ mod tests {
             .check_delaunay()
             .expect_err("not Delaunay");
         for w in ["triangle 0 [0, 1, 2]", "vertex 3 at (0, 1)", "neighbour 1"] {
-            assert!(err.contains(w), "{err:?} should mention {w:?}");
+            assert!(err.message.contains(w), "{err:?} should mention {w:?}");
         }
     }
 
@@ -194,7 +204,7 @@ mod tests {
         assert!(q[2].x > -4.0);
         assert_eq!(quad(q, true).check_delaunay(), Ok(()));
         let err = quad(q, false).check_delaunay().expect_err("not Delaunay");
-        assert!(err.contains("vertex 0 at (5, 0)"), "{err}");
+        assert!(err.message.contains("vertex 0 at (5, 0)"), "{err}");
     }
 
     #[test]
@@ -202,10 +212,10 @@ mod tests {
         let mut mesh = quad(kite(), false);
         mesh.neighbours[0][1] = 7;
         let err = mesh.check_delaunay().expect_err("out of range");
-        assert!(err.contains("neighbour 7"), "{err}");
+        assert!(err.message.contains("neighbour 7"), "{err}");
         let mut mesh = quad(kite(), false);
         mesh.triangles[1] = [1, 0, 3];
         let err = mesh.check_delaunay().expect_err("edge missing");
-        assert!(err.contains("does not have the edge"), "{err}");
+        assert!(err.message.contains("does not have the edge"), "{err}");
     }
 }

@@ -17,7 +17,7 @@ pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
 pub use topology::Edge;
 pub(crate) use topology::{EdgeLister, edges_listed_with, opposite_edge};
-pub use validate::{AngleBounds, validate};
+pub use validate::{AngleBounds, InvalidMesh, MeshCheck, validate};
 
 /// A conforming triangle mesh of a rectangle, or of the points' convex hull (`outline`).
 ///

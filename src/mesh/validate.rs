@@ -33,23 +33,70 @@ const AREA_REL_TOL: f64 = 1e-9;
 /// In order: sizes and indices, strict counter-clockwise orientation (exact), distinct vertices,
 /// edge manifold and neighbours, boundary edges against `mesh.boundary` and the domain's sides,
 /// total area against the domain's, conformity to `points`, and the angle bounds.
-pub fn validate(mesh: &Mesh, points: &[DVec2], bounds: AngleBounds) -> Result<(), String> {
-    check_sizes(mesh)?;
-    check_orientation(mesh)?;
+///
+/// # Errors
+/// [`InvalidMesh`]: which check failed ([`MeshCheck`]) and the first fault it found.
+pub fn validate(mesh: &Mesh, points: &[DVec2], bounds: AngleBounds) -> Result<(), InvalidMesh> {
+    use MeshCheck::*;
+    check_sizes(mesh).map_err(fault(Sizes))?;
+    check_orientation(mesh).map_err(fault(Orientation))?;
     let by_position = sorted_by_position(&mesh.vertices);
-    check_distinct(&by_position)?;
-    let single = check_edges(mesh)?;
-    check_boundary(mesh, &single)?;
+    check_distinct(&by_position).map_err(fault(DistinctVertices))?;
+    let single = check_edges(mesh).map_err(fault(Edges))?;
+    check_boundary(mesh, &single).map_err(fault(Boundary))?;
     drop(single);
-    check_area(mesh)?;
-    check_conformity(mesh, points, &by_position)?;
-    check_angles(mesh, bounds)
+    check_area(mesh).map_err(fault(Area))?;
+    check_conformity(mesh, points, &by_position).map_err(fault(Conformity))?;
+    check_angles(mesh, bounds).map_err(fault(Angles))
+}
+
+/// The checks [`validate`] and [`super::check_delaunay`] make, in order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum MeshCheck {
+    /// Array sizes, index ranges, finite coordinates, the domain a rectangle.
+    Sizes,
+    /// Every triangle strictly counter-clockwise (exact).
+    Orientation,
+    /// No two vertices at one position.
+    DistinctVertices,
+    /// Every edge in one or two triangles, and the neighbour links matching.
+    Edges,
+    /// The boundary list equal to the edges with one triangle, on the domain's sides or the
+    /// outline.
+    Boundary,
+    /// The triangles' areas summing to the region's.
+    Area,
+    /// Every input point a vertex with its exact coordinates, and the input map right.
+    Conformity,
+    /// Every angle within the bounds (outside input angles narrower than the bound).
+    Angles,
+    /// Every interior edge locally Delaunay (exact in-circle tests).
+    Delaunay,
+}
+
+/// A mesh that failed a check: which one, and its first fault.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("{check:?} check: {message}")]
+pub struct InvalidMesh {
+    /// The check that failed.
+    pub check: MeshCheck,
+    /// The first fault it found, with the elements and coordinates involved.
+    pub message: String,
+}
+
+/// Wraps a check's message in an [`InvalidMesh`].
+pub(super) fn fault(check: MeshCheck) -> impl Fn(String) -> InvalidMesh {
+    move |message| InvalidMesh { check, message }
 }
 
 impl Mesh {
     /// Checks indices, orientation, edge manifold and neighbours, boundary, area sum, conformity
     /// to `points` and the angle bounds; see [`validate`].
-    pub fn validate(&self, points: &[DVec2], bounds: AngleBounds) -> Result<(), String> {
+    ///
+    /// # Errors
+    /// [`InvalidMesh`] naming the check that failed.
+    pub fn validate(&self, points: &[DVec2], bounds: AngleBounds) -> Result<(), InvalidMesh> {
         validate(self, points, bounds)
     }
 }
@@ -800,7 +847,7 @@ mod tests {
     fn fails(mesh: &Mesh, points: &[DVec2], bounds: AngleBounds, words: &[&str]) {
         let err = validate(mesh, points, bounds).expect_err("an invalid mesh");
         for w in words {
-            assert!(err.contains(w), "{err:?} should mention {w:?}");
+            assert!(err.message.contains(w), "{err:?} should mention {w:?}");
         }
     }
 
@@ -858,6 +905,27 @@ mod tests {
         let (mut mesh, points) = square();
         mesh.triangles[0] = [0, 2, 1];
         fails(&mesh, &points, LOOSE, &["triangle 0", "clockwise"]);
+        let err = validate(&mesh, &points, LOOSE).unwrap_err();
+        assert_eq!(err.check, MeshCheck::Orientation);
+    }
+
+    #[test]
+    fn a_fault_names_its_check() {
+        let (mesh, points) = square();
+        let tight = AngleBounds {
+            min_deg: 50.0,
+            max_deg: 90.0,
+        };
+        let err = validate(&mesh, &points, tight).unwrap_err();
+        assert_eq!(err.check, MeshCheck::Angles);
+        assert!(
+            err.to_string().starts_with("Angles check: triangle 0"),
+            "{err}"
+        );
+        let mut moved = mesh.clone();
+        moved.vertex_input.swap(1, 2);
+        let err = validate(&moved, &points, LOOSE).unwrap_err();
+        assert_eq!(err.check, MeshCheck::Conformity, "{err}");
     }
 
     #[test]

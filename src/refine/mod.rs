@@ -1,18 +1,22 @@
-//! Off-center Delaunay refinement: a Delaunay mesh of the domain square in which every angle is
-//! at least the user's bound and every triangle at most the user's area, with far fewer
-//! triangles than the warped quadtree mesh.
+//! Off-center Delaunay refinement: a Delaunay mesh of the points' convex hull (or of a square
+//! or rectangle around them) in which every angle is at least the user's bound and every
+//! triangle at most the user's area, with far fewer triangles than the warped quadtree mesh.
 //!
-//! The input points go into a Delaunay triangulation of the domain square in Morton order, so
-//! each point location walks a few steps from the last insertion; many points are split into
-//! vertical strips that are triangulated in parallel and glued by edge flips. Then bad
-//! triangles (an angle below the bound or an area above it) are fixed smallest first, as in
-//! Har-Peled and Üngör:
+//! The input points go into a Delaunay triangulation of a square around them in a Morton order
+//! taken on the floats themselves (any spread), so each point location walks a few steps from
+//! the last insertion; many points are split into vertical strips that are triangulated in
+//! parallel and glued by edge flips. For the hull, its sides are put in by flipping the edges
+//! that cross them, and what lies outside goes (`hull`). Then bad triangles (an angle below
+//! the bound or an area above it) are fixed smallest first, as in Har-Peled and Üngör:
 //! each gets Üngör's off-center, the point on the bisector of its shortest edge that makes a
 //! triangle just meeting the bound with that edge, or its circumcenter when that is closer. A
 //! point that would encroach on a boundary edge (lie in its diametral circle) is not inserted;
-//! the edge is split at its midpoint instead, as in Ruppert's algorithm, so every circumcenter
-//! stays inside the square. Every insertion keeps the triangulation Delaunay, with exact
-//! predicates.
+//! the edge is split instead, as in Ruppert's algorithm: at its midpoint, or, beside a hull
+//! corner narrower than 60°, on a circle around the corner of a power-of-two radius, so that
+//! the splits on its two sides stop encroaching on each other. A hull corner narrower than the
+//! bound keeps its angle: a triangle whose smallest angle lies there, or whose shortest edge
+//! spans it with its third corner no further out, is left as it is (Shewchuk's rule). Every
+//! insertion keeps the triangulation Delaunay, with exact predicates.
 //!
 //! Termination is proven for bounds up to arcsin(1/(2√2)) ≈ 20.7°; in practice it reaches 33°
 //! and more. A vertex budget stops it with an error rather than let it run without end.
