@@ -104,25 +104,26 @@ fn outside_octagon(t: &Triangulation, vertex_input: &[u32]) -> Vec<u32> {
             .into_par_iter()
             .filter(|&v| vertex_input[v as usize] != NONE)
     };
-    // The extreme vertex in each direction; ties to the lower number, so that it is the same
-    // on any thread count.
-    let extreme: Vec<DVec2> = directions
-        .iter()
-        .map(|&d| {
-            let v = inputs()
-                .map(|v| (t.vertices[v as usize].dot(d), v))
-                .reduce(
-                    || (f64::NEG_INFINITY, NONE),
-                    |a, b| match a.0.total_cmp(&b.0) {
-                        std::cmp::Ordering::Less => b,
-                        std::cmp::Ordering::Greater => a,
-                        std::cmp::Ordering::Equal => (a.0, a.1.min(b.1)),
-                    },
-                )
-                .1;
-            t.vertices[v as usize]
-        })
-        .collect();
+    // The extreme vertex in each direction, all eight in one pass; ties to the lower number,
+    // so that it is the same on any thread count.
+    type Extremes = [(f64, u32); 8];
+    let further = |a: (f64, u32), b: (f64, u32)| match a.0.total_cmp(&b.0) {
+        std::cmp::Ordering::Less => b,
+        std::cmp::Ordering::Greater => a,
+        std::cmp::Ordering::Equal => (a.0, a.1.min(b.1)),
+    };
+    let merge =
+        |a: Extremes, b: Extremes| -> Extremes { std::array::from_fn(|k| further(a[k], b[k])) };
+    let found = inputs()
+        .fold(
+            || [(f64::NEG_INFINITY, NONE); 8],
+            |acc, v| {
+                let p = t.vertices[v as usize];
+                merge(acc, directions.map(|d| (p.dot(d), v)))
+            },
+        )
+        .reduce(|| [(f64::NEG_INFINITY, NONE); 8], merge);
+    let extreme: [DVec2; 8] = found.map(|(_, v)| t.vertices[v as usize]);
     inputs()
         .filter(|&v| {
             let p = t.vertices[v as usize];
@@ -149,16 +150,12 @@ pub(super) fn cut_to_hull(
     let (vertex_map, triangle_map) = compact(t, vertex_input);
     let edges: Vec<(u32, usize)> = touched
         .iter()
-        .map(|&old| triangle_map[old as usize])
+        .map(|&old| triangle_map.of(old))
         .filter(|&new| new != NONE)
         .flat_map(|new| (0..3).map(move |i| (new, i)))
         .collect();
     t.flip_to_delaunay(edges);
-    let vertices: Vec<u32> = hull
-        .vertices
-        .iter()
-        .map(|&v| vertex_map[v as usize])
-        .collect();
+    let vertices: Vec<u32> = hull.vertices.iter().map(|&v| vertex_map.of(v)).collect();
     Ok(Hull {
         vertices: peel_slivers(t, &vertices),
     })
@@ -173,13 +170,20 @@ const NEAR_SIDE: f64 = 1e-11;
 /// sliver triangle between the side and such a point goes, and the outline runs through the
 /// point (an angle a hair above 180°). Returns the outline's vertices counter-clockwise.
 fn peel_slivers(t: &mut Triangulation, hull: &[u32]) -> Vec<u32> {
-    let mut inner: HashMap<(u32, u32), (u32, usize)> = HashMap::new();
-    for (id, n) in t.across.iter().enumerate() {
-        for i in (0..3).filter(|&i| n[i] == NONE) {
-            let c = t.corners[id];
-            inner.insert((c[NEXT[i]], c[PREV[i]]), (id as u32, i));
-        }
-    }
+    let boundary: Vec<(u32, usize)> = (0..t.corners.len() as u32)
+        .into_par_iter()
+        .flat_map_iter(|id| {
+            let n = t.across[id as usize];
+            (0..3).filter(move |&i| n[i] == NONE).map(move |i| (id, i))
+        })
+        .collect();
+    let mut inner: HashMap<(u32, u32), (u32, usize)> = boundary
+        .into_iter()
+        .map(|(id, i)| {
+            let c = t.corners[id as usize];
+            ((c[NEXT[i]], c[PREV[i]]), (id, i))
+        })
+        .collect();
     let mut removed = Vec::new();
     let mut outline = Vec::with_capacity(hull.len());
     let mut sides: Vec<(u32, u32)> = (0..hull.len())
@@ -420,51 +424,82 @@ fn crossing_edges(
 }
 
 /// Drops every triangle with a vertex that is not an input point and every such vertex,
-/// keeping the order of the rest. Returns the new number of each old vertex and triangle
-/// ([`NONE`] for dropped ones).
-fn compact(t: &mut Triangulation, vertex_input: &mut Vec<u32>) -> (Vec<u32>, Vec<u32>) {
-    let mut vertex_map = vec![NONE; t.vertices.len()];
-    let mut kept = 0u32;
-    for v in 0..t.vertices.len() {
-        if vertex_input[v] != NONE {
-            vertex_map[v] = kept;
-            t.vertices[kept as usize] = t.vertices[v];
-            vertex_input[kept as usize] = vertex_input[v];
-            kept += 1;
-        }
-    }
-    t.vertices.truncate(kept as usize);
-    vertex_input.truncate(kept as usize);
-    let inside: Vec<bool> = t
-        .corners
-        .par_iter()
-        .map(|c| c.iter().all(|&v| vertex_map[v as usize] != NONE))
+/// keeping the order of the rest. Returns the renumbering of vertices and of triangles. The
+/// dropped ones are few (the square's corners, the seams' ends and the triangles at them).
+fn compact(t: &mut Triangulation, vertex_input: &mut Vec<u32>) -> (Renumbering, Renumbering) {
+    let vertices_gone: Vec<u32> = (0..vertex_input.len() as u32)
+        .into_par_iter()
+        .filter(|&v| vertex_input[v as usize] == NONE)
         .collect();
-    let mut triangle_map = vec![NONE; t.corners.len()];
-    let mut kept = 0u32;
-    for (id, &keep) in inside.iter().enumerate() {
-        if keep {
-            triangle_map[id] = kept;
-            kept += 1;
-        }
-    }
-    let mut next = 0;
-    for (id, &keep) in inside.iter().enumerate() {
-        if keep {
-            t.corners[next] = t.corners[id].map(|v| vertex_map[v as usize]);
-            t.across[next] = t.across[id].map(|n| {
-                if n == NONE {
-                    NONE
-                } else {
-                    triangle_map[n as usize]
-                }
-            });
-            next += 1;
-        }
-    }
-    t.corners.truncate(next);
-    t.across.truncate(next);
+    let triangles_gone: Vec<u32> = (0..t.corners.len() as u32)
+        .into_par_iter()
+        .filter(|&id| {
+            t.corners[id as usize]
+                .iter()
+                .any(|&v| vertex_input[v as usize] == NONE)
+        })
+        .collect();
+    let vertex_map = Renumbering::new(vertex_input.len(), vertices_gone);
+    let triangle_map = Renumbering::new(t.corners.len(), triangles_gone);
+    remove_sorted(&mut t.vertices, &vertex_map.gone);
+    remove_sorted(vertex_input, &vertex_map.gone);
+    remove_sorted(&mut t.corners, &triangle_map.gone);
+    remove_sorted(&mut t.across, &triangle_map.gone);
+    t.corners
+        .par_iter_mut()
+        .for_each(|c| *c = c.map(|v| vertex_map.of(v)));
+    t.across
+        .par_iter_mut()
+        .for_each(|n| *n = n.map(|u| if u == NONE { NONE } else { triangle_map.of(u) }));
     (vertex_map, triangle_map)
+}
+
+/// The new numbers of items once a few of them (`gone`, sorted) are removed: each kept number
+/// moves down by the count of removed ones before it, found from a per-block count (blocks of
+/// 2^[`Renumbering::BLOCK_BITS`] numbers), with a binary search only in a block that lost some.
+struct Renumbering {
+    gone: Vec<u32>,
+    /// The count of removed numbers below each block's first.
+    before_block: Vec<u32>,
+}
+
+impl Renumbering {
+    const BLOCK_BITS: u32 = 12;
+
+    fn new(len: usize, gone: Vec<u32>) -> Self {
+        let blocks = (len >> Self::BLOCK_BITS) + 2;
+        let before_block = (0..blocks)
+            .map(|b| gone.partition_point(|&g| (g as usize) < b << Self::BLOCK_BITS) as u32)
+            .collect();
+        Renumbering { gone, before_block }
+    }
+
+    /// The new number of `i`, or [`NONE`] if it was removed.
+    #[inline]
+    fn of(&self, i: u32) -> u32 {
+        let b = (i >> Self::BLOCK_BITS) as usize;
+        let (lo, hi) = (self.before_block[b], self.before_block[b + 1]);
+        if lo == hi {
+            return i - lo;
+        }
+        match self.gone[lo as usize..hi as usize].binary_search(&i) {
+            Ok(_) => NONE,
+            Err(k) => i - lo - k as u32,
+        }
+    }
+}
+
+/// Removes the items at the sorted positions `gone`, keeping the order of the rest.
+fn remove_sorted<T: Copy>(items: &mut Vec<T>, gone: &[u32]) {
+    let mut next = 0;
+    let mut write = 0;
+    for &g in gone.iter().chain(std::iter::once(&(items.len() as u32))) {
+        let g = g as usize;
+        items.copy_within(next..g, write);
+        write += g - next;
+        next = g + 1;
+    }
+    items.truncate(write);
 }
 
 /// The interior angle of the hull at each of its vertices, degrees.
@@ -477,4 +512,83 @@ pub(super) fn corner_angles(points: &[DVec2]) -> Vec<f64> {
             a.perp_dot(b).atan2(a.dot(b)).to_degrees()
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn renumbering_skips_the_removed_numbers() {
+        let len = 3 * (1 << Renumbering::BLOCK_BITS) + 17;
+        let gone: Vec<u32> = vec![0, 1, 5, 4095, 4096, 9000, len as u32 - 1];
+        let map = Renumbering::new(len, gone.clone());
+        let mut next = 0;
+        for i in 0..len as u32 {
+            if gone.contains(&i) {
+                assert_eq!(map.of(i), NONE, "{i}");
+            } else {
+                assert_eq!(map.of(i), next, "{i}");
+                next += 1;
+            }
+        }
+        let mut items: Vec<u32> = (0..len as u32).collect();
+        remove_sorted(&mut items, &gone);
+        assert_eq!(items.len(), len - gone.len());
+        assert!(
+            items
+                .iter()
+                .enumerate()
+                .all(|(k, &i)| map.of(i) == k as u32)
+        );
+    }
+
+    #[test]
+    fn the_hull_keeps_collinear_points_and_refuses_a_line() {
+        let mut t = Triangulation::rectangle(DVec2::splat(-10.0), DVec2::splat(10.0));
+        let mut cavity = super::super::delaunay::Cavity::default();
+        let points = [
+            (0.0, 0.0),
+            (1.0, 0.0),
+            (2.0, 0.0),
+            (2.0, 2.0),
+            (1.0, 1.0),
+            (0.0, 2.0),
+        ];
+        for (x, y) in points {
+            cavity.insert(&mut t, DVec2::new(x, y), 0).unwrap();
+        }
+        let mut vertex_input: Vec<u32> = (0..t.vertices.len() as u32)
+            .map(|v| if v < 4 { NONE } else { v - 4 })
+            .collect();
+        let hull = cut_to_hull(&mut t, &mut vertex_input).unwrap();
+        let at: Vec<u32> = hull
+            .vertices
+            .iter()
+            .map(|&v| vertex_input[v as usize])
+            .collect();
+        // Counter-clockwise from the lowest-leftmost; (1, 0) on the bottom side stays; (1, 1)
+        // is inside.
+        assert_eq!(at, [0, 1, 2, 3, 5]);
+        assert_eq!(t.vertices.len(), 6);
+        let area: f64 = t
+            .corners
+            .iter()
+            .map(|c| {
+                let [a, b, c] = c.map(|v| t.vertices[v as usize]);
+                0.5 * (b - a).perp_dot(c - a)
+            })
+            .sum();
+        assert_eq!(area, 4.0);
+
+        let mut line = Triangulation::rectangle(DVec2::splat(-10.0), DVec2::splat(10.0));
+        for x in [0.0, 1.0, 3.0] {
+            cavity.insert(&mut line, DVec2::new(x, x), 0).unwrap();
+        }
+        let mut inputs = vec![NONE, NONE, NONE, NONE, 0, 1, 2];
+        assert!(matches!(
+            cut_to_hull(&mut line, &mut inputs),
+            Err(Error::Degenerate { .. })
+        ));
+    }
 }
