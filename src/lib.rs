@@ -85,6 +85,11 @@ pub mod quadtree;
 pub mod refine;
 pub mod warp;
 
+/// The README's Rust examples, compiled and run as doctests.
+#[doc = include_str!("../README.md")]
+#[cfg(doctest)]
+pub struct ReadmeDoctests;
+
 pub use error::{Error, Incomplete, Unmet};
 pub use glam::DVec2;
 pub use mesh::{
