@@ -2,9 +2,9 @@
 //! quadmesh against, and prints one JSON line with the time, size, angles and peak memory.
 //!
 //! `cargo run --release --example spade_mesh -- POINTS_FILE [--min-angle DEG]
-//! [--corners x0,y0,x1,y1] [--max-additional-vertices N]`
+//! [--corners x0,y0,x1,y1 | --hull] [--max-additional-vertices N]`
 //!
-//! The four corners of the square `[x0, x1] × [y0, y1]` are added to the points, so the square is
+//! With `--hull` the points alone are meshed: their convex hull. Otherwise the four corners of the square `[x0, x1] × [y0, y1]` are added to the points, so the square is
 //! the convex hull and the triangulation covers it. Without `--corners` the square is the one
 //! quadmesh meshes: centred on the points' bounding box, of side twice its larger extent. With
 //! `--min-angle` the triangulation is refined (Ruppert/Chew, splitting the square's sides as
@@ -39,6 +39,9 @@ struct Args {
     /// The square to mesh, as `x0,y0,x1,y1`; its corners are added to the points.
     #[arg(long, value_name = "x0,y0,x1,y1", allow_hyphen_values = true)]
     corners: Option<String>,
+    /// Mesh the points' convex hull: no corners are added.
+    #[arg(long, conflicts_with = "corners")]
+    hull: bool,
     /// How many Steiner points refinement may add [default: 50 × the vertices before it].
     #[arg(long, value_name = "N")]
     max_additional_vertices: Option<usize>,
@@ -144,11 +147,13 @@ fn run(args: &Args) -> Result<()> {
         read_points(&args.points).with_context(|| format!("reading {}", args.points.display()))?;
     let input_points = read.len();
     let mut vertices: Vec<Point2<f64>> = read.into_iter().map(|p| Point2::new(p.x, p.y)).collect();
-    let domain = match &args.corners {
-        Some(text) => Domain::parse(text)?,
-        None => Domain::around(&vertices)?,
-    };
-    vertices.extend(domain.corners());
+    if !args.hull {
+        let domain = match &args.corners {
+            Some(text) => Domain::parse(text)?,
+            None => Domain::around(&vertices)?,
+        };
+        vertices.extend(domain.corners());
+    }
     if let Some(deg) = args.min_angle
         && !(deg.is_finite() && (0.0..60.0).contains(&deg))
     {
@@ -159,8 +164,8 @@ fn run(args: &Args) -> Result<()> {
     let start = Instant::now();
     let mut cdt = ConstrainedDelaunayTriangulation::<Point2<f64>>::bulk_load(vertices)
         .context("spade bulk load")?;
-    // No constraint edges: the square's corners make the convex hull, whose edges refinement
-    // treats as fixed segments and splits where they are encroached. (`exclude_outer_faces`
+    // No constraint edges: the square's corners (or, with `--hull`, the points) make the convex
+    // hull, whose edges refinement treats as fixed segments and splits where they are encroached. (`exclude_outer_faces`
     // would exclude every face here, as no constraint edge separates inside from outside.)
     let refinement_complete = args.min_angle.map(|deg| {
         let extra = args

@@ -32,10 +32,8 @@ What it does:
   every refinement row (Triangle ``qA``, spade at A, quadmesh's refinement). The warped mesh
   always covers the square: with ``--domain hull`` its rows come with rows of their own for
   Triangle's and spade's Delaunay triangulations of the points and the square's corners; with
-  ``--domain square`` every row is on the square. spade meshes only the square: its example
-  ``spade_mesh`` always adds the corners of a square to the points, so with ``--domain hull``
-  spade has only its Delaunay row beside the warp's (none without tool ``quadmesh``), and a
-  note under the tables says so;
+  ``--domain square`` every row is on the square. spade's example ``spade_mesh`` takes
+  ``--hull`` for the points alone (their convex hull) and ``--corners`` for the square;
 * Triangle, through the ``triangle`` Python package, in a fresh Python process per run:
   switches ``Q`` (plain Delaunay triangulation) and ``q<A>Q`` for every angle A of ``--angles``
   (quality refinement, no angle below A degrees). Only the ``triangle.triangulate`` call is
@@ -352,6 +350,8 @@ def configs_for(args, dist, size, points_txt, npy, corners):
                 str(added)]
 
     spade = [str(SPADE), str(points_txt), "--corners=" + ",".join(repr(c) for c in corners)]
+    # spade on the points alone meshes their convex hull.
+    spade_on = {"square": spade, "hull": [str(SPADE), str(points_txt), "--hull"]}
     extra = shlex.split(args.quadmesh_args)
     suffix = f" {args.quadmesh_args}" if extra else ""
     domain = args.domain
@@ -365,8 +365,9 @@ def configs_for(args, dist, size, points_txt, npy, corners):
     if "triangle" in args.tools:
         configs.append(Config("Triangle", "Delaunay", 1, child(domain, "Q"),
                               selector="triangle", domain=domain))
-    if "spade" in args.tools and domain == "square":
-        configs.append(Config("spade", "Delaunay", 1, spade, selector="spade", domain="square"))
+    if "spade" in args.tools:
+        configs.append(Config("spade", "Delaunay", 1, spade_on[domain], selector="spade",
+                              domain=domain))
     if "quadmesh" in args.tools:
         # The warp covers the square: on the hull, its peers get their own rows on the square.
         if domain != "square":
@@ -385,10 +386,10 @@ def configs_for(args, dist, size, points_txt, npy, corners):
             configs.append(Config("Triangle", f"q{angle_text(a)}", 1,
                                   child(domain, f"q{a:g}Q"), selector="triangle", angle=a,
                                   domain=domain))
-        if "spade" in args.tools and domain == "square":
+        if "spade" in args.tools:
             configs.append(Config("spade", f"refine {angle_text(a)}°", 1,
-                                  spade + ["--min-angle", f"{a:g}"], selector="spade", angle=a,
-                                  domain="square"))
+                                  spade_on[domain] + ["--min-angle", f"{a:g}"], selector="spade",
+                                  angle=a, domain=domain))
         if "quadmesh-refine" in args.tools:
             for t in args.threads:
                 configs.append(Config("quadmesh", f"refine {angle_text(a)}°{suffix}", t,
@@ -708,10 +709,6 @@ def main():
         log(f"raw results written to {args.out}")
     for note in dict.fromkeys(skips.values()):
         print(f"\nnote: quadmesh {note}")
-    if "spade" in args.tools and args.domain != "square":
-        print(f"\nnote: spade has no rows on the convex hull: {SPADE.name} always adds a "
-              f"square's corners to the points, so it meshes that square, not their hull "
-              f"(--domain square compares it on the square)")
 
 
 if __name__ == "__main__":
