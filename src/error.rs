@@ -170,6 +170,41 @@ pub enum Error {
         /// Its y coordinate.
         y: f64,
     },
+    /// A segment names a point the input does not have.
+    #[error("segment {segment} names point {index}, but the input has {points} points")]
+    SegmentIndex {
+        /// Input index of the segment.
+        segment: usize,
+        /// The point index it names.
+        index: u32,
+        /// How many points the input has.
+        points: usize,
+    },
+    /// A segment whose two ends are one point: the same index, or two points at the same
+    /// position.
+    #[error(
+        "segment {segment} has no length: its two ends are the same point (or two points at the \
+         same position)"
+    )]
+    ZeroLengthSegment {
+        /// Input index of the segment.
+        segment: usize,
+    },
+    /// Two segments whose interiors meet: they cross, or overlap on one line.
+    #[error(
+        "segments {a} and {b} cross at ({}, {}); add a point there and split both at it, or ask \
+         the cleaning to split crossings",
+        at[0],
+        at[1]
+    )]
+    CrossingSegments {
+        /// Input index of one segment.
+        a: usize,
+        /// Input index of the other (larger than `a`).
+        b: usize,
+        /// Where they meet (rounded to f64).
+        at: [f64; 2],
+    },
     /// A line of an input file could not be read.
     #[error("{source_name}:{line}: {message}")]
     Parse {
@@ -226,6 +261,7 @@ impl Error {
             | Error::OutsideDomain { x, y, .. }
             | Error::NearDomainSide { x, y, .. } => [*x, *y] = image([*x, *y]),
             Error::Inseparable { pa, pb, .. } => (*pa, *pb) = (image(*pa), image(*pb)),
+            Error::CrossingSegments { at, .. } => *at = image(*at),
             Error::CoordinateRange { lo, hi } => {
                 let (a, b) = (DVec2::from(image(*lo)), DVec2::from(image(*hi)));
                 (*lo, *hi) = (a.min(b).into(), a.max(b).into());
@@ -329,6 +365,11 @@ mod tests {
                 height: 1e-9,
             },
             Error::Empty,
+            Error::CrossingSegments {
+                a: 1,
+                b: 2,
+                at: [0.5, -2.0],
+            },
         ];
         for e in errors {
             for r in [Reflection::Diagonal, Reflection::Horizontal] {
