@@ -402,7 +402,12 @@ fn distributed<K: MortonKey, S: HasCell<K>>(
         for square in &sorted[chunks[c]..chunks[c + 1]] {
             let cell = square.cell();
             let level = cell.level as usize;
-            // SAFETY: the chunks' ranges at each level are disjoint, from the prefix sums.
+            // SAFETY: `at[level]` is in the writer's slice (`write` asserts it). One writer per
+            // slot: chunk `c` writes at each level the slots from `starts[c][level]` on, one per
+            // square of that level in its range, and it has exactly `counts[c][level]` of them
+            // (counted by `counts_if_sorted` over the same chunks of the same `sorted`); the
+            // starts are the exclusive prefix sums of those counts, so the chunks' ranges at a
+            // level are disjoint. `MaybeUninit` has nothing to drop.
             #[allow(unsafe_code)]
             unsafe {
                 match level.checked_sub(NARROW_LEVEL + 1) {
@@ -414,8 +419,11 @@ fn distributed<K: MortonKey, S: HasCell<K>>(
         }
     });
     drop((narrow, deep));
-    // SAFETY: the chunks' ranges at each level, from the prefix sums of their own counts of the
-    // same squares, cover the level's first `totals[level]` slots, all written above.
+    // SAFETY: the lists are fresh (length 0) with capacity `totals[level]` at least
+    // (`with_capacities`), and the chunks' ranges at each level, from the prefix sums of their
+    // own counts of the same squares, cover the level's first `totals[level]` slots, all written
+    // above (a panicking chunk would have ended the join before this line); the writers, which
+    // borrowed the lists, are dropped.
     #[allow(unsafe_code)]
     unsafe {
         assume_written(&mut levels.narrow, narrow_totals);
@@ -438,11 +446,13 @@ fn room_writers<'a, T>(
 /// Sets the length of each of `lists` to `lens[i]`.
 ///
 /// # Safety
-/// The first `lens[i]` slots of each list's room are written.
+/// Each list is empty, has capacity for `lens[i]` values, and the first `lens[i]` slots of
+/// its room (`spare_capacity_mut`) are initialised.
 #[allow(unsafe_code)]
 unsafe fn assume_written<T>(lists: &mut [Vec<T>], lens: &[usize]) {
     for (list, &n) in lists.iter_mut().zip(lens) {
-        // SAFETY: the caller's.
+        // SAFETY: `n` is within the capacity and the first `n` slots are initialised (the
+        // caller's contract).
         unsafe { list.set_len(n) };
     }
 }

@@ -121,9 +121,15 @@ pub(crate) fn cross_links_by<K: MortonKey>(
                 for (quadrant, &entry) in children[i].iter().enumerate() {
                     if entry & LEAF != 0 {
                         let leaf_links = path.child_links(cell.level, quadrant);
-                        // SAFETY: each internal square is entered once, by one chunk, and each
-                        // leaf is named in at most one of their slots; any words are links;
-                        // the chunk's fence is dropped before the join hands the links on.
+                        // SAFETY: `at < leaves` is asserted by the write. One writer per slot:
+                        // each internal square is entered once, by the one chunk that holds it,
+                        // and each leaf is named in at most one slot of the children index
+                        // (`children` stores leaf `j` once, from the one gap of
+                        // `with_gap_leaves` that holds it, whose gaps are asserted to follow one
+                        // another). Any four words are `Links` (`[u32; 4]`, 16 bytes), and
+                        // `Links` has no drop. The chunk's `_fence` is dropped, fencing the
+                        // streaming stores, before the join hands the links on, a panic
+                        // included.
                         #[allow(unsafe_code)]
                         unsafe {
                             let at = (entry & !LEAF) as usize;
@@ -138,7 +144,10 @@ pub(crate) fn cross_links_by<K: MortonKey>(
         .sum();
     // Distinct leaves were written, as many as there are: all of them.
     assert_eq!(written, leaves, "the children index misses leaves");
-    // SAFETY: every slot below `leaves` was written, once.
+    // SAFETY: `leaves` is the capacity asked for. Every slot below it was written: the writes
+    // went to distinct slots (above), each below `leaves`, and there were `leaves` of them
+    // (asserted), so they hit all of them; each chunk fenced its streaming stores before the
+    // join, which orders them before this line. `slots` is no longer used.
     #[allow(unsafe_code)]
     unsafe {
         links.set_len(leaves)
@@ -277,6 +286,24 @@ mod tests {
         keys.dedup();
         let tree = expand(&build_framework(&keys), &keys);
         crate::balance::balance(&tree, &keys).tree
+    }
+
+    /// A tree of several chunks of internal squares: the chunks after the first start their
+    /// paths below the root (`NeighbourPath::to`, whose descent a debug build checks), and the
+    /// links every chunk writes by streaming stores are checked leaf by leaf.
+    #[test]
+    fn links_of_a_tree_of_several_chunks() {
+        let mut keys: Vec<u64> = (0..40_000u64)
+            .map(|i| i.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+            .collect();
+        keys.sort_unstable();
+        keys.dedup();
+        let tree = expand(&build_framework(&keys), &keys);
+        let balanced = crate::balance::balance(&tree, &keys);
+        let internal = balanced.tree.internal.len();
+        assert!(internal > 2 * GRAIN, "{internal} internal squares");
+        balanced.check(&keys).unwrap();
+        assert!(cross_links(&balanced.tree) == balanced.links);
     }
 
     #[test]

@@ -60,8 +60,12 @@ pub(crate) fn encode_all<K: MortonKey>(points: &[DVec2], grid: &Grid) -> Vec<Pai
             let first = (chunk * ENCODE_CHUNK) as u32;
             K::encode_points(pts, first, grid, out);
         });
-    // SAFETY: the chunks cover the first `points.len()` slots, and `encode_points` of both key
-    // types (below, in this module) writes every slot of its output.
+    // SAFETY: the capacity is `points.len()` (`with_capacity_huge`). The output chunks split
+    // the first `points.len()` slots as the point chunks split the points (same length, same
+    // chunk size), so each output chunk has as many slots as its points, and `encode_points`
+    // of both key types (the trait is sealed: `u64` and `u128` in `key.rs`, calling
+    // `encode_narrow`/`encode_wide` below) writes `out[i]` for every point `i`; so every slot
+    // is initialised. The parallel loop has ended, so nothing writes them meanwhile.
     unsafe { pairs.set_len(points.len()) };
     pairs
 }
@@ -89,7 +93,8 @@ pub(crate) fn encode_narrow(
 ) {
     #[cfg(target_arch = "x86_64")]
     if has_pdep() {
-        // SAFETY: BMI2 was detected on this CPU just above.
+        // SAFETY: the only requirement of a `#[target_feature(enable = "bmi2")]` function is
+        // that the CPU has BMI2, which `has_pdep` detected just above.
         unsafe { encode_narrow_bmi2(points, first, grid, out) };
         return;
     }
@@ -119,7 +124,7 @@ pub(crate) fn encode_wide(
 ) {
     #[cfg(target_arch = "x86_64")]
     if has_pdep() {
-        // SAFETY: BMI2 was detected on this CPU just above.
+        // SAFETY: as in `encode_narrow`: BMI2 was detected by `has_pdep` just above.
         unsafe { encode_wide_bmi2(points, first, grid, out) };
         return;
     }
@@ -183,8 +188,9 @@ mod tests {
 
     /// Reads back a slot the encoder wrote (Pair is Copy and every slot was written).
     fn read_written<K: Copy>(slot: &MaybeUninit<Pair<K>>) -> Pair<K> {
+        // SAFETY: `encode_portable` wrote every slot of `out`, which has as many slots as there
+        // are points.
         #[allow(unsafe_code)]
-        // SAFETY: `encode_portable` wrote every slot of `out`.
         unsafe {
             slot.assume_init()
         }

@@ -32,6 +32,8 @@ pub fn prefaulted_within<T: Copy + Send + Sync>(
     v
 }
 
+/// Marks the whole huge pages inside `start..start + bytes` for transparent huge pages: the
+/// buffer of a vector [`with_capacity_huge`] (its only caller) has just allocated.
 #[cfg(target_os = "linux")]
 #[allow(unsafe_code)]
 fn advise_huge_pages(start: usize, bytes: usize) {
@@ -39,8 +41,12 @@ fn advise_huge_pages(start: usize, bytes: usize) {
     let first = start.next_multiple_of(HUGE);
     let end = (start + bytes) / HUGE * HUGE;
     if end > first {
-        // SAFETY: the range lies inside an allocation this process owns; MADV_HUGEPAGE only
-        // changes how the kernel backs it, never its contents. Failure is harmless and ignored.
+        // SAFETY: `start..start + bytes` is the buffer of the vector just allocated by
+        // `with_capacity_huge` (its capacity holds `bytes` bytes, a non-zero size), and
+        // `first..end` is the whole 2 MiB-aligned pages inside it, so the call names only
+        // memory of that allocation, which no one else uses yet. MADV_HUGEPAGE only changes how
+        // the kernel backs the pages, never their contents or mapping (unlike MADV_DONTNEED or
+        // MADV_FREE). Failure (no THP support) is harmless and ignored.
         unsafe { libc::madvise(first as *mut libc::c_void, end - first, libc::MADV_HUGEPAGE) };
     }
 }
@@ -52,8 +58,9 @@ fn advise_huge_pages(_start: usize, _bytes: usize) {}
 #[inline]
 pub fn prefetch<T>(p: *const T) {
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: a prefetch never faults and changes no memory, whatever the address; it only
-    // needs SSE, which every x86-64 processor has.
+    // SAFETY: a prefetch is a hint: it never faults and reads or changes no memory the program
+    // can see, whatever the address (callers pass `wrapping_add` pointers that may lie past an
+    // array); it only needs SSE, which every x86-64 target has.
     #[allow(unsafe_code)]
     unsafe {
         std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p.cast::<i8>());

@@ -134,9 +134,12 @@ where
             assert_eq!(written, segment.len(), "item {i} yielded too few values");
         },
     );
-    // SAFETY: every one of the first `total` slots has been written: the segments partition
-    // them, and each segment's count was checked (a short one panics before this line, and the
-    // vector is then dropped with length 0).
+    // SAFETY: `total` is within the capacity (`with_capacity_huge(total.max(capacity))`), and
+    // every one of the first `total` slots has been written: `fill_segments` asserts that the
+    // segments cover exactly `out.spare_capacity_mut()[..total]` and hands each its own disjoint
+    // part (`split_at_mut`), and each segment's count of writes was asserted equal to its
+    // length. A short one panics before this line (rayon passes the panic on after every task
+    // ended), and the vector is then dropped with length 0, leaking what was written.
     #[allow(unsafe_code)]
     unsafe {
         out.set_len(total)
@@ -199,7 +202,9 @@ impl<T: Copy + Send + Sync> BlockScratch<T> {
     {
         let blocks = states.len();
         let mut buffer: Vec<std::mem::MaybeUninit<T>> = with_capacity_huge(blocks * stride);
-        // SAFETY: `MaybeUninit` needs no initialization.
+        // SAFETY: the capacity is at least `blocks * stride` (`with_capacity_huge`), and
+        // `MaybeUninit` slots need no initialisation; `block` reads only the prefix each
+        // block's writer counted as written.
         #[allow(unsafe_code)]
         unsafe {
             buffer.set_len(blocks * stride)
@@ -224,8 +229,11 @@ impl<T: Copy + Send + Sync> BlockScratch<T> {
     /// What block `b` wrote.
     pub fn block(&self, b: usize) -> &[T] {
         let slots = &self.buffer[b * self.stride..][..self.lens[b]];
-        // SAFETY: a writer writes its slots front to back and `lens[b]` counts what block `b`'s
-        // writer wrote, so these slots are initialized; `MaybeUninit<T>` has `T`'s layout.
+        // SAFETY: block `b` owned `buffer[b * stride..][..stride]` (`par_chunks_mut`), and its
+        // writer wrote those slots front to back, `push` and `extend_from_slice` counting each
+        // written slot in `written`, which became `lens[b]`; so the first `lens[b]` slots are
+        // initialised (the slicing above checks the bounds). `MaybeUninit<T>` has `T`'s layout,
+        // and the slice borrows `self`, so nothing writes them meanwhile.
         #[allow(unsafe_code)]
         unsafe {
             &*(slots as *const [std::mem::MaybeUninit<T>] as *const [T])
@@ -265,8 +273,9 @@ where
             assert_eq!(writer.written, len, "item {i} wrote too few values");
         },
     );
-    // SAFETY: as in `collect_segments_in`: the segments partition the first `total` slots and
-    // each was checked to be written in full.
+    // SAFETY: as in `collect_segments_in`: `total` is the capacity asked for, the segments
+    // partition the first `total` slots (`fill_segments`), and each segment's writer was
+    // asserted to have written all of its slots, front to back.
     #[allow(unsafe_code)]
     unsafe {
         out.set_len(total)
@@ -316,8 +325,11 @@ where
             "item {i} wrote too few values"
         );
     });
-    // SAFETY: the segments partition the first `total` slots of both outputs and each was
-    // checked to be written in full (a short one panics before this line).
+    // SAFETY: both vectors have capacity `total`; the windows of `offsets` split the first
+    // `total` slots of each output into disjoint segments, one per job (`split_at_mut`, which
+    // panics if they do not fit), and each job's writers were asserted to have written all of
+    // their slots, front to back (a short one panics before this line, and the vectors are
+    // then dropped with length 0).
     #[allow(unsafe_code)]
     unsafe {
         first.set_len(total);
@@ -352,9 +364,13 @@ pub struct SharedSlots<'a> {
     _slice: std::marker::PhantomData<&'a mut [u32]>,
 }
 
-// SAFETY: every access while shared is an atomic store through `store`.
+// SAFETY: the only access through the pointer is `store`, an atomic store into a slot of the
+// slice borrowed mutably for `'a` (so nothing else reads or writes it meanwhile); atomic stores
+// from several threads, to one slot or many, are no data race.
 #[allow(unsafe_code)]
 unsafe impl Sync for SharedSlots<'_> {}
+// SAFETY: as for `Sync`: the slots are plain `u32`s, owned by no thread, and the pointer is only
+// used for atomic stores while the borrow lasts.
 #[allow(unsafe_code)]
 unsafe impl Send for SharedSlots<'_> {}
 
@@ -375,8 +391,9 @@ impl<'a> SharedSlots<'a> {
     #[inline]
     pub fn store(&self, i: usize, value: u32) {
         assert!(i < self.len, "slot {i} of {}", self.len);
-        // SAFETY: `i` is in range of the exclusively borrowed slice, `u32` and `AtomicU32` have
-        // the same size and alignment, and while it is borrowed here every access is atomic.
+        // SAFETY: `i < len` (asserted), so the pointer is in the slice, which is borrowed
+        // mutably for `'a`, so valid and used by nothing else; `u32` and `AtomicU32` have the
+        // same size and alignment; and while it is borrowed here every access is atomic.
         #[allow(unsafe_code)]
         let slot = unsafe { std::sync::atomic::AtomicU32::from_ptr(self.ptr.add(i)) };
         slot.store(value, std::sync::atomic::Ordering::Relaxed);
@@ -391,10 +408,13 @@ pub struct DisjointWrites<'a, T> {
     _slice: std::marker::PhantomData<&'a mut [T]>,
 }
 
-// SAFETY: the writes go to distinct slots (the contract of `write`), so sharing the pointer
-// across threads is sharing `&mut` access to disjoint parts of the slice.
+// SAFETY: the only accesses through the pointer are the unsafe writes, whose contract is that
+// each slot has one writer while the writes last, and nothing reads the slice while it is
+// borrowed here; so sharing the pointer across threads is sharing `&mut` access to disjoint
+// slots of it. `T: Send` because the values are moved into it from other threads.
 #[allow(unsafe_code)]
 unsafe impl<T: Send> Sync for DisjointWrites<'_, T> {}
+// SAFETY: as for `Sync`: it holds a `&'a mut [T]` in effect, which is `Send` for `T: Send`.
 #[allow(unsafe_code)]
 unsafe impl<T: Send> Send for DisjointWrites<'_, T> {}
 
@@ -419,8 +439,10 @@ impl<'a, T> DisjointWrites<'a, T> {
     #[allow(unsafe_code)]
     pub unsafe fn write(&self, i: usize, value: T) {
         assert!(i < self.len, "slot {i} of {}", self.len);
-        // SAFETY: in bounds (checked); no other writer of this slot (the caller's contract),
-        // and the slice is borrowed mutably for our lifetime, so nobody reads it meanwhile.
+        // SAFETY: in bounds (`i < len`, asserted); no other writer of this slot (the caller's
+        // contract), and the slice is borrowed mutably for our lifetime, so nobody reads it
+        // meanwhile. The slot holds a valid `T` (it is in a `&mut [T]`), which the assignment
+        // drops.
         unsafe { *self.ptr.add(i) = value };
     }
 }
@@ -443,20 +465,24 @@ impl<T> DisjointWrites<'_, T> {
     pub unsafe fn write_words_streaming(&self, i: usize, words: [u32; 4]) {
         const { assert!(size_of::<T>() == 16) };
         assert!(i < self.len, "slot {i} of {}", self.len);
-        // SAFETY: in bounds (checked).
+        // SAFETY: `i < len` (asserted), so the offset stays in the borrowed slice.
         let slot = unsafe { self.ptr.add(i) };
         #[cfg(target_arch = "x86_64")]
         if (slot as usize).is_multiple_of(16) {
             use std::arch::x86_64::{__m128i, _mm_stream_si128};
-            // SAFETY: the slot is 16 aligned, 16 bytes and has no other writer (the caller's
-            // contract); four words have no padding, so they are a whole vector.
+            // SAFETY: the slot is in bounds, 16-byte aligned (checked just above), 16 bytes (the
+            // const assertion) and has no other writer (the caller's contract); four words have
+            // no padding, so they are a whole vector and, by the caller's contract, a valid `T`.
+            // The store is weakly ordered: the caller's fence (`stream_fence`) orders it before
+            // the slot is read. SSE2, for the intrinsic, is part of every x86-64 target.
             unsafe {
                 let bits = std::mem::transmute::<[u32; 4], __m128i>(words);
                 _mm_stream_si128(slot.cast::<__m128i>(), bits);
             }
             return;
         }
-        // SAFETY: in bounds and ours, as above; `T` may be less aligned than the words.
+        // SAFETY: in bounds and ours, as above; the words are a valid `T` (the caller's
+        // contract); `write_unaligned` since `T` may be less aligned than the words.
         unsafe { slot.cast::<[u32; 4]>().write_unaligned(words) };
     }
 }
@@ -466,7 +492,8 @@ impl<T> DisjointWrites<'_, T> {
 #[inline]
 pub fn stream_fence() {
     #[cfg(target_arch = "x86_64")]
-    // SAFETY: a store fence has no preconditions; SSE2 is part of every x86-64 target.
+    // SAFETY: a store fence touches no memory and has no preconditions beyond SSE, which is
+    // part of every x86-64 target.
     #[allow(unsafe_code)]
     unsafe {
         std::arch::x86_64::_mm_sfence()
@@ -516,7 +543,9 @@ mod tests {
                     }
                 });
             }
-            // SAFETY: as above; every slot was written.
+            // SAFETY: as above; every slot of the `n` was written, once, by the chunk that holds
+            // it (`chunk_offsets` covers `0..n`), and each chunk fenced before the join
+            // returned; `writes` is dropped, so nothing writes them meanwhile.
             let written: &[[u32; 4]] = unsafe { std::slice::from_raw_parts(start.cast(), n) };
             for (i, &v) in written.iter().enumerate() {
                 assert_eq!(v, words(i), "slot {i}");

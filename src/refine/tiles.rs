@@ -177,9 +177,15 @@ struct Arrays {
     triangle_capacity: u32,
 }
 
-// SAFETY: the pointers are only dereferenced under the rules stated on `TileStore`: a tile
-// reads and writes only triangles with at least two corners inside it and vertices it made or
-// that existed before its pass, and tiles passed at once do not overlap.
+// SAFETY: `Arrays` is shared (by reference, never sent) only with the tiles of one pass in
+// `pass`, while `Shared` is borrowed there and nothing else uses the vectors. Through it a tile
+// reads and writes only what the rules on `TileStore` give it: triangles with at least two
+// corners inside it and vertices that existed before the pass or that it made itself. Tiles of
+// one pass are disjoint half-open squares (`Tiling::bounds`, checked by
+// `tile_bounds_hold_exactly_the_tiles_points`; `TileStore::may_change` tests corners against
+// them), so no element is written by one tile while another reads or writes it; new vertex
+// numbers and triangle slots come from chunks handed out by `fetch_add` on `Counters`, so no
+// two tiles get the same one.
 #[allow(unsafe_code)]
 unsafe impl Sync for Arrays {}
 
@@ -212,10 +218,14 @@ impl<'t> Shared<'t> {
     /// Corners of triangle `t` outside a pass.
     fn corners(&self, t: u32) -> [u32; 3] {
         assert!(t < self.triangle_end);
-        // SAFETY: the slot lies in the buffer (below `triangle_end`), and it was written: the
-        // numbers looked up here come from queue entries and triangles, which only ever name
-        // slots in the vector or slots a tile wrote, never the unused ends of chunks. No tile
-        // runs while `self` is borrowed.
+        // SAFETY: in bounds: `t < triangle_end` (asserted), and `triangle_end` never exceeds
+        // `arrays.triangle_capacity` (chunks are handed out only within the room `pass` made
+        // with `has_room`/`make_room`, and `push_triangle` asserts each slot against the
+        // capacity); `arrays` points at the vectors' current buffers (renewed by `arrays_of`
+        // after every change of them). Initialised: the numbers looked up here come from queue
+        // entries and triangles, which only name slots in the vector or slots a tile wrote
+        // (`push_triangle` writes a slot as it hands it out), never the unused ends of chunks.
+        // No tile runs while `self` is borrowed, so nothing writes the slot meanwhile.
         #[allow(unsafe_code)]
         unsafe {
             *self.arrays.corners.add(t as usize)
@@ -225,7 +235,8 @@ impl<'t> Shared<'t> {
     fn point(&self, v: u32) -> DVec2 {
         let v = v & !MARK;
         assert!(v < self.vertex_end);
-        // SAFETY: as for `corners`.
+        // SAFETY: as for `corners`, with `v < vertex_end <= arrays.vertex_capacity` (asserted;
+        // `push_vertex` asserts each new number against the capacity, and writes its point).
         #[allow(unsafe_code)]
         unsafe {
             *self.arrays.vertices.add(v as usize)
@@ -337,8 +348,12 @@ where
     let base = base as usize;
     crate::par::collect_segments(&offsets, |c| {
         let chunk = chunks[c];
-        // SAFETY: a chunk's first `len` elements lie in the buffer's capacity and were written
-        // by the tile that took it; no tile runs while the chunks are gathered.
+        // SAFETY: a chunk's numbers were handed out below the capacity (each asserted against
+        // it in `push_vertex`/`push_triangle`), and `base` is the buffer they were written into:
+        // `settle` gathers before it changes any vector. The first `len` of them were written
+        // by the tile that took the chunk (the unused end, past `len`, is not read); chunks do
+        // not overlap (`fetch_add`). No tile runs while the chunks are gathered, so the reads
+        // race with nothing.
         #[allow(unsafe_code)]
         let elements = unsafe {
             std::slice::from_raw_parts(
@@ -409,7 +424,8 @@ impl Store for Frozen<'_, '_> {
     }
     fn across(&self, t: u32) -> [u32; 3] {
         assert!(t < self.0.triangle_end);
-        // SAFETY: as for `Shared::corners`.
+        // SAFETY: as for `Shared::corners`: `corners` and `across` slots are handed out and
+        // written together (`push_triangle`), and their capacity is the smaller of the two.
         #[allow(unsafe_code)]
         unsafe {
             *self.0.arrays.across.add(t as usize)
@@ -476,8 +492,11 @@ impl TileStore<'_> {
     fn vertex_ptr(&self, v: u32) -> *mut DVec2 {
         let v = v & !MARK;
         debug_assert!(v < self.arrays.vertex_capacity);
-        // SAFETY: within the allocation (checked against its capacity in debug builds; numbers
-        // come only from the triangulation and this tile's chunks).
+        // SAFETY: `add` stays within the buffer's capacity: the numbers a tile uses are
+        // corners of triangles it reached (all below the `vertex_end` of its pass, at most the
+        // capacity reserved before the pass) or numbers of its own chunks, each asserted
+        // against the capacity in `push_vertex`. Only the offset is computed here; what may be
+        // read or written through it is argued where it is dereferenced.
         #[allow(unsafe_code)]
         unsafe {
             self.arrays.vertices.add(v as usize)
@@ -487,7 +506,9 @@ impl TileStore<'_> {
     #[inline]
     fn corners_ptr(&self, t: u32) -> *mut [u32; 3] {
         debug_assert!(t < self.arrays.triangle_capacity);
-        // SAFETY: as for `vertex_ptr`.
+        // SAFETY: as for `vertex_ptr`: triangle numbers come from triangles' neighbours and
+        // queue entries (below the pass's `triangle_end`, within the reserved capacity) or from
+        // this tile's chunks (asserted against the capacity in `push_triangle`).
         #[allow(unsafe_code)]
         unsafe {
             self.arrays.corners.add(t as usize)
@@ -497,7 +518,8 @@ impl TileStore<'_> {
     #[inline]
     fn across_ptr(&self, t: u32) -> *mut [u32; 3] {
         debug_assert!(t < self.arrays.triangle_capacity);
-        // SAFETY: as for `vertex_ptr`.
+        // SAFETY: as for `corners_ptr`; `triangle_capacity` is that of the smaller of the
+        // `corners` and `across` buffers.
         #[allow(unsafe_code)]
         unsafe {
             self.arrays.across.add(t as usize)
@@ -538,30 +560,44 @@ fn take(chunk: &mut Chunk, used: &mut Vec<Chunk>, counter: &AtomicU32, largest: 
     chunk.start + chunk.len - 1
 }
 
-// SAFETY (all methods): pointers come from `vertex_ptr`/`corners_ptr`/`across_ptr`, and the
-// elements reached follow the rules on `TileStore`.
+// The methods dereference the pointers of `vertex_ptr`/`corners_ptr`/`across_ptr` (in
+// bounds, as argued there) under the rules on `TileStore` (no other tile of the pass touches
+// the element), each with its own argument.
 #[allow(unsafe_code)]
 impl Store for TileStore<'_> {
     const WHOLE: bool = false;
 
     #[inline]
     fn point(&self, v: u32) -> DVec2 {
+        // SAFETY: `v` is a corner of a triangle the tile reached (or one it made), so the
+        // vertex existed before the pass (written, below the vector's length or in a settled
+        // chunk) or this tile wrote it in `push_vertex`; a vertex is never written again once
+        // made, so no other tile writes it meanwhile.
         unsafe { *self.vertex_ptr(v) }
     }
     #[inline]
     fn corners(&self, t: u32) -> [u32; 3] {
+        // SAFETY: the refiner reads only triangles of the tile and their neighbours, which have
+        // two corners in it, so no other tile of the pass writes them; the slot was written
+        // (before the pass, or by this tile's `push_triangle`).
         unsafe { *self.corners_ptr(t) }
     }
     #[inline]
     fn corners_mut(&mut self, t: u32) -> &mut [u32; 3] {
+        // SAFETY: as for `corners`: the refiner changes only triangles of the tile
+        // (`may_change`) and marks and relinks their neighbours, all with two corners in the
+        // tile, which no other tile of the pass reads or writes; the reference lives no longer
+        // than `&mut self`, so this tile makes no other reference to the slot meanwhile.
         unsafe { &mut *self.corners_ptr(t) }
     }
     #[inline]
     fn across(&self, t: u32) -> [u32; 3] {
+        // SAFETY: as for `corners`.
         unsafe { *self.across_ptr(t) }
     }
     #[inline]
     fn across_mut(&mut self, t: u32) -> &mut [u32; 3] {
+        // SAFETY: as for `corners_mut`.
         unsafe { &mut *self.across_ptr(t) }
     }
     fn push_vertex(&mut self, p: DVec2) -> u32 {
@@ -573,6 +609,9 @@ impl Store for TileStore<'_> {
         );
         self.allowance -= 1;
         assert!(v < self.arrays.vertex_capacity, "vertex room was reserved");
+        // SAFETY: in bounds (asserted just above); `v` is a fresh number of this tile's chunk,
+        // which no other tile was given (`fetch_add` in `take`) and nothing reads before this
+        // write; `write` drops nothing, so the slot may be uninitialised.
         unsafe { self.vertex_ptr(v).write(p) };
         v
     }
@@ -587,6 +626,8 @@ impl Store for TileStore<'_> {
             t < self.arrays.triangle_capacity,
             "triangle room was reserved"
         );
+        // SAFETY: as in `push_vertex`: in bounds of both buffers (asserted against the
+        // smaller capacity), a fresh slot of this tile's chunk, written before it is read.
         unsafe {
             self.corners_ptr(t).write([0; 3]);
             self.across_ptr(t).write([NONE; 3]);
@@ -993,6 +1034,35 @@ fn owned_by_tiles(owners: &[u64], base: u64) -> impl ParallelIterator<Item = (u6
 mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
+
+    /// Enough clustered points for the tiles (at least [`MIN_POINTS`]), refined on two
+    /// threads: in a debug build every access of a tile to the shared arrays has its bound
+    /// checked (`TileStore::vertex_ptr`, `corners_ptr`, `across_ptr`), so this runs the tiles'
+    /// unsafe code under those checks. The mesh is valid, and the same on one thread.
+    #[test]
+    fn tiles_refine_enough_points_the_same_on_one_and_two_threads() {
+        let points = crate::generate::points(crate::generate::Distribution2d::Cluster, 20_000, 4);
+        assert!(points.len() >= MIN_POINTS, "the tiles run");
+        let options = crate::refine::RefineOptions {
+            domain: crate::refine::RefineDomain::Square,
+            min_angle_deg: 30.0,
+            ..crate::refine::RefineOptions::default()
+        };
+        let on = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| crate::refine::refine_points(&points, &options).unwrap().0)
+        };
+        let two = on(2);
+        let bounds = crate::mesh::AngleBounds {
+            min_deg: 30.0,
+            max_deg: 120.0,
+        };
+        two.validate(&points, bounds).unwrap();
+        assert!(two == on(1), "the mesh depends on the thread count");
+    }
 
     /// A tile's bounds hold exactly the points the grid puts in the tile, on grids far from
     /// the origin and with cells near the resolution of f64, and for points right at the
