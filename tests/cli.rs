@@ -222,8 +222,13 @@ fn empty_file_is_refused() {
 fn missing_file_and_poly_without_vertices_are_refused() {
     let missing = TempPath::new("missing.txt");
     assert!(tree_error(&missing.0).contains("missing.txt"));
+    // A .poly without vertices keeps them in the .node file of its name: missing here.
     let poly = TempPath::with("novertices.poly", "0 2 0 1\n1 0\n1 1 2\n");
-    assert!(tree_error(&poly.0).contains(".node file"));
+    let err = tree_error(&poly.0);
+    assert!(
+        err.contains("novertices.node") && err.contains("cannot be read"),
+        "{err}"
+    );
 }
 
 #[test]
