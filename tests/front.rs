@@ -288,3 +288,13 @@ fn a_point_a_rounding_inside_a_hull_side_becomes_a_boundary_vertex() {
         assert!(outline.contains(&middle), "{outline:?}");
     }
 }
+
+#[test]
+fn the_default_mesh_with_strips_and_tiles_is_the_same_on_one_and_three_threads() {
+    // 100 000 points: two strips glued at a seam, the hull cut out of them, refined by tiles.
+    let points = generated(Distribution2d::Kuzmin, 100_000, 11);
+    let options = Options::default();
+    let one = on_threads(1, || checked(&points, &options).0);
+    let three = on_threads(3, || checked(&points, &options).0);
+    assert!(one == three, "1 and 3 threads differ");
+}
