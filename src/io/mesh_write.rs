@@ -97,8 +97,10 @@ fn input_index(mesh: &Mesh, v: usize) -> i64 {
 /// Writes the vertices as a Triangle `.node` file: the header `<#vertices> 2 1 1`, then
 /// `<vertex> <x> <y> <input index> <marker>` per vertex, numbered from 1 as in Triangle's own
 /// output. The attribute is the vertex's 0-based input index, or -1 for a Steiner vertex; the
-/// boundary marker is 1 for a vertex on a boundary edge (a nonzero [`Mesh::vertex_markers`]
-/// entry) and 0 otherwise. A comment line before the header says so.
+/// boundary marker is [`Mesh::vertex_markers`]'s: 0 inside, and on the boundary the marker of
+/// the boundary edge that starts at the vertex (on a rectangle its side, 1 to 4, so a corner
+/// gets the side that leaves it counter-clockwise; on the hull 1). A comment line before the
+/// header says so.
 ///
 /// # Errors
 /// Whatever `w` returns.
@@ -111,7 +113,7 @@ pub fn write_node<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
     writeln!(w, "{} 2 1 1", mesh.vertices.len())?;
     write_items(&mut w, mesh.vertices.len(), |buf, v| {
         let p = mesh.vertices[v];
-        let marker = u8::from(markers[v] != 0);
+        let marker = markers[v];
         let input = input_index(mesh, v);
         writeln!(buf, "{} {} {} {input} {marker}", v + 1, p.x, p.y)
     })?;
@@ -888,9 +890,9 @@ mod tests {
 # vertex (numbered from 1), x, y, input index (0-based, -1 for none), boundary marker
 4 2 1 1
 1 0 0 0 1
-2 1 0 2 1
-3 1 1 1 1
-4 0 1 -1 1
+2 1 0 2 2
+3 1 1 1 3
+4 0 1 -1 4
 ";
         assert_eq!(node, expected_node);
         let ele = text(&mesh, |m, w| write_ele(m, w));
@@ -925,7 +927,8 @@ mod tests {
     #[test]
     fn interior_vertices_have_marker_zero() {
         let node = text(&four_triangles(), |m, w| write_node(m, w));
-        assert!(node.ends_with("\n4 0 1 -1 1\n5 0.5 0.5 0 0\n"), "{node}");
+        // The corners carry the side that leaves them counter-clockwise; the centre 0.
+        assert!(node.ends_with("\n4 0 1 -1 4\n5 0.5 0.5 0 0\n"), "{node}");
     }
 
     #[test]
