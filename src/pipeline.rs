@@ -2,7 +2,6 @@
 //! The CLI, the benches and the tests all call these.
 
 use glam::DVec2;
-use rayon::prelude::*;
 
 use crate::balance::{
     BalancedTree, Band, BandError, DomainSides, balance, coarsest_band_level, separate, separate_in,
@@ -12,8 +11,8 @@ use crate::framework::{Framework, build_framework};
 pub use crate::mesh::StageTimes;
 use crate::mesh::{AngleQuality, BoundarySide, Domain, Mesh, MeshReport, report_of};
 use crate::morton::{
-    Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, morton_order, morton_order_on,
-    morton_order_wide, validate_points,
+    Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, bounding_box, morton_order,
+    morton_order_on, morton_order_wide, validate_points,
 };
 use crate::options::{Input, Mode, Options, Region};
 use crate::quadtree::{Quadtree, expand};
@@ -383,10 +382,14 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
     options.check()?;
     input.check_supported()?;
     let points = &input.points[..];
-    validate_points(points)?;
     let rectangle = match options.region_choice() {
         Region::Rectangle(d) => Some(d),
-        Region::BoundingBox => Some(bounding_box(points)),
+        // Each mode checks the points itself; the box needs them finite and present first.
+        Region::BoundingBox => {
+            validate_points(points)?;
+            let (lo, hi) = bounding_box(points);
+            Some(Domain { lo, hi })
+        }
         Region::Auto | Region::ConvexHull | Region::Square => None,
     };
     match options.mode() {
@@ -413,13 +416,4 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
             refine_points(points, &refine)
         }
     }
-}
-
-/// The points' bounding box; the points are finite.
-fn bounding_box(points: &[DVec2]) -> Domain {
-    let (lo, hi) = points.par_iter().map(|&p| (p, p)).reduce(
-        || (DVec2::INFINITY, DVec2::NEG_INFINITY),
-        |a, b| (a.0.min(b.0), a.1.max(b.1)),
-    );
-    Domain { lo, hi }
 }

@@ -86,3 +86,40 @@ pub fn angles_deg(a: DVec2, b: DVec2, c: DVec2) -> [f64; 3] {
     };
     [angle(a, b, c), angle(b, c, a), angle(c, a, b)]
 }
+
+/// The interior angle at each corner of a counter-clockwise polygon, degrees (above 180 at a
+/// reflex corner).
+pub fn interior_angles_deg(polygon: &[DVec2]) -> Vec<f64> {
+    let n = polygon.len();
+    (0..n)
+        .map(|k| {
+            let (prev, here, next) = (polygon[(k + n - 1) % n], polygon[k], polygon[(k + 1) % n]);
+            let (a, b) = (next - here, prev - here);
+            let angle = a.perp_dot(b).atan2(a.dot(b)).to_degrees();
+            if angle < 0.0 { angle + 360.0 } else { angle }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interior_angles_of_convex_and_reflex_corners() {
+        let square = [DVec2::ZERO, DVec2::X, DVec2::ONE, DVec2::Y];
+        assert_eq!(interior_angles_deg(&square), [90.0; 4]);
+        // A side bent a hair inward through its midpoint: the bend is a reflex corner, not an
+        // acute one.
+        let bent = [
+            DVec2::ZERO,
+            DVec2::new(0.5, 1e-9),
+            DVec2::X,
+            DVec2::new(0.5, 1.0),
+        ];
+        let angles = interior_angles_deg(&bent);
+        assert!(angles[1] > 180.0 && angles[1] < 180.001, "{angles:?}");
+        let total: f64 = angles.iter().sum();
+        assert!((total - 360.0).abs() < 1e-9, "{angles:?}");
+    }
+}

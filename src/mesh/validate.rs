@@ -10,7 +10,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::{BoundarySide, Domain, Mesh, NONE, angles_deg};
+use super::{BoundarySide, Domain, Mesh, NONE, angles_deg, interior_angles_deg};
 use crate::predicates::orient_value;
 
 /// The angle range a meshing mode guarantees, in degrees.
@@ -553,14 +553,12 @@ fn narrow_corners(mesh: &Mesh, min_deg: f64) -> Vec<DVec2> {
     let Some(outline) = &mesh.outline else {
         return Vec::new();
     };
-    let n = outline.len();
-    (0..n)
-        .filter(|&k| {
-            let (prev, here, next) = (outline[(k + n - 1) % n], outline[k], outline[(k + 1) % n]);
-            let (a, b) = (next - here, prev - here);
-            a.perp_dot(b).atan2(a.dot(b)).to_degrees() < min_deg
-        })
-        .map(|k| outline[k])
+    let angles = interior_angles_deg(outline);
+    outline
+        .iter()
+        .zip(angles)
+        .filter(|&(_, angle)| angle < min_deg)
+        .map(|(&corner, _)| corner)
         .collect()
 }
 

@@ -502,18 +502,6 @@ fn remove_sorted<T: Copy>(items: &mut Vec<T>, gone: &[u32]) {
     items.truncate(write);
 }
 
-/// The interior angle of the hull at each of its vertices, degrees.
-pub(super) fn corner_angles(points: &[DVec2]) -> Vec<f64> {
-    let n = points.len();
-    (0..n)
-        .map(|k| {
-            let (prev, here, next) = (points[(k + n - 1) % n], points[k], points[(k + 1) % n]);
-            let (a, b) = (next - here, prev - here);
-            a.perp_dot(b).atan2(a.dot(b)).to_degrees()
-        })
-        .collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -48,9 +48,9 @@ use rayon::prelude::*;
 use crate::error::{Error, Incomplete, Unmet};
 use crate::mesh::{
     AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, MeshReport, NONE, StageTimes,
-    angles_deg, report_of,
+    angles_deg, interior_angles_deg, report_of,
 };
-use crate::morton::{FloatOrder, SortAlgorithm, float_morton_order};
+use crate::morton::{FloatOrder, SortAlgorithm, bounding_box, float_morton_order};
 use delaunay::{Cavity, Location, MAX_VERTICES, NEXT, PREV, Triangulation, locate};
 use refiner::{Bounds, Finish, Refiner, Work};
 
@@ -170,16 +170,10 @@ pub fn refine_points(
     refine_order(order, points, options, times)
 }
 
-/// The square centred on the bounding box of the points `order` names, twice its larger side
-/// (or of side 2 around a single point).
-fn square_around(points: &[DVec2], order: &[u32]) -> Domain {
-    let (lo, hi) = order
-        .par_iter()
-        .map(|&i| (points[i as usize], points[i as usize]))
-        .reduce(
-            || (DVec2::INFINITY, DVec2::NEG_INFINITY),
-            |a, b| (a.0.min(b.0), a.1.max(b.1)),
-        );
+/// The square centred on the points' bounding box, twice its larger side (or of side 2 around
+/// a single point).
+fn square_around(points: &[DVec2]) -> Domain {
+    let (lo, hi) = bounding_box(points);
     let centre = lo * 0.5 + hi * 0.5;
     let half = (hi - lo).max_element();
     let half = if half > 0.0 {
@@ -201,7 +195,7 @@ fn refine_order(
 ) -> Result<(Mesh, MeshReport), Error> {
     let square = match options.domain {
         RefineDomain::Rectangle(d) => d,
-        _ => square_around(points, &morton.order),
+        _ => square_around(points),
     };
     let distinct = morton.order.len();
     // Room for the tiles' chunks too, so that they seldom need the arrays to move; memory past
@@ -237,10 +231,13 @@ fn refine_order(
             .collect()
     });
     let domain = match outline {
-        Some(_) => bounding_box(&corners),
+        Some(_) => {
+            let (lo, hi) = bounding_box(&corners);
+            Domain { lo, hi }
+        }
         None => square,
     };
-    let angles = hull::corner_angles(&corners);
+    let angles = interior_angles_deg(&corners);
     let hull_corners: Vec<(u32, DVec2, f64)> = outline
         .iter()
         .flat_map(|h| h.vertices.iter().copied())
@@ -273,13 +270,6 @@ fn refine_order(
             unmet,
         }))),
     }
-}
-
-/// The smallest rectangle around `points`.
-fn bounding_box(points: &[DVec2]) -> Domain {
-    let lo = points.iter().fold(DVec2::INFINITY, |a, &p| a.min(p));
-    let hi = points.iter().fold(DVec2::NEG_INFINITY, |a, &p| a.max(p));
-    Domain { lo, hi }
 }
 
 /// The triangles still outside the bounds, where they are and how far off.
