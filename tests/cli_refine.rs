@@ -4,10 +4,12 @@
 //! proven bound appears exactly when it should.
 
 mod cli_support;
+mod common;
 
 use cli_support::{
     TempDir, bench_json, generate, json_number, quadmesh, read_triangle_files, s, stderr,
 };
+use common::{convex_hull, mesh_area, narrow_corners, polygon_area};
 use quadmesh::mesh::{AngleBounds, NONE, angles_deg};
 
 /// The angle bounds `--min-angle a` promises.
@@ -291,33 +293,6 @@ fn bad_domains_are_one_line_errors() {
     }
 }
 
-/// The hull of `points` (a monotone chain of the test's own, collinear points dropped) and its
-/// area.
-fn hull_of(points: &[quadmesh::DVec2]) -> (Vec<quadmesh::DVec2>, f64) {
-    let mut p = points.to_vec();
-    p.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-    p.dedup();
-    let cross =
-        |o: quadmesh::DVec2, a: quadmesh::DVec2, b: quadmesh::DVec2| (a - o).perp_dot(b - o);
-    let mut hull: Vec<quadmesh::DVec2> = Vec::new();
-    for pass in [p.clone(), p.iter().rev().copied().collect()] {
-        let start = hull.len();
-        for q in pass {
-            while hull.len() >= start + 2
-                && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0
-            {
-                hull.pop();
-            }
-            hull.push(q);
-        }
-        hull.pop();
-    }
-    let area = (0..hull.len())
-        .map(|k| 0.5 * hull[k].perp_dot(hull[(k + 1) % hull.len()]))
-        .sum();
-    (hull, area)
-}
-
 /// `quadmesh mesh` with no mode flag: the Delaunay mesh of the points' convex hull, its area the
 /// hull's, every angle at least the default 20° except at a hull corner narrower than that.
 #[test]
@@ -329,27 +304,13 @@ fn the_default_mesh_covers_the_convex_hull_at_20_degrees() {
         let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--check"]);
         assert!(out.status.success(), "{dist}: {}", stderr(&out));
         let mesh = read_triangle_files(&prefix);
-        let (hull, want) = hull_of(&points);
-        let got: f64 = mesh
-            .triangles
-            .iter()
-            .map(|t| {
-                let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
-                0.5 * (b - a).perp_dot(c - a)
-            })
-            .sum();
+        let hull = convex_hull(&points);
+        let (want, got) = (polygon_area(&hull), mesh_area(&mesh));
         assert!(
             (got - want).abs() <= 1e-9 * want,
             "{dist}: area {got} vs hull {want}"
         );
-        let n = hull.len();
-        let narrow: Vec<quadmesh::DVec2> = (0..n)
-            .filter(|&k| {
-                let (a, b) = (hull[(k + 1) % n] - hull[k], hull[(k + n - 1) % n] - hull[k]);
-                a.perp_dot(b).atan2(a.dot(b)).to_degrees() < 20.0
-            })
-            .map(|k| hull[k])
-            .collect();
+        let narrow = narrow_corners(&hull, 20.0);
         for t in &mesh.triangles {
             let corners = t.map(|v| mesh.vertices[v as usize]);
             if corners.iter().any(|p| narrow.contains(p)) {

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::on_threads;
+use common::{convex_hull, mesh_area, narrow_corners, on_threads, polygon_area};
 use quadmesh::generate::{Distribution2d, points as generated};
 use quadmesh::{
     DEFAULT_MIN_ANGLE_DEG, DVec2, Error, GUARANTEED_MIN_ANGLE_DEG, Input, Mesh, Mode, Options,
@@ -22,40 +22,6 @@ fn checked(points: &[DVec2], options: &Options) -> (Mesh, quadmesh::MeshReport) 
     (m, report)
 }
 
-/// The area of the convex hull of `points`, by a monotone chain of its own.
-fn hull_area(points: &[DVec2]) -> f64 {
-    let mut p = points.to_vec();
-    p.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-    p.dedup();
-    let cross = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
-    let mut hull: Vec<DVec2> = Vec::new();
-    for pass in [p.clone(), p.iter().rev().copied().collect()] {
-        let start = hull.len();
-        for q in pass {
-            while hull.len() >= start + 2
-                && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0
-            {
-                hull.pop();
-            }
-            hull.push(q);
-        }
-        hull.pop();
-    }
-    (0..hull.len())
-        .map(|k| 0.5 * hull[k].perp_dot(hull[(k + 1) % hull.len()]))
-        .sum()
-}
-
-fn mesh_area(m: &Mesh) -> f64 {
-    m.triangles
-        .iter()
-        .map(|t| {
-            let [a, b, c] = t.map(|v| m.vertices[v as usize]);
-            0.5 * (b - a).perp_dot(c - a)
-        })
-        .sum()
-}
-
 #[test]
 fn the_default_is_a_delaunay_mesh_of_the_convex_hull_with_a_proven_bound() {
     let options = Options::default();
@@ -71,7 +37,8 @@ fn the_default_is_a_delaunay_mesh_of_the_convex_hull_with_a_proven_bound() {
         for n in [2_000, 70_000] {
             let points = generated(dist, n, 7);
             let (m, report) = checked(&points, &options);
-            let (want, got) = (hull_area(&points), mesh_area(&m));
+            let hull = convex_hull(&points);
+            let (want, got) = (polygon_area(&hull), mesh_area(&m));
             assert!(
                 (got - want).abs() <= 1e-9 * want,
                 "{dist:?} {n}: {got} vs hull {want}"
@@ -79,25 +46,14 @@ fn the_default_is_a_delaunay_mesh_of_the_convex_hull_with_a_proven_bound() {
             let outline = m.outline.as_ref().expect("a hull mesh has its outline");
             assert!(outline.len() >= 3);
             assert!(
-                report.min_angle >= DEFAULT_MIN_ANGLE_DEG || narrow_hull(outline),
+                report.min_angle >= DEFAULT_MIN_ANGLE_DEG
+                    || !narrow_corners(&hull, DEFAULT_MIN_ANGLE_DEG).is_empty(),
                 "{dist:?} {n}: {}",
                 report.min_angle
             );
             assert_eq!(report.points, n, "{dist:?}");
         }
     }
-}
-
-/// Whether the hull has a corner narrower than the default bound (its angle stays).
-fn narrow_hull(outline: &[DVec2]) -> bool {
-    let n = outline.len();
-    (0..n).any(|k| {
-        let (a, b) = (
-            outline[(k + 1) % n] - outline[k],
-            outline[(k + n - 1) % n] - outline[k],
-        );
-        a.perp_dot(b).atan2(a.dot(b)).to_degrees() < DEFAULT_MIN_ANGLE_DEG
-    })
 }
 
 #[test]

@@ -156,17 +156,7 @@ proptest! {
 /// its own vertices meshes validly.
 #[test]
 fn triangle_package_examples_mesh_validly() {
-    let found = std::process::Command::new("python3")
-        .args([
-            "-c",
-            "import os, triangle; print(os.path.join(os.path.dirname(triangle.__file__), 'data'))",
-        ])
-        .output();
-    let Some(dir) = found
-        .ok()
-        .filter(|out| out.status.success())
-        .map(|out| String::from_utf8_lossy(&out.stdout).trim().to_owned())
-    else {
+    let Some(dir) = common::triangle_examples() else {
         eprintln!("Triangle's Python package is not installed; its examples are skipped");
         return;
     };
@@ -200,7 +190,7 @@ fn triangle_package_examples_mesh_validly() {
         }
         meshed += 1;
     }
-    assert!(meshed > 0, "no examples found in {dir}");
+    assert!(meshed > 0, "no examples found in {}", dir.display());
 }
 
 /// A single point, worked out by hand. The root is [0, 6] × [-5, 1] (side 2 · max(|centre|, 1)

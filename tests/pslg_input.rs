@@ -1,5 +1,7 @@
 //! Reading planar straight-line graphs from Triangle's files and cleaning them.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use quadmesh::io::{read_input, read_points};
@@ -188,17 +190,7 @@ fn counts(path: &Path) -> [usize; 4] {
 
 #[test]
 fn triangles_example_files_read_and_clean() {
-    let found = std::process::Command::new("python3")
-        .args([
-            "-c",
-            "import os, triangle; print(os.path.join(os.path.dirname(triangle.__file__), 'data'))",
-        ])
-        .output();
-    let Some(dir) = found
-        .ok()
-        .filter(|out| out.status.success())
-        .map(|out| String::from_utf8_lossy(&out.stdout).trim().to_owned())
-    else {
+    let Some(dir) = common::triangle_examples() else {
         eprintln!("Triangle's Python package is not installed; its example files are skipped");
         return;
     };
@@ -244,6 +236,10 @@ fn triangles_example_files_read_and_clean() {
         "double_hex.poly",
         "box.poly",
     ] {
-        assert!(names.iter().any(|n| n == name), "{name} missing from {dir}");
+        assert!(
+            names.iter().any(|n| n == name),
+            "{name} missing from {}",
+            dir.display()
+        );
     }
 }

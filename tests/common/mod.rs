@@ -174,3 +174,74 @@ pub fn extreme_wide_keys() -> Vec<Vec<u128>> {
             .collect(),
     ]
 }
+
+/// The convex hull of `points`, counter-clockwise, collinear points left out: a monotone chain
+/// of the tests' own, independent of the library's.
+pub fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
+    let mut p = points.to_vec();
+    p.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    p.dedup();
+    let cross = |o: DVec2, a: DVec2, b: DVec2| (a - o).perp_dot(b - o);
+    let mut hull: Vec<DVec2> = Vec::new();
+    for pass in [p.clone(), p.iter().rev().copied().collect()] {
+        let start = hull.len();
+        for q in pass {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    hull
+}
+
+/// The area of a counter-clockwise polygon.
+pub fn polygon_area(corners: &[DVec2]) -> f64 {
+    (0..corners.len())
+        .map(|k| 0.5 * corners[k].perp_dot(corners[(k + 1) % corners.len()]))
+        .sum()
+}
+
+/// The summed area of a mesh's triangles.
+pub fn mesh_area(m: &Mesh) -> f64 {
+    m.triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|v| m.vertices[v as usize]);
+            0.5 * (b - a).perp_dot(c - a)
+        })
+        .sum()
+}
+
+/// The corners of a convex counter-clockwise polygon narrower than `min_deg`.
+pub fn narrow_corners(convex: &[DVec2], min_deg: f64) -> Vec<DVec2> {
+    let n = convex.len();
+    (0..n)
+        .filter(|&k| {
+            let (a, b) = (
+                convex[(k + 1) % n] - convex[k],
+                convex[(k + n - 1) % n] - convex[k],
+            );
+            a.perp_dot(b).atan2(a.dot(b)).to_degrees() < min_deg
+        })
+        .map(|k| convex[k])
+        .collect()
+}
+
+/// The folder of example inputs that Triangle's Python package (`pip install triangle`) ships,
+/// when it is installed; the tests read them there and never copy them.
+pub fn triangle_examples() -> Option<std::path::PathBuf> {
+    let found = std::process::Command::new("python3")
+        .args([
+            "-c",
+            "import os, triangle; print(os.path.join(os.path.dirname(triangle.__file__), 'data'))",
+        ])
+        .output();
+    found
+        .ok()
+        .filter(|out| out.status.success())
+        .map(|out| String::from_utf8_lossy(&out.stdout).trim().into())
+}
