@@ -2,6 +2,8 @@
 //! topology (edges, boundary markers, neighbours) and its quality report.
 
 mod delaunay_check;
+#[cfg(test)]
+pub(crate) mod fixtures;
 mod report;
 mod topology;
 mod validate;

@@ -165,6 +165,7 @@ mod tests {
 
     use super::*;
     use crate::generate::{Distribution2d, points};
+    use crate::mesh::fixtures::two_triangles;
     use crate::mesh::{AngleBounds, BoundarySide, Domain};
     use crate::refine::{RefineOptions, refine_points};
     use crate::warp::ANGLE_BOUNDS;
@@ -180,37 +181,6 @@ mod tests {
             }
         }
         points
-    }
-
-    /// The unit square cut along its diagonal from the origin; the Steiner vertex is the
-    /// upper-left corner.
-    fn two_triangles() -> Mesh {
-        use BoundarySide::*;
-        let corners = [0, 1, 2, 3];
-        Mesh {
-            outline: None,
-            vertices: vec![
-                DVec2::new(0.0, 0.0),
-                DVec2::new(1.0, 0.0),
-                DVec2::new(1.0, 1.0),
-                DVec2::new(0.0, 1.0),
-            ],
-            vertex_input: vec![0, 2, 1, NONE],
-            triangles: vec![[0, 1, 2], [0, 2, 3]],
-            neighbours: vec![[NONE, 1, NONE], [NONE, NONE, 0]],
-            boundary: [Bottom, Right, Top, Left]
-                .into_iter()
-                .enumerate()
-                .map(|(k, side)| BoundaryEdge {
-                    vertices: [corners[k], corners[(k + 1) % 4]],
-                    marker: side.marker(),
-                })
-                .collect(),
-            domain: Domain {
-                lo: DVec2::ZERO,
-                hi: DVec2::ONE,
-            },
-        }
     }
 
     /// The 3 by 3 grid of points `(i, j)` for `i, j` in `0..3`, vertex `3 j + i`, each of its four
