@@ -50,13 +50,32 @@ pub(super) struct Bounds {
     /// The domain's lower-left corner and the scale that maps it onto 32-bit grid coordinates.
     origin: DVec2,
     scale: f64,
-    /// The domain's corners narrower than [`ACUTE_CORNER_DEG`], at most two in a convex domain:
-    /// their vertex and angle in degrees, or [`NONE`]. Boundary edges from them are split on
-    /// concentric circles around them, and a triangle whose smallest angle lies in one narrower
-    /// than the bound is left as it is (no triangle there can meet it).
-    acute: [(u32, f64); 2],
-    /// For each acute corner, its position and the directions of its two sides.
-    sides: [(DVec2, DVec2, DVec2); 2],
+    /// The domain's corners narrower than [`ACUTE_CORNER_DEG`], at most two in a convex
+    /// domain. Boundary edges from them are split on concentric circles around them, and a
+    /// triangle whose smallest angle lies in one narrower than the bound is left as it is (no
+    /// triangle there can meet it).
+    acute: [AcuteCorner; 2],
+}
+
+/// A domain corner narrower than [`ACUTE_CORNER_DEG`].
+#[derive(Clone, Copy, Debug)]
+struct AcuteCorner {
+    /// Its vertex, or [`NONE`] for no corner.
+    vertex: u32,
+    /// Whether it is narrower than the angle bound.
+    narrow: bool,
+    /// Its position and the directions of its two sides.
+    at: DVec2,
+    sides: [DVec2; 2],
+}
+
+impl AcuteCorner {
+    const NONE: AcuteCorner = AcuteCorner {
+        vertex: NONE,
+        narrow: false,
+        at: DVec2::ZERO,
+        sides: [DVec2::ZERO; 2],
+    };
 }
 
 impl Bounds {
@@ -77,8 +96,7 @@ impl Bounds {
             offset,
             origin: lo,
             scale: 2f64.powi(32) / side * (1.0 - f64::EPSILON),
-            acute: [(NONE, 180.0); 2],
-            sides: [(DVec2::ZERO, DVec2::ZERO, DVec2::ZERO); 2],
+            acute: [AcuteCorner::NONE; 2],
         }
     }
 
@@ -89,10 +107,14 @@ impl Bounds {
         let mut acute = (0..n).filter(|&k| corners[k].2 < ACUTE_CORNER_DEG);
         for slot in 0..2 {
             if let Some(k) = acute.next() {
-                let (v, here, angle) = corners[k];
+                let (vertex, at, angle) = corners[k];
                 let (next, prev) = (corners[(k + 1) % n].1, corners[(k + n - 1) % n].1);
-                self.acute[slot] = (v, angle);
-                self.sides[slot] = (here, next - here, prev - here);
+                self.acute[slot] = AcuteCorner {
+                    vertex,
+                    narrow: angle.to_radians().sin().powi(2) < self.sin2,
+                    at,
+                    sides: [next - at, prev - at],
+                };
             }
         }
         self
@@ -104,12 +126,11 @@ impl Bounds {
     /// shrink the splits on the sides towards the corner.
     #[inline]
     fn spans_narrow_corner(&self, p: DVec2, q: DVec2, apex: DVec2) -> bool {
-        (0..2).any(|k| {
-            let (v, angle) = self.acute[k];
-            if v == NONE || angle.to_radians().sin().powi(2) >= self.sin2 {
+        self.acute.iter().any(|corner| {
+            if corner.vertex == NONE || !corner.narrow {
                 return false;
             }
-            let (c, a, b) = self.sides[k];
+            let (c, [a, b]) = (corner.at, corner.sides);
             let on = |x: DVec2, d: DVec2| {
                 let r = x - c;
                 r.perp_dot(d).abs() <= 1e-9 * r.length() * d.length() && r.dot(d) > 0.0
@@ -119,20 +140,17 @@ impl Bounds {
         })
     }
 
-    /// The angle of the acute domain corner at vertex `v`, if it is one.
+    /// The acute domain corner at vertex `v`, if it is one.
     #[inline]
-    fn acute_angle(&self, v: u32) -> Option<f64> {
-        self.acute.iter().find(|c| c.0 == v).map(|c| c.1)
+    fn acute_corner(&self, v: u32) -> Option<&AcuteCorner> {
+        self.acute.iter().find(|c| c.vertex == v && v != NONE)
     }
 
     /// Whether vertex `v` is a domain corner narrower than the angle bound: no refinement can
     /// make the angles there larger.
     #[inline]
     fn in_narrow_corner(&self, v: u32) -> bool {
-        self.acute[0].0 != NONE
-            && self
-                .acute_angle(v)
-                .is_some_and(|a| a.to_radians().sin().powi(2) < self.sin2)
+        self.acute[0].vertex != NONE && self.acute_corner(v).is_some_and(|c| c.narrow)
     }
 
     /// Whether no triangle can be bad: the Delaunay triangulation is the mesh.
@@ -378,7 +396,7 @@ impl<'w, S: Store> Refiner<'w, S> {
     /// equal distances from it and stop encroaching on each other.
     fn split_boundary_edge(&mut self, e: Encroached) -> Result<(), Error> {
         let (a, b) = (self.s.point(e.ends.0), self.s.point(e.ends.1));
-        let acute = |v: u32| self.bounds.acute_angle(v).is_some();
+        let acute = |v: u32| self.bounds.acute_corner(v).is_some();
         let mut m = match (acute(e.ends.0), acute(e.ends.1)) {
             (true, false) => on_shell(a, b),
             (false, true) => on_shell(b, a),
