@@ -129,3 +129,14 @@ impl BoundarySide {
             .find(|s| s.marker() == marker)
     }
 }
+
+/// A mesh edge on an input segment: the segment's pieces after its splits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SubSegment {
+    /// Its two vertices, in the direction of the input segment.
+    pub vertices: [u32; 2],
+    /// The input segment it lies on, an index into the cleaned input's segments.
+    pub segment: u32,
+    /// That segment's marker.
+    pub marker: i32,
+}

@@ -94,7 +94,7 @@ pub use error::{Error, Incomplete, Unmet};
 pub use glam::DVec2;
 pub use mesh::{
     AngleBounds, BoundaryEdge, BoundarySide, Domain, Edge, InvalidMesh, Mesh, MeshCheck,
-    MeshReport, NONE,
+    MeshReport, NONE, SubSegment,
 };
 pub use morton::SortAlgorithm;
 pub use options::{DEFAULT_MIN_ANGLE_DEG, Input, Mode, Options, Region, RegionSeed, Segment};

@@ -722,6 +722,7 @@ mod tests {
             neighbours: vec![[1, 3, NONE], [2, 0, NONE], [3, 1, NONE], [0, 2, NONE]],
             boundary: square_boundary([0, 1, 2, 3]),
             domain: unit_domain(),
+            ..Mesh::default()
         }
     }
 

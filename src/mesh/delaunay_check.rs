@@ -135,6 +135,7 @@ mod tests {
                 lo: DVec2::ZERO,
                 hi: DVec2::ONE,
             },
+            ..Mesh::default()
         }
     }
 

@@ -41,5 +41,6 @@ pub(crate) fn two_triangles() -> Mesh {
         neighbours: vec![[NONE, 1, NONE], [NONE, NONE, 0]],
         boundary: square_boundary([0, 1, 2, 3]),
         domain: unit_domain(),
+        ..Mesh::default()
     }
 }

@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 /// Marks "no triangle" in [`Mesh::neighbours`] and "no input point" in [`Mesh::vertex_input`].
 pub use crate::domain::NONE;
-pub use crate::domain::{BoundaryEdge, BoundarySide, Domain, Reflection};
+pub use crate::domain::{BoundaryEdge, BoundarySide, Domain, Reflection, SubSegment};
 pub use delaunay_check::check_delaunay;
 pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
@@ -47,6 +47,26 @@ pub struct Mesh {
     /// included, and bent through any point within 1e-11 of a side's length inside it (see
     /// [`crate::refine`]).
     pub outline: Option<Vec<DVec2>>,
+    /// The pieces of the input's segments (planar straight-line graphs), each once, in the
+    /// order of their segments and along each from its first end; empty for a point set.
+    pub segments: Vec<SubSegment>,
+    /// Per triangle, the region (an index into `region_attributes`, one per region seed) it
+    /// lies in, or [`NONE`]; empty when the input has no regions.
+    pub triangle_regions: Vec<u32>,
+    /// The attribute of each region seed (Triangle's regional attribute).
+    pub region_attributes: Vec<f64>,
+    /// The hole seeds of the input: the region around each is empty.
+    pub holes: Vec<DVec2>,
+}
+
+impl Mesh {
+    /// The regional attribute of triangle `t`: its region's, or 0 outside every region.
+    pub fn triangle_attribute(&self, t: usize) -> f64 {
+        match self.triangle_regions.get(t) {
+            Some(&r) if r != NONE => self.region_attributes[r as usize],
+            _ => 0.0,
+        }
+    }
 }
 
 impl Mesh {
@@ -76,6 +96,10 @@ impl Mesh {
                 })
                 .collect(),
             domain: self.domain.reflected(r),
+            segments: self.segments,
+            triangle_regions: self.triangle_regions,
+            region_attributes: self.region_attributes,
+            holes: self.holes.into_iter().map(|p| r.point(p)).collect(),
         }
     }
 }

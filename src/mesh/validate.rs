@@ -822,6 +822,7 @@ mod tests {
             neighbours: vec![[NONE, 1, NONE], [NONE, NONE, 0]],
             boundary: square_boundary(),
             domain: unit_domain(),
+            ..Mesh::default()
         };
         (mesh, corners())
     }
@@ -838,6 +839,7 @@ mod tests {
             boundary: square_boundary(),
             domain: unit_domain(),
             vertices: vertices.clone(),
+            ..Mesh::default()
         };
         (mesh, vertices)
     }
@@ -1120,6 +1122,7 @@ mod tests {
                 hi: DVec2::splat(f64::from(n)),
             },
             vertices: vertices.clone(),
+            ..Mesh::default()
         };
         (mesh, vertices)
     }

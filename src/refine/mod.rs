@@ -365,6 +365,7 @@ fn into_mesh(t: Triangulation, mut vertex_input: Vec<u32>, domain: Domain, hull:
         neighbours: across,
         boundary,
         domain,
+        ..Mesh::default()
     }
 }
 

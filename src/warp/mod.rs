@@ -123,6 +123,7 @@ pub fn warp<K: MortonKey>(
         neighbours,
         boundary,
         domain: Domain { lo, hi },
+        ..Mesh::default()
     };
     Ok((mesh, quality))
 }

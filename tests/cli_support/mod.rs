@@ -124,6 +124,7 @@ pub fn read_triangle_files(prefix: &Path) -> Mesh {
         neighbours,
         boundary,
         domain: Domain { lo, hi },
+        ..Mesh::default()
     }
 }
 
