@@ -205,6 +205,13 @@ pub enum Error {
         /// Where they meet (rounded to f64).
         at: [f64; 2],
     },
+    /// The segments enclose no area once the outside and the holes are taken away (an open
+    /// polyline, or a hole seed inside the only enclosed region).
+    #[error(
+        "the segments enclose no area once the outside and the holes are removed; close the \
+         boundary, check the hole seeds, or mesh the convex hull instead"
+    )]
+    NothingEnclosed,
     /// A line of an input file could not be read.
     #[error("{source_name}:{line}: {message}")]
     Parse {

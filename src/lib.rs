@@ -94,11 +94,13 @@ pub use error::{Error, Incomplete, Unmet};
 pub use glam::DVec2;
 pub use mesh::{
     AngleBounds, BoundaryEdge, BoundarySide, Domain, Edge, InvalidMesh, Mesh, MeshCheck,
-    MeshReport, NONE, SubSegment,
+    MeshReport, NONE, SubSegment, validate_pslg,
 };
 pub use morton::SortAlgorithm;
 pub use options::{DEFAULT_MIN_ANGLE_DEG, Input, Mode, Options, Region, RegionSeed, Segment};
 pub use pipeline::{
     MeshOptions, Refinement, Tree, TreeBuild, TreeOptions, build_tree, mesh, mesh_points,
 };
-pub use refine::{GUARANTEED_MIN_ANGLE_DEG, RefineDomain, RefineOptions, refine_points};
+pub use refine::{
+    GUARANTEED_MIN_ANGLE_DEG, PslgOptions, RefineDomain, RefineOptions, refine_points, refine_pslg,
+};

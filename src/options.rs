@@ -8,8 +8,8 @@ use crate::morton::SortAlgorithm;
 use crate::refine::{GUARANTEED_MIN_ANGLE_DEG, MAX_MIN_ANGLE_DEG};
 use crate::warp::ANGLE_BOUNDS;
 
-/// The geometry to mesh: points now; segments, holes and regions are part of the type so that
-/// planar straight-line graphs fit the same call.
+/// The geometry to mesh: a point set, or a planar straight-line graph (points, segments, holes
+/// and regions, as in Triangle's `.poly` files).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Input {
     /// The points; each distinct one becomes a vertex with its exact coordinates.
@@ -51,7 +51,12 @@ impl Input {
         }
     }
 
-    /// Refuses what this version cannot mesh yet: segments, holes and regions.
+    /// Whether the input is a planar straight-line graph: it has segments, holes or regions.
+    pub fn is_graph(&self) -> bool {
+        !(self.segments.is_empty() && self.holes.is_empty() && self.regions.is_empty())
+    }
+
+    /// Refuses what the warp mode cannot mesh yet: segments, holes and regions.
     ///
     /// # Errors
     /// [`Error::Unsupported`] naming the first such part.
@@ -82,11 +87,13 @@ pub enum Mode {
 /// The region a mesh covers.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Region {
-    /// The points' convex hull in the Delaunay mode (Triangle's choice for a bare point set);
+    /// The points' convex hull in the Delaunay mode (Triangle's choice for a bare point set),
+    /// or, for a planar straight-line graph, what its segments enclose (Triangle's `-p`);
     /// [`Region::Square`] in the warp mode, which meshes rectangles only.
     #[default]
     Auto,
-    /// The points' convex hull (Delaunay mode only).
+    /// The points' convex hull (Delaunay mode only), minus the holes of a planar
+    /// straight-line graph (Triangle's `-c`).
     ConvexHull,
     /// The points' bounding box.
     BoundingBox,
@@ -116,6 +123,8 @@ pub struct Options {
     max_vertices: Option<usize>,
     region: Region,
     sort: SortAlgorithm,
+    boundary_steiner: bool,
+    split_crossings: bool,
 }
 
 impl Default for Options {
@@ -127,6 +136,8 @@ impl Default for Options {
             max_vertices: None,
             region: Region::Auto,
             sort: SortAlgorithm::default(),
+            boundary_steiner: true,
+            split_crossings: false,
         }
     }
 }
@@ -180,6 +191,33 @@ impl Options {
     /// The sort that orders the quadtree's points (warp mode).
     pub fn sort(self, sort: SortAlgorithm) -> Self {
         Options { sort, ..self }
+    }
+
+    /// Never split a boundary edge of a planar straight-line graph (Triangle's `-Y`): its
+    /// boundary segments stay whole, and angles beside them may stay below the bound.
+    pub fn no_boundary_steiner(self) -> Self {
+        Options {
+            boundary_steiner: false,
+            ..self
+        }
+    }
+
+    /// Split crossing segments at their intersection (a new point) instead of refusing them.
+    pub fn split_crossings(self) -> Self {
+        Options {
+            split_crossings: true,
+            ..self
+        }
+    }
+
+    /// Whether boundary edges may be split.
+    pub fn boundary_steiner_allowed(&self) -> bool {
+        self.boundary_steiner
+    }
+
+    /// Whether crossing segments are split.
+    pub fn crossings_split(&self) -> bool {
+        self.split_crossings
     }
 
     /// The angle bound asked for, degrees.

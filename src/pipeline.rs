@@ -16,7 +16,7 @@ use crate::morton::{
 };
 use crate::options::{Input, Mode, Options, Region};
 use crate::quadtree::{Quadtree, expand};
-use crate::refine::{RefineDomain, RefineOptions, refine_points};
+use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, refine_pslg};
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{leaves_below, point_finer_than_grid, unresolvable, warp};
@@ -380,7 +380,9 @@ fn deepest_point_leaf<K: MortonKey>(build: &TreeBuild<K>) -> Option<usize> {
 /// returns the mesh reached in [`Error::VertexBudget`].
 pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
     options.check()?;
-    input.check_supported()?;
+    if input.is_graph() {
+        return mesh_graph(input, options);
+    }
     let points = &input.points[..];
     let rectangle = match options.region_choice() {
         Region::Rectangle(d) => Some(d),
@@ -416,4 +418,37 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
             refine_points(points, &refine)
         }
     }
+}
+
+/// The mesh of a planar straight-line graph: the Delaunay mode over what its segments enclose
+/// or over its convex hull.
+fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
+    if options.mode() == Mode::Warp {
+        input.check_supported()?;
+    }
+    let convex_hull = match options.region_choice() {
+        Region::Auto => false,
+        Region::ConvexHull => true,
+        _ => {
+            return Err(Error::InvalidOption {
+                option: "region",
+                message: "a planar straight-line graph is meshed over what its segments enclose \
+                          or over its convex hull, not over a rectangle"
+                    .into(),
+            });
+        }
+    };
+    let refine = RefineOptions {
+        min_angle_deg: options.min_angle_deg(),
+        max_area: options.max_area_bound(),
+        max_vertices: options.vertex_budget(),
+        domain: RefineDomain::ConvexHull,
+        sort: options.sort_algorithm(),
+    };
+    let pslg = PslgOptions {
+        convex_hull,
+        no_boundary_steiner: !options.boundary_steiner_allowed(),
+        split_crossings: options.crossings_split(),
+    };
+    refine_pslg(input, &refine, pslg)
 }

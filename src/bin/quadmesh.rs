@@ -19,10 +19,10 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{
-    read_points, with_extension_appended, write_leaves_csv, write_msh, write_points, write_svg,
-    write_triangle_files, write_vtu,
+    read_input, read_points, with_extension_appended, write_leaves_csv, write_msh, write_points,
+    write_svg, write_triangle_files, write_vtu,
 };
-use quadmesh::mesh::Domain;
+use quadmesh::mesh::{Domain, validate_pslg_with};
 use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::StageTimes;
 use quadmesh::{
@@ -59,15 +59,16 @@ enum Command {
         #[arg(long)]
         separated: bool,
     },
-    /// Mesh a point file: every angle in [22.5°, 112.5°] by warping a quadtree, or a Delaunay
-    /// mesh with every angle at least `--min-angle`; every input point a vertex with its exact
-    /// coordinates, the domain the square around the points with room to spare (the points'
-    /// bounding box centred in a square twice its larger side) or the `--domain` rectangle.
+    /// Mesh a point file or a planar straight-line graph (`.poly`): a Delaunay mesh with every
+    /// angle at least `--min-angle` (of the points' convex hull, or of what the segments
+    /// enclose, holes removed and regions marked), or the warped quadtree mesh (`--warp`, point
+    /// sets only); every input point a vertex with its exact coordinates, every segment a union
+    /// of mesh edges carrying its marker.
     Mesh {
-        /// Points: Triangle `.node` / `.poly` (its vertices), or text with one `x y` or `x,y`
-        /// per line.
+        /// Input: Triangle `.poly` (points, segments, holes, regions), `.node` (points), or
+        /// text with one `x y` or `x,y` per line.
         input: PathBuf,
-        /// Output prefix: writes PREFIX.node/.ele/.neigh/.edge, PREFIX.vtu, PREFIX.msh or
+        /// Output prefix: writes PREFIX.node/.ele/.neigh/.edge (and PREFIX.poly for a graph), PREFIX.vtu, PREFIX.msh or
         /// PREFIX.svg as `--format` asks.
         #[arg(short, long, value_name = "PREFIX")]
         output: PathBuf,
@@ -138,6 +139,18 @@ struct QualityArgs {
     /// exits with an error naming where it stopped [default: 100 per point + 10000].
     #[arg(long, value_name = "N")]
     max_vertices: Option<usize>,
+    /// For a `.poly` file: mesh the convex hull of its points minus its holes (Triangle's `-c`)
+    /// instead of what its segments enclose; the same as `--domain hull`.
+    #[arg(long, conflicts_with = "domain")]
+    convex_hull: bool,
+    /// For a `.poly` file: never split a boundary segment (Triangle's `-Y`); angles beside the
+    /// boundary may then stay below the bound.
+    #[arg(long)]
+    no_boundary_steiner: bool,
+    /// For a `.poly` file: split crossing segments at their intersection instead of refusing
+    /// them.
+    #[arg(long)]
+    split_crossings: bool,
 }
 
 /// `hull`, `bbox`, `square` or `x0,y0,x1,y1`.
@@ -186,6 +199,15 @@ impl QualityArgs {
         if let Some(region) = self.domain {
             options = options.region(region);
         }
+        if self.convex_hull {
+            options = options.region(Region::ConvexHull);
+        }
+        if self.no_boundary_steiner {
+            options = options.no_boundary_steiner();
+        }
+        if self.split_crossings {
+            options = options.split_crossings();
+        }
         options
     }
 
@@ -207,9 +229,8 @@ impl QualityArgs {
         Ok(())
     }
 
-    /// Meshes `points` the way these arguments ask.
-    fn mesh(&self, points: Vec<DVec2>) -> (Input, Result<(Mesh, MeshReport), quadmesh::Error>) {
-        let input = Input::points(points);
+    /// Meshes `input` the way these arguments ask.
+    fn mesh(&self, input: Input) -> (Input, Result<(Mesh, MeshReport), quadmesh::Error>) {
         let result = quadmesh::mesh(&input, &self.options());
         (input, result)
     }
@@ -352,11 +373,11 @@ fn mesh(
     quality: QualityArgs,
 ) -> Result<()> {
     quality.check()?;
+    refuse_overwriting(input, prefix)?;
     pool(threads)?.install(|| {
-        let (points, read_time) = timed(|| with_spinner("reading", || read_points(input)));
-        let points = points?;
-        let ((input_points, meshed), _) =
-            timed(|| with_spinner("meshing", || quality.mesh(points)));
+        let (read, read_time) = timed(|| with_spinner("reading", || read_input(input)));
+        let read = read?;
+        let ((input_points, meshed), _) = timed(|| with_spinner("meshing", || quality.mesh(read)));
         // A refinement stopped at its budget still writes the mesh it reached, then fails.
         let (mesh, report, unfinished) = match meshed {
             Ok((mesh, report)) => (mesh, report, None),
@@ -370,7 +391,12 @@ fn mesh(
         let options = quality.options();
         if check && unfinished.is_none() {
             with_spinner("checking", || {
-                mesh.validate(&input_points.points, options.angle_bounds())?;
+                if input_points.is_graph() {
+                    let hull = options.region_choice() == Region::ConvexHull;
+                    validate_pslg_with(&mesh, &input_points, options.angle_bounds(), hull)?;
+                } else {
+                    mesh.validate(&input_points.points, options.angle_bounds())?;
+                }
                 // A Delaunay mesh is also checked edge by edge.
                 if options.mode() == Mode::Delaunay {
                     mesh.check_delaunay()?;
@@ -401,6 +427,26 @@ fn mesh(
             Some(message) => Err(anyhow::anyhow!("{}: {message}", input.display())),
         }
     })
+}
+
+/// Refuses an output prefix whose files would replace the input file.
+fn refuse_overwriting(input: &Path, prefix: &Path) -> Result<()> {
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    let extensions = ["node", "ele", "neigh", "edge", "poly", "vtu", "msh", "svg"];
+    match extensions
+        .into_iter()
+        .map(|e| with_extension_appended(prefix, e))
+        .find(|out| same(out, input))
+    {
+        Some(out) => Err(anyhow::anyhow!(
+            "{}: the output would replace the input; choose another prefix",
+            out.display()
+        )),
+        None => Ok(()),
+    }
 }
 
 fn write_formats(
@@ -498,7 +544,7 @@ fn bench(
     quality.check()?;
     let pool = pool(threads)?;
     let points = pool.install(|| generate::points(dist, n, seed));
-    let ((_, meshed), wall) = timed(|| pool.install(|| quality.mesh(points)));
+    let ((_, meshed), wall) = timed(|| pool.install(|| quality.mesh(Input::points(points))));
     let (mesh, report) = meshed?;
     let mut out = io::stdout().lock();
     print_report(&mut out, &report, &mesh);

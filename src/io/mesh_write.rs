@@ -1,11 +1,17 @@
-//! Mesh writers: Triangle's `.node`, `.ele`, `.neigh` and `.edge` files, a VTK `.vtu` file for
-//! ParaView, a Gmsh `.msh` 4.1 file and an SVG picture.
+//! Mesh writers: Triangle's `.node`, `.ele`, `.neigh`, `.edge` and (for a planar straight-line
+//! graph) `.poly` files, a VTK `.vtu` file for ParaView, a Gmsh `.msh` 4.1 file and an SVG
+//! picture.
+//!
+//! A mesh of a planar straight-line graph (one with [`Mesh::segments`]) carries its segments'
+//! markers and its regions into every format, following Triangle's conventions; a point set's
+//! files do not change.
 //!
 //! As in the other writers, text and binary data are produced in parallel blocks and written in
 //! order, and floats use Rust's shortest round-trip form, so the bytes do not depend on the
 //! thread count. Every writer flushes `w` at the end; `w` is written in large blocks, but a
 //! `BufWriter` still helps with the many short header lines.
 
+use std::collections::{BTreeMap, HashSet};
 use std::ffi::OsString;
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
@@ -99,8 +105,10 @@ fn input_index(mesh: &Mesh, v: usize) -> i64 {
 /// output. The attribute is the vertex's 0-based input index, or -1 for a Steiner vertex; the
 /// boundary marker is [`Mesh::vertex_markers`]'s: 0 inside, and on the boundary the marker of
 /// the boundary edge that starts at the vertex (on a rectangle its side, 1 to 4, so a corner
-/// gets the side that leaves it counter-clockwise; on the hull 1). A comment line before the
-/// header says so.
+/// gets the side that leaves it counter-clockwise; on the hull 1). In a mesh of a planar
+/// straight-line graph a vertex on segments gets the first nonzero marker among theirs, and
+/// one on the boundary without such a marker 1 (Triangle's convention). A comment line before
+/// the header says so.
 ///
 /// # Errors
 /// Whatever `w` returns.
@@ -124,12 +132,28 @@ pub fn write_node<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
 /// `<triangle> <v0> <v1> <v2>` per triangle, counter-clockwise, all numbered from 1 as in
 /// [`write_node`].
 ///
+/// A mesh with regions ([`Mesh::region_attributes`] not empty) has one attribute per triangle,
+/// as `triangle -A` writes it: the header `<#triangles> 3 1` and
+/// `<triangle> <v0> <v1> <v2> <attribute>`, the attribute [`Mesh::triangle_attribute`]'s (0
+/// outside every region).
+///
 /// # Errors
 /// Whatever `w` returns.
-pub fn write_ele<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
+pub fn write_ele<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
     let comment = "# triangle, its vertices counter-clockwise (all numbered from 1)";
-    let header = format!("{} 3 0", mesh.triangles.len());
-    write_triples(w, comment, &header, &mesh.triangles)
+    let triangles = mesh.triangles.len();
+    if mesh.region_attributes.is_empty() {
+        let header = format!("{triangles} 3 0");
+        return write_triples(w, comment, &header, &mesh.triangles);
+    }
+    writeln!(w, "{comment}, regional attribute (0 outside every region)")?;
+    writeln!(w, "{triangles} 3 1")?;
+    write_items(&mut w, triangles, |buf, t| {
+        let [a, b, c] = mesh.triangles[t].map(number);
+        let attribute = mesh.triangle_attribute(t);
+        writeln!(buf, "{} {a} {b} {c} {attribute}", t + 1)
+    })?;
+    w.flush()
 }
 
 /// Writes a comment line, a header line, then `<i> <a> <b> <c>` per triple, numbered from 1.
@@ -165,8 +189,10 @@ pub fn write_neigh<W: Write>(mesh: &Mesh, w: W) -> io::Result<()> {
 /// Writes every edge of the mesh once as a Triangle `.edge` file: the header `<#edges> 1`, then
 /// `<edge> <v0> <v1> <marker>` per edge, where the marker is the boundary edge's marker (on a
 /// rectangle its [`BoundarySide`] value, 1 to 4; with a [`Mesh::outline`], 1) and 0 for an
-/// interior edge; numbered from 1 as in [`write_node`]. The comment line before the header says
-/// which.
+/// interior edge; numbered from 1 as in [`write_node`]. In a mesh of a planar straight-line
+/// graph an edge on a segment carries the segment's marker, except that one on the boundary
+/// whose segment's marker is 0 carries 1 like the other boundary edges (Triangle's
+/// convention). The comment line before the header says which.
 ///
 /// The edges are those of [`Mesh::edges`], in its order: by triangle, then by the corner they
 /// are opposite; an interior edge is listed with the lower-numbered of its two triangles, in that
@@ -179,7 +205,9 @@ pub fn write_edge<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
     let triangles = mesh.triangles.len();
     // The 0-based number of each triangle's first edge, and the edge count after the last.
     let first_edge = exclusive_scan_by(triangles, |t| edges_listed_with(mesh, t));
-    let markers = if mesh.outline.is_some() {
+    let markers = if !mesh.segments.is_empty() {
+        "marker (its segment's, 1 if that is 0 on the boundary; else 1 boundary, 0 interior)"
+    } else if mesh.outline.is_some() {
         "boundary marker (1 boundary, 0 interior)"
     } else {
         "side marker (1 bottom, 2 right, 3 top, 4 left, 0 interior)"
@@ -197,22 +225,69 @@ pub fn write_edge<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
     w.flush()
 }
 
+/// Writes the subsegments and hole seeds of a planar straight-line graph's mesh as a Triangle
+/// `.poly` file, as `triangle -p` writes its output:
+/// - the header `0 2 1 1`: no vertices here, since they are those of the `.node` file
+///   [`write_node`] writes (2 dimensions, its 1 attribute and its markers);
+/// - `<#subsegments> 1`, then `<subsegment> <v0> <v1> <marker>` per subsegment in the order of
+///   [`Mesh::segments`], its vertices numbered from 1 as in the `.node` file, the marker
+///   [`Mesh::segment_markers`]'s (its segment's, or 1 on the boundary for a 0);
+/// - `<#holes>`, then `<hole> <x> <y>` per hole seed;
+/// - a region count of 0: the mesh does not keep the region seeds (its regional attributes
+///   are in the `.ele` file).
+///
+/// Comment lines say which section is which. A point set's mesh gives a file with no
+/// subsegments and no holes.
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_poly<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
+    writeln!(w, "# no vertices: they are in the .node file")?;
+    writeln!(w, "0 2 1 1")?;
+    writeln!(
+        w,
+        "# subsegment (numbered from 1), its vertices, boundary marker"
+    )?;
+    writeln!(w, "{} 1", mesh.segments.len())?;
+    let markers = mesh.segment_markers();
+    write_items(&mut w, mesh.segments.len(), |buf, s| {
+        let [a, b] = mesh.segments[s].vertices.map(number);
+        push_line(buf, &[s as i64 + 1, a, b, i64::from(markers[s])]);
+        Ok(())
+    })?;
+    writeln!(w, "# hole (numbered from 1), a point in it")?;
+    writeln!(w, "{}", mesh.holes.len())?;
+    for (k, p) in mesh.holes.iter().enumerate() {
+        writeln!(w, "{} {} {}", k + 1, p.x, p.y)?;
+    }
+    writeln!(
+        w,
+        "# no regions: the regional attributes are in the .ele file"
+    )?;
+    writeln!(w, "0")?;
+    w.flush()
+}
+
 /// A writer of one of Triangle's files.
 type TriangleFileWriter = fn(&Mesh, BufWriter<File>) -> io::Result<()>;
 
 /// Writes `PREFIX.node`, `PREFIX.ele`, `PREFIX.neigh` and `PREFIX.edge` (see [`write_node`],
-/// [`write_ele`], [`write_neigh`] and [`write_edge`]) and returns their paths in that order. The
-/// extensions are appended to `prefix`, never substituted for one it has.
+/// [`write_ele`], [`write_neigh`] and [`write_edge`]), and for a mesh with
+/// [`Mesh::segments`] also `PREFIX.poly` ([`write_poly`]), and returns their paths in that
+/// order. The extensions are appended to `prefix`, never substituted for one it has.
 ///
 /// # Errors
 /// The first failure to create or write a file, naming the file.
 pub fn write_triangle_files(mesh: &Mesh, prefix: &Path) -> io::Result<Vec<PathBuf>> {
-    let files: [(&str, TriangleFileWriter); 4] = [
+    let mut files: Vec<(&str, TriangleFileWriter)> = vec![
         ("node", write_node),
         ("ele", write_ele),
         ("neigh", write_neigh),
         ("edge", write_edge),
     ];
+    if !mesh.segments.is_empty() {
+        files.push(("poly", write_poly));
+    }
     files
         .into_iter()
         .map(|(extension, write)| {
@@ -247,45 +322,141 @@ const VTK_TRIANGLE: u8 = 5;
 ///   vertex;
 /// - cell data `min_angle` (Float64): the triangle's smallest angle in degrees.
 ///
+/// A mesh of a planar straight-line graph (one with [`Mesh::segments`]) also has point data
+/// `marker` (Int32), [`Mesh::vertex_markers`]'s as in the `.node` file; one with regions also
+/// has cell data `region` (Int32), the triangle's 0-based region or -1 outside every region,
+/// and `attribute` (Float64), its regional attribute as in the `.ele` file.
+///
 /// # Errors
 /// Whatever `w` returns.
 pub fn write_vtu<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
-    let (vertices, triangles) = (mesh.vertices.len(), mesh.triangles.len());
-    let (v, t) = (vertices as u64, triangles as u64);
-    // Byte lengths of the arrays in the order they are appended, as the header lists them.
-    let lengths = [8 * v, 8 * t, 24 * v, 24 * t, 8 * t, t];
-    let mut offsets = [0u64; 6];
+    let sections = vtu_sections(mesh);
+    let arrays = || sections.iter().flat_map(|s| &s.arrays);
+    // Each array's place in the appended data, after its predecessors and their lengths.
+    let mut offsets = Vec::new();
     let mut at = 0;
-    for (offset, length) in offsets.iter_mut().zip(lengths) {
-        *offset = at;
-        at += 8 + length;
+    for array in arrays() {
+        offsets.push(at);
+        at += 8 + array.length();
     }
-    write_vtu_header(&mut w, vertices, triangles, offsets)?;
-    write_vtu_array(&mut w, lengths[0], vertices, |buf, i| {
-        buf.extend_from_slice(&input_index(mesh, i).to_le_bytes());
-    })?;
-    write_vtu_array(&mut w, lengths[1], triangles, |buf, i| {
-        buf.extend_from_slice(&min_angle(mesh, i).to_le_bytes());
-    })?;
-    write_vtu_array(&mut w, lengths[2], vertices, |buf, i| {
-        let p = mesh.vertices[i];
-        for x in [p.x, p.y, 0.0] {
-            buf.extend_from_slice(&x.to_le_bytes());
-        }
-    })?;
-    write_vtu_array(&mut w, lengths[3], triangles, |buf, i| {
-        for v in mesh.triangles[i] {
-            buf.extend_from_slice(&i64::from(v).to_le_bytes());
-        }
-    })?;
-    write_vtu_array(&mut w, lengths[4], triangles, |buf, i| {
-        buf.extend_from_slice(&(3 * (i as i64 + 1)).to_le_bytes());
-    })?;
-    write_vtu_array(&mut w, lengths[5], triangles, |buf, _| {
-        buf.push(VTK_TRIANGLE);
-    })?;
+    write_vtu_header(&mut w, mesh, &sections, &offsets)?;
+    for array in arrays() {
+        w.write_all(&array.length().to_le_bytes())?;
+        write_items(&mut w, array.count, |buf, i| {
+            (array.item)(buf, i);
+            Ok(())
+        })?;
+    }
     w.write_all(b"\n  </AppendedData>\n</VTKFile>\n")?;
     w.flush()
+}
+
+/// Appends the bytes of an array's item `i` to a buffer.
+type VtuItem<'a> = Box<dyn Fn(&mut Vec<u8>, usize) + Sync + 'a>;
+
+/// One appended array of a `.vtu` file.
+struct VtuArray<'a> {
+    /// Its VTK type (`Int64`, `Float64`, ...).
+    vtk_type: &'static str,
+    name: &'static str,
+    /// Components per item, when more than one.
+    components: Option<usize>,
+    /// The number of items and the bytes of each.
+    count: usize,
+    item_bytes: usize,
+    /// Appends item `i`'s bytes.
+    item: VtuItem<'a>,
+}
+
+impl VtuArray<'_> {
+    /// Its byte length.
+    fn length(&self) -> u64 {
+        (self.count * self.item_bytes) as u64
+    }
+}
+
+/// One element of a `.vtu` piece (`PointData`, `CellData`, `Points`, `Cells`) and its arrays.
+struct VtuSection<'a> {
+    tag: &'static str,
+    /// The name of its active scalars, if it says one.
+    scalars: Option<&'static str>,
+    arrays: Vec<VtuArray<'a>>,
+}
+
+/// An array of `count` items of `item_bytes` bytes each, with one component.
+fn vtu_array<'a>(
+    vtk_type: &'static str,
+    name: &'static str,
+    count: usize,
+    item_bytes: usize,
+    item: impl Fn(&mut Vec<u8>, usize) + Sync + 'a,
+) -> VtuArray<'a> {
+    VtuArray {
+        vtk_type,
+        name,
+        components: None,
+        count,
+        item_bytes,
+        item: Box::new(item),
+    }
+}
+
+/// The sections of a `.vtu` file of `mesh`, in the order their arrays are appended.
+fn vtu_sections(mesh: &Mesh) -> [VtuSection<'_>; 4] {
+    let (vertices, triangles) = (mesh.vertices.len(), mesh.triangles.len());
+    let mut point_data = vec![vtu_array("Int64", "input_index", vertices, 8, |buf, i| {
+        buf.extend_from_slice(&input_index(mesh, i).to_le_bytes());
+    })];
+    if !mesh.segments.is_empty() {
+        let markers = mesh.vertex_markers();
+        point_data.push(vtu_array("Int32", "marker", vertices, 4, move |buf, i| {
+            buf.extend_from_slice(&markers[i].to_le_bytes());
+        }));
+    }
+    let mut cell_data = vec![vtu_array("Float64", "min_angle", triangles, 8, |buf, i| {
+        buf.extend_from_slice(&min_angle(mesh, i).to_le_bytes());
+    })];
+    if !mesh.region_attributes.is_empty() {
+        cell_data.push(vtu_array("Int32", "region", triangles, 4, |buf, i| {
+            buf.extend_from_slice(&region_number(mesh, i).to_le_bytes());
+        }));
+        cell_data.push(vtu_array("Float64", "attribute", triangles, 8, |buf, i| {
+            buf.extend_from_slice(&mesh.triangle_attribute(i).to_le_bytes());
+        }));
+    }
+    let points = VtuArray {
+        components: Some(3),
+        ..vtu_array("Float64", "Points", vertices, 24, |buf, i| {
+            let p = mesh.vertices[i];
+            for x in [p.x, p.y, 0.0] {
+                buf.extend_from_slice(&x.to_le_bytes());
+            }
+        })
+    };
+    let cells = vec![
+        vtu_array("Int64", "connectivity", triangles, 24, |buf, i| {
+            for v in mesh.triangles[i] {
+                buf.extend_from_slice(&i64::from(v).to_le_bytes());
+            }
+        }),
+        vtu_array("Int64", "offsets", triangles, 8, |buf, i| {
+            buf.extend_from_slice(&(3 * (i as i64 + 1)).to_le_bytes());
+        }),
+        vtu_array("UInt8", "types", triangles, 1, |buf, _| {
+            buf.push(VTK_TRIANGLE);
+        }),
+    ];
+    let section = |tag, scalars, arrays| VtuSection {
+        tag,
+        scalars,
+        arrays,
+    };
+    [
+        section("PointData", Some("input_index"), point_data),
+        section("CellData", Some("min_angle"), cell_data),
+        section("Points", None, vec![points]),
+        section("Cells", None, cells),
+    ]
 }
 
 /// The smallest angle of triangle `t`, degrees.
@@ -295,53 +466,56 @@ fn min_angle(mesh: &Mesh, t: usize) -> f64 {
     x.min(y).min(z)
 }
 
-/// The XML of a `.vtu` file up to and including the `_` that starts the appended data, whose
-/// arrays start at `offsets` after it.
+/// The 0-based region of triangle `t`, or -1 outside every region.
+fn region_number(mesh: &Mesh, t: usize) -> i32 {
+    match mesh.triangle_regions.get(t) {
+        Some(&r) if r != NONE => r as i32,
+        _ => -1,
+    }
+}
+
+/// The XML of a `.vtu` file up to and including the `_` that starts the appended data, in
+/// which the arrays of `sections` start at `offsets`.
 fn write_vtu_header<W: Write>(
     w: &mut W,
-    vertices: usize,
-    triangles: usize,
-    offsets: [u64; 6],
+    mesh: &Mesh,
+    sections: &[VtuSection],
+    offsets: &[u64],
 ) -> io::Result<()> {
-    let [input, angle, points, connectivity, cell_offsets, types] = offsets;
+    let (vertices, triangles) = (mesh.vertices.len(), mesh.triangles.len());
     write!(
         w,
         r#"<?xml version="1.0"?>
 <VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian" header_type="UInt64">
   <UnstructuredGrid>
     <Piece NumberOfPoints="{vertices}" NumberOfCells="{triangles}">
-      <PointData Scalars="input_index">
-        <DataArray type="Int64" Name="input_index" format="appended" offset="{input}"/>
-      </PointData>
-      <CellData Scalars="min_angle">
-        <DataArray type="Float64" Name="min_angle" format="appended" offset="{angle}"/>
-      </CellData>
-      <Points>
-        <DataArray type="Float64" Name="Points" NumberOfComponents="3" format="appended" offset="{points}"/>
-      </Points>
-      <Cells>
-        <DataArray type="Int64" Name="connectivity" format="appended" offset="{connectivity}"/>
-        <DataArray type="Int64" Name="offsets" format="appended" offset="{cell_offsets}"/>
-        <DataArray type="UInt8" Name="types" format="appended" offset="{types}"/>
-      </Cells>
-    </Piece>
+"#
+    )?;
+    let mut offsets = offsets.iter();
+    for section in sections {
+        let scalars = section
+            .scalars
+            .map_or(String::new(), |s| format!(r#" Scalars="{s}""#));
+        writeln!(w, "      <{}{scalars}>", section.tag)?;
+        for (array, offset) in section.arrays.iter().zip(&mut offsets) {
+            let components = array
+                .components
+                .map_or(String::new(), |n| format!(r#" NumberOfComponents="{n}""#));
+            writeln!(
+                w,
+                r#"        <DataArray type="{}" Name="{}"{components} format="appended" offset="{offset}"/>"#,
+                array.vtk_type, array.name
+            )?;
+        }
+        writeln!(w, "      </{}>", section.tag)?;
+    }
+    write!(
+        w,
+        r#"    </Piece>
   </UnstructuredGrid>
   <AppendedData encoding="raw">
    _"#
     )
-}
-
-/// One appended array: its byte length, then `item`'s bytes for `0..n`.
-fn write_vtu_array<W, F>(w: &mut W, length: u64, n: usize, item: F) -> io::Result<()>
-where
-    W: Write,
-    F: Fn(&mut Vec<u8>, usize) + Sync,
-{
-    w.write_all(&length.to_le_bytes())?;
-    write_items(w, n, |buf, i| {
-        item(buf, i);
-        Ok(())
-    })
 }
 
 /// The sides in marker order, with the names the `.msh` file gives their physical groups.
@@ -372,10 +546,30 @@ const SIDES: [(BoundarySide, &str); 4] = [
 /// triangles (type 2, counter-clockwise) follow the lines on the surface, tagged on from the
 /// last line in triangle order.
 ///
+/// A mesh of a planar straight-line graph (one with [`Mesh::segments`]) has no point entities
+/// and a curve and a physical group per marker that the `.edge` file gives an edge on a
+/// segment or on the boundary, in increasing marker order: its elements are the subsegments
+/// with that marker (see [`Mesh::segment_markers`]), in their order and direction, then the
+/// boundary edges on no segment with it. A positive marker is its group's physical tag; since
+/// Gmsh's physical tags are positive, marker 0 (interior segments) and negative markers take
+/// the tags after the largest positive marker, in increasing marker order. Each group is named
+/// `marker <m>`, which records that choice. Its surfaces are one per region with triangles,
+/// physical tag the region's number from 1 (its index in [`Mesh::region_attributes`] plus 1),
+/// named `region <k>, attribute <a>`, and one of the triangles outside every region, physical
+/// tag one past the last region's, named `outside regions`; or, without regions, one surface
+/// of all triangles with physical tag 1 named `domain`. Entity tags count from 1 per dimension
+/// in that order; each entity has its elements' bounding box and no bounding entities. The
+/// nodes are as above; the elements are a block of lines per curve, then a block of triangles
+/// per surface (counter-clockwise, in triangle order within it), tagged from 1 in that order.
+///
 /// # Errors
 /// Whatever `w` returns.
 pub fn write_msh<W: Write>(mesh: &Mesh, mut w: W) -> io::Result<()> {
     writeln!(w, "$MeshFormat\n4.1 0 8\n$EndMeshFormat")?;
+    if !mesh.segments.is_empty() {
+        write_msh_graph(&mut w, mesh)?;
+        return w.flush();
+    }
     if mesh.outline.is_some() {
         writeln!(w, "$PhysicalNames\n2\n1 1 \"boundary\"")?;
     } else {
@@ -454,42 +648,197 @@ fn write_msh_nodes<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
 /// The `$Elements` section: a block of lines per curve that has boundary edges (per side on a
 /// rectangle, all of them on an outline's one curve), then a block of the triangles.
 fn write_msh_elements<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
-    let mut sides: Vec<(u8, Vec<[u32; 2]>)> = if mesh.outline.is_some() {
+    let sides: Vec<(usize, Vec<[u32; 2]>)> = if mesh.outline.is_some() {
         vec![(1, mesh.boundary.iter().map(|e| e.vertices).collect())]
     } else {
         SIDES
             .iter()
             .map(|&(side, _)| {
                 let edges = mesh.boundary.iter().filter(|e| e.marker == side.marker());
-                (side as u8, edges.map(|e| e.vertices).collect())
+                (side as usize, edges.map(|e| e.vertices).collect())
             })
             .collect()
     };
-    sides.retain(|(_, edges)| !edges.is_empty());
-    let lines: usize = sides.iter().map(|(_, edges)| edges.len()).sum();
-    let triangles = mesh.triangles.len();
-    let blocks = sides.len() + usize::from(triangles > 0);
+    let curves: Vec<(usize, &[[u32; 2]])> = sides.iter().map(|(s, e)| (*s, &e[..])).collect();
+    write_msh_element_blocks(w, &curves, &[(1, &mesh.triangles)])
+}
+
+/// The `$Elements` section of lines on `curves` and triangles on `surfaces`, each given by its
+/// entity tag and elements: a block per entity with elements, tagged from 1 in that order.
+fn write_msh_element_blocks<W: Write>(
+    w: &mut W,
+    curves: &[(usize, &[[u32; 2]])],
+    surfaces: &[(usize, &[[u32; 3]])],
+) -> io::Result<()> {
+    let curves: Vec<_> = curves.iter().filter(|(_, e)| !e.is_empty()).collect();
+    let surfaces: Vec<_> = surfaces.iter().filter(|(_, e)| !e.is_empty()).collect();
+    let lines: usize = curves.iter().map(|(_, e)| e.len()).sum();
+    let triangles: usize = surfaces.iter().map(|(_, e)| e.len()).sum();
+    let blocks = curves.len() + surfaces.len();
     let total = lines + triangles;
     writeln!(w, "$Elements\n{blocks} {total} {} {total}", total.min(1))?;
     let mut next_tag = 1;
-    for (side, edges) in &sides {
-        writeln!(w, "1 {side} 1 {}", edges.len())?;
-        write_items(w, edges.len(), |buf, e| {
-            let [a, b] = edges[e].map(number);
-            push_line(buf, &[(next_tag + e) as i64, a, b]);
-            Ok(())
-        })?;
-        next_tag += edges.len();
+    for (entity, elements) in curves {
+        write_msh_block(w, *entity, elements, next_tag)?;
+        next_tag += elements.len();
     }
-    if triangles > 0 {
-        writeln!(w, "2 1 2 {triangles}")?;
-        write_items(w, triangles, |buf, t| {
-            let [a, b, c] = mesh.triangles[t].map(number);
-            push_line(buf, &[(next_tag + t) as i64, a, b, c]);
-            Ok(())
-        })?;
+    for (entity, elements) in surfaces {
+        write_msh_block(w, *entity, elements, next_tag)?;
+        next_tag += elements.len();
     }
     writeln!(w, "$EndElements")
+}
+
+/// One block of elements of `N` nodes (2: lines, type 1, on a curve; 3: triangles, type 2, on
+/// a surface) on entity `entity`, tagged from `first_tag`.
+fn write_msh_block<W: Write, const N: usize>(
+    w: &mut W,
+    entity: usize,
+    elements: &[[u32; N]],
+    first_tag: usize,
+) -> io::Result<()> {
+    // The entity's dimension and Gmsh's element type are both N - 1.
+    writeln!(w, "{} {entity} {} {}", N - 1, N - 1, elements.len())?;
+    write_items(w, elements.len(), |buf, e| {
+        let mut fields = [0; 4];
+        fields[0] = (first_tag + e) as i64;
+        for (field, &v) in fields[1..].iter_mut().zip(&elements[e]) {
+            *field = number(v);
+        }
+        push_line(buf, &fields[..=N]);
+        Ok(())
+    })
+}
+
+/// A physical group of a planar straight-line graph's `.msh` file: one entity and its elements
+/// of `N` nodes.
+struct MshGroup<const N: usize> {
+    physical: i64,
+    name: String,
+    elements: Vec<[u32; N]>,
+}
+
+/// The `.msh` sections after `$MeshFormat` of a planar straight-line graph's mesh (see
+/// [`write_msh`]).
+fn write_msh_graph<W: Write>(w: &mut W, mesh: &Mesh) -> io::Result<()> {
+    let curves = msh_marker_curves(mesh);
+    let surfaces = msh_region_surfaces(mesh);
+    writeln!(w, "$PhysicalNames\n{}", curves.len() + surfaces.len())?;
+    let names = curves.iter().map(|g| (1, g.physical, &g.name));
+    for (dim, physical, name) in names.chain(surfaces.iter().map(|g| (2, g.physical, &g.name))) {
+        writeln!(w, "{dim} {physical} \"{name}\"")?;
+    }
+    writeln!(w, "$EndPhysicalNames")?;
+    writeln!(w, "$Entities\n0 {} {} 0", curves.len(), surfaces.len())?;
+    write_msh_group_entities(w, mesh, &curves)?;
+    write_msh_group_entities(w, mesh, &surfaces)?;
+    writeln!(w, "$EndEntities")?;
+    write_msh_nodes(w, mesh)?;
+    write_msh_element_blocks(w, &msh_blocks(&curves), &msh_blocks(&surfaces))
+}
+
+/// The entity lines of `groups`, tagged from 1: bounding box, physical tag, no bounding entities.
+fn write_msh_group_entities<W: Write, const N: usize>(
+    w: &mut W,
+    mesh: &Mesh,
+    groups: &[MshGroup<N>],
+) -> io::Result<()> {
+    for (tag, group) in (1..).zip(groups) {
+        let (lo, hi) = if group.elements.is_empty() {
+            (mesh.domain.lo, mesh.domain.hi)
+        } else {
+            let points = group.elements.iter().flatten();
+            let empty = (DVec2::INFINITY, DVec2::NEG_INFINITY);
+            points.fold(empty, |(lo, hi), &v| {
+                let p = mesh.vertices[v as usize];
+                (lo.min(p), hi.max(p))
+            })
+        };
+        let physical = group.physical;
+        writeln!(
+            w,
+            "{tag} {} {} 0 {} {} 0 1 {physical} 0",
+            lo.x, lo.y, hi.x, hi.y
+        )?;
+    }
+    Ok(())
+}
+
+/// The element blocks of `groups`, their entities tagged from 1.
+fn msh_blocks<const N: usize>(groups: &[MshGroup<N>]) -> Vec<(usize, &[[u32; N]])> {
+    (1..)
+        .zip(groups)
+        .map(|(tag, g)| (tag, &g.elements[..]))
+        .collect()
+}
+
+/// The curves of a planar straight-line graph's `.msh` file, one per marker, in increasing
+/// marker order, with their physical tags (see [`write_msh`]).
+fn msh_marker_curves(mesh: &Mesh) -> Vec<MshGroup<2>> {
+    let mut by_marker: BTreeMap<i32, Vec<[u32; 2]>> = BTreeMap::new();
+    for (s, marker) in mesh.segments.iter().zip(mesh.segment_markers()) {
+        by_marker.entry(marker).or_default().push(s.vertices);
+    }
+    let on_segment: HashSet<[u32; 2]> = mesh
+        .segments
+        .iter()
+        .map(|s| undirected(s.vertices))
+        .collect();
+    for e in &mesh.boundary {
+        if !on_segment.contains(&undirected(e.vertices)) {
+            by_marker.entry(e.marker).or_default().push(e.vertices);
+        }
+    }
+    let top = by_marker.keys().max().map_or(0, |&m| i64::from(m.max(0)));
+    // The markers up to 0 come first, so `rank` counts them.
+    (by_marker.into_iter().zip(1..))
+        .map(|((marker, elements), rank)| MshGroup {
+            physical: if marker > 0 {
+                i64::from(marker)
+            } else {
+                top + rank
+            },
+            name: format!("marker {marker}"),
+            elements,
+        })
+        .collect()
+}
+
+/// The surfaces of a planar straight-line graph's `.msh` file: one per region with triangles
+/// and one of those outside every region, or one of all triangles (see [`write_msh`]).
+fn msh_region_surfaces(mesh: &Mesh) -> Vec<MshGroup<3>> {
+    let regions = mesh.region_attributes.len();
+    if regions == 0 || mesh.triangles.is_empty() {
+        let elements = mesh.triangles.clone();
+        let name = "domain".to_string();
+        return vec![MshGroup {
+            physical: 1,
+            name,
+            elements,
+        }];
+    }
+    let mut by_region = vec![Vec::new(); regions + 1];
+    for (t, &triangle) in mesh.triangles.iter().enumerate() {
+        let r = usize::try_from(region_number(mesh, t)).unwrap_or(regions);
+        by_region[r].push(triangle);
+    }
+    let name = |r: usize| match mesh.region_attributes.get(r) {
+        Some(a) => format!("region {}, attribute {a}", r + 1),
+        None => "outside regions".to_string(),
+    };
+    (by_region.into_iter().enumerate())
+        .filter(|(_, elements)| !elements.is_empty())
+        .map(|(r, elements)| MshGroup {
+            physical: r as i64 + 1,
+            name: name(r),
+            elements,
+        })
+        .collect()
+}
+
+/// An edge's two vertices, the lower first: the same for both directions.
+fn undirected([a, b]: [u32; 2]) -> [u32; 2] {
+    [a.min(b), a.max(b)]
 }
 
 /// Width of the SVG picture, pixels.
@@ -589,6 +938,11 @@ fn svg_y(y: f64) -> f64 {
 /// black path, the vertices that are input points as small red dots, y pointing up, the view
 /// fitted to the domain (with a [`Mesh::outline`], its bounding box) with a small margin.
 ///
+/// A mesh of a planar straight-line graph also shows its subsegments as one thicker dark path
+/// over the edges, its hole seeds as small blue crosses and, with regions, its triangles filled
+/// by region in pastel colours (one path per colour, under the edges; region `r` takes colour
+/// `r` modulo their number; triangles outside every region stay unfilled).
+///
 /// A mesh of more than `max_triangles` triangles is shown only in part: the triangles that meet
 /// the smallest window around the domain's centre, of the domain's shape, that holds about
 /// `max_triangles` of them, and the input points in that window. The picture's title and a
@@ -618,7 +972,10 @@ pub fn write_svg<W: Write>(mesh: &Mesh, mut w: W, max_triangles: usize) -> io::R
         size.y
     )?;
     write_svg_title(&mut w, mesh, &view)?;
+    write_svg_regions(&mut w, mesh, &view)?;
     write_svg_edges(&mut w, mesh, &view, pixel)?;
+    write_svg_segments(&mut w, mesh, lo, lo + size, pixel)?;
+    write_svg_holes(&mut w, mesh, pixel)?;
     write_svg_dots(&mut w, mesh, lo, lo + size, pixel)?;
     writeln!(w, "</svg>")?;
     w.flush()
@@ -632,6 +989,14 @@ fn write_svg_title<W: Write>(w: &mut W, mesh: &Mesh, view: &SvgView) -> io::Resu
         mesh.vertices.len(),
         mesh.triangles.len()
     );
+    if !mesh.segments.is_empty() {
+        title += &format!(
+            ", {} subsegments (dark), {} hole seeds (blue crosses), {} regions (filled)",
+            mesh.segments.len(),
+            mesh.holes.len(),
+            mesh.region_attributes.len()
+        );
+    }
     if view.keep.is_some() {
         let part = format!(
             "only the {} triangles that meet the window [{}, {}] x [{}, {}] around the domain's \
@@ -672,6 +1037,86 @@ fn write_svg_edges<W: Write>(w: &mut W, mesh: &Mesh, view: &SvgView, pixel: f64)
     writeln!(w, r#""/>"#)
 }
 
+/// Pastel fills of the regions' triangles in an SVG picture.
+const REGION_FILLS: [&str; 6] = [
+    "#fbb4ae", "#b3cde3", "#ccebc5", "#decbe4", "#fed9a6", "#ffffcc",
+];
+
+/// The drawn triangles that lie in regions, filled by region: a path per colour in use.
+fn write_svg_regions<W: Write>(w: &mut W, mesh: &Mesh, view: &SvgView) -> io::Result<()> {
+    let colour = |t: usize| match mesh.triangle_regions[t] {
+        r if r != NONE && view.keeps(t) => Some(r as usize % REGION_FILLS.len()),
+        _ => None,
+    };
+    let triangles = mesh.triangle_regions.len();
+    for (k, fill) in REGION_FILLS.iter().enumerate() {
+        if !(0..triangles).into_par_iter().any(|t| colour(t) == Some(k)) {
+            continue;
+        }
+        writeln!(w, r#"<path fill="{fill}" stroke="none" d=""#)?;
+        write_items(w, triangles, |buf, t| {
+            if colour(t) != Some(k) {
+                return Ok(());
+            }
+            let [a, b, c] = mesh.triangles[t].map(|v| mesh.vertices[v as usize]);
+            let (ay, by, cy) = (svg_y(a.y), svg_y(b.y), svg_y(c.y));
+            writeln!(buf, "M{} {ay}L{} {by}L{} {cy}Z", a.x, b.x, c.x)
+        })?;
+        writeln!(w, r#""/>"#)?;
+    }
+    Ok(())
+}
+
+/// The subsegments whose bounding boxes meet `[lo, hi]` as one thick dark path.
+fn write_svg_segments<W: Write>(
+    w: &mut W,
+    mesh: &Mesh,
+    lo: DVec2,
+    hi: DVec2,
+    pixel: f64,
+) -> io::Result<()> {
+    if mesh.segments.is_empty() {
+        return Ok(());
+    }
+    writeln!(
+        w,
+        r##"<path fill="none" stroke="#303030" stroke-width="{}" stroke-linecap="round" d=""##,
+        2.0 * pixel
+    )?;
+    write_items(w, mesh.segments.len(), |buf, s| {
+        let [a, b] = mesh.segments[s].vertices.map(|v| mesh.vertices[v as usize]);
+        if a.min(b).cmpgt(hi).any() || a.max(b).cmplt(lo).any() {
+            return Ok(());
+        }
+        writeln!(buf, "M{} {}L{} {}", a.x, svg_y(a.y), b.x, svg_y(b.y))
+    })?;
+    writeln!(w, r#""/>"#)
+}
+
+/// The hole seeds as small blue crosses, one path.
+fn write_svg_holes<W: Write>(w: &mut W, mesh: &Mesh, pixel: f64) -> io::Result<()> {
+    if mesh.holes.is_empty() {
+        return Ok(());
+    }
+    writeln!(
+        w,
+        r#"<path fill="none" stroke="blue" stroke-width="{pixel}" d=""#
+    )?;
+    let arm = 4.0 * pixel;
+    for p in &mesh.holes {
+        let (x, y) = (p.x, svg_y(p.y));
+        writeln!(
+            w,
+            "M{} {y}L{} {y}M{x} {}L{x} {}",
+            x - arm,
+            x + arm,
+            y - arm,
+            y + arm
+        )?;
+    }
+    writeln!(w, r#""/>"#)
+}
+
 /// The input vertices in `[lo, hi]` as red dots.
 fn write_svg_dots<W: Write>(
     w: &mut W,
@@ -703,8 +1148,8 @@ mod tests {
     use std::collections::HashMap;
 
     use super::*;
-    use crate::mesh::fixtures::{square_boundary, two_triangles, unit_domain};
-    use crate::mesh::{BoundaryEdge, Domain};
+    use crate::mesh::fixtures::{pslg_square, square_boundary, two_triangles, unit_domain};
+    use crate::mesh::{BoundaryEdge, Domain, SubSegment};
 
     /// The unit square fanned around its centre, which is the only input point.
     fn four_triangles() -> Mesh {
@@ -1320,6 +1765,391 @@ mod tests {
         assert!(none.contains("only the 0 triangles") && !none.contains("<path"));
     }
 
+    /// [`grid`] as a planar straight-line graph: its bottom side a segment with marker 2, its
+    /// diagonal from the origin an interior segment with marker 0, the triangles below the
+    /// diagonal in region 0 (attribute 1.5) and those above in region 1 (attribute -2), and a
+    /// hole seed outside it.
+    fn pslg_grid(n: u32) -> Mesh {
+        let mut mesh = grid(n);
+        let vertex = |i: u32, j: u32| j * (n + 1) + i;
+        let bottom = (0..n).map(|i| SubSegment {
+            vertices: [vertex(i, 0), vertex(i + 1, 0)],
+            segment: 0,
+            marker: 2,
+        });
+        let diagonal = (0..n).map(|i| SubSegment {
+            vertices: [vertex(i, i), vertex(i + 1, i + 1)],
+            segment: 1,
+            marker: 0,
+        });
+        mesh.segments = bottom.chain(diagonal).collect();
+        for e in &mut mesh.boundary {
+            e.marker = if e.marker == BoundarySide::Bottom.marker() {
+                2
+            } else {
+                1
+            };
+        }
+        // Triangle 2 (j n + i) + k is the lower-right (k = 0) or upper-left half of square (i, j).
+        mesh.triangle_regions = (0..2 * n * n)
+            .map(|t| {
+                let (square, k) = (t / 2, t % 2);
+                let (i, j) = (square % n, square / n);
+                u32::from(j > i || (i == j && k == 1))
+            })
+            .collect();
+        mesh.region_attributes = vec![1.5, -2.0];
+        mesh.holes = vec![DVec2::new(-1.0, 0.5)];
+        mesh
+    }
+
+    #[test]
+    fn triangle_files_of_a_pslg_mesh() {
+        let mesh = pslg_square();
+        let node = text(&mesh, |m, w| write_node(m, w));
+        let expected_node = "\
+# vertex (numbered from 1), x, y, input index (0-based, -1 for none), boundary marker
+5 2 1 1
+1 0 0 0 5
+2 1 0 1 5
+3 1 1 2 -3
+4 0 1 3 1
+5 0.5 0.5 4 -3
+";
+        assert_eq!(node, expected_node);
+        let ele = text(&mesh, |m, w| write_ele(m, w));
+        let expected_ele = "\
+# triangle, its vertices counter-clockwise (all numbered from 1), regional attribute (0 \
+outside every region)
+4 3 1
+1 1 2 5 2.5
+2 2 3 5 0
+3 3 4 5 -1
+4 4 1 5 -1
+";
+        assert_eq!(ele, expected_ele);
+        let edge = text(&mesh, |m, w| write_edge(m, w));
+        let expected_edge = "\
+# edge (numbered from 1), its vertices, marker (its segment's, 1 if that is 0 on the boundary; \
+else 1 boundary, 0 interior)
+8 1
+1 2 5 0
+2 5 1 -3
+3 1 2 5
+4 3 5 -3
+5 2 3 1
+6 4 5 0
+7 3 4 1
+8 4 1 1
+";
+        assert_eq!(edge, expected_edge);
+        let poly = text(&mesh, |m, w| write_poly(m, w));
+        let expected_poly = "\
+# no vertices: they are in the .node file
+0 2 1 1
+# subsegment (numbered from 1), its vertices, boundary marker
+5 1
+1 1 2 5
+2 2 3 1
+3 1 5 -3
+4 5 3 -3
+5 2 5 0
+# hole (numbered from 1), a point in it
+1
+1 2 0.5
+# no regions: the regional attributes are in the .ele file
+0
+";
+        assert_eq!(poly, expected_poly);
+    }
+
+    #[test]
+    fn poly_file_reads_back_with_its_node_file() {
+        let dir = std::env::temp_dir().join(format!("quadmesh-poly-write-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let prefix = dir.join("graph.1");
+        for mesh in [pslg_square(), pslg_grid(5)] {
+            let paths = write_triangle_files(&mesh, &prefix).unwrap();
+            let names: Vec<String> = paths
+                .iter()
+                .map(|p| p.extension().unwrap().to_string_lossy().into_owned())
+                .collect();
+            assert_eq!(names, ["node", "ele", "neigh", "edge", "poly"]);
+            let input = super::super::read_input(&paths[4]).unwrap();
+            assert_eq!(input.points, mesh.vertices);
+            let ends: Vec<[u32; 2]> = input.segments.iter().map(|s| s.ends).collect();
+            let vertices: Vec<[u32; 2]> = mesh.segments.iter().map(|s| s.vertices).collect();
+            assert_eq!(ends, vertices);
+            let markers: Vec<i32> = input.segments.iter().map(|s| s.marker).collect();
+            assert_eq!(markers, mesh.segment_markers());
+            assert_eq!(input.holes, mesh.holes);
+            assert!(input.regions.is_empty());
+        }
+        // A point set's mesh has no .poly file.
+        let paths = write_triangle_files(&two_triangles(), &prefix).unwrap();
+        assert_eq!(paths.len(), 4);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn ele_file_without_regions_has_no_attribute() {
+        let mut mesh = pslg_square();
+        mesh.triangle_regions.clear();
+        mesh.region_attributes.clear();
+        let ele = text(&mesh, |m, w| write_ele(m, w));
+        assert!(ele.contains("\n4 3 0\n1 1 2 5\n"), "{ele}");
+    }
+
+    /// The name, type and bytes of each appended array of a `.vtu` file, in header order.
+    fn vtu_arrays(out: &[u8]) -> Vec<(String, String, Vec<u8>)> {
+        let start = b"<AppendedData encoding=\"raw\">\n   _";
+        let at = out.windows(start.len()).position(|w| w == start).unwrap() + start.len();
+        let header = std::str::from_utf8(&out[..at]).unwrap();
+        let data = &out[at..];
+        let attribute = |line: &str, key: &str| {
+            let value = line.split(&format!(" {key}=\"")).nth(1).unwrap();
+            value.split('"').next().unwrap().to_string()
+        };
+        header
+            .lines()
+            .filter(|l| l.contains("<DataArray "))
+            .map(|line| {
+                let offset: usize = attribute(line, "offset").parse().unwrap();
+                let length = u64_at(data, offset) as usize;
+                let bytes = data[offset + 8..offset + 8 + length].to_vec();
+                (attribute(line, "Name"), attribute(line, "type"), bytes)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn vtu_of_a_pslg_mesh_has_markers_and_regions() {
+        let mut out = Vec::new();
+        write_vtu(&pslg_square(), &mut out).unwrap();
+        let arrays = vtu_arrays(&out);
+        let names: Vec<&str> = arrays.iter().map(|(n, _, _)| n.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "input_index",
+                "marker",
+                "min_angle",
+                "region",
+                "attribute",
+                "Points",
+                "connectivity",
+                "offsets",
+                "types"
+            ]
+        );
+        let array = |name: &str| arrays.iter().find(|(n, _, _)| n == name).unwrap();
+        let int32 = |name: &str| -> Vec<i32> {
+            let (_, vtk_type, bytes) = array(name);
+            assert_eq!(vtk_type, "Int32");
+            let items = bytes.chunks_exact(4);
+            items
+                .map(|b| i32::from_le_bytes(b.try_into().unwrap()))
+                .collect()
+        };
+        assert_eq!(int32("marker"), [5, 5, -3, 1, -3]);
+        assert_eq!(int32("region"), [0, -1, 1, 1]);
+        let (_, vtk_type, bytes) = array("attribute");
+        assert_eq!(vtk_type, "Float64");
+        let attributes: Vec<f64> = bytes
+            .chunks_exact(8)
+            .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        assert_eq!(attributes, [2.5, 0.0, -1.0, -1.0]);
+        assert_eq!(array("types").2, [VTK_TRIANGLE; 4]);
+        let header_end = out.windows(4).position(|w| w == b"   _").unwrap();
+        let header = std::str::from_utf8(&out[..header_end]).unwrap();
+        assert_eq!(open_tags(header), ["VTKFile", "AppendedData"]);
+        assert!(header.contains("<CellData Scalars=\"min_angle\">"));
+
+        // Without regions, only the markers are added.
+        let mut mesh = pslg_square();
+        mesh.triangle_regions.clear();
+        mesh.region_attributes.clear();
+        let mut out = Vec::new();
+        write_vtu(&mesh, &mut out).unwrap();
+        let names: Vec<String> = vtu_arrays(&out).into_iter().map(|(n, _, _)| n).collect();
+        assert_eq!(names[..3], ["input_index", "marker", "min_angle"]);
+        assert_eq!(names.len(), 7);
+    }
+
+    #[test]
+    fn msh_of_a_pslg_mesh_groups_markers_and_regions() {
+        let msh = text(&pslg_square(), |m, w| write_msh(m, w));
+        let expected = r#"$MeshFormat
+4.1 0 8
+$EndMeshFormat
+$PhysicalNames
+7
+1 6 "marker -3"
+1 7 "marker 0"
+1 1 "marker 1"
+1 5 "marker 5"
+2 1 "region 1, attribute 2.5"
+2 2 "region 2, attribute -1"
+2 3 "outside regions"
+$EndPhysicalNames
+$Entities
+0 4 3 0
+1 0 0 0 1 1 0 1 6 0
+2 0.5 0 0 1 0.5 0 1 7 0
+3 0 0 0 1 1 0 1 1 0
+4 0 0 0 1 0 0 1 5 0
+1 0 0 0 1 0.5 0 1 1 0
+2 0 0 0 1 1 0 1 2 0
+3 0.5 0 0 1 1 0 1 3 0
+$EndEntities
+$Nodes
+1 5 1 5
+2 1 0 5
+1
+2
+3
+4
+5
+0 0 0
+1 0 0
+1 1 0
+0 1 0
+0.5 0.5 0
+$EndNodes
+$Elements
+7 11 1 11
+1 1 1 2
+1 1 5
+2 5 3
+1 2 1 1
+3 2 5
+1 3 1 3
+4 2 3
+5 3 4
+6 4 1
+1 4 1 1
+7 1 2
+2 1 2 1
+8 1 2 5
+2 2 2 2
+9 3 4 5
+10 4 1 5
+2 3 2 1
+11 2 3 5
+$EndElements
+"#;
+        assert_eq!(msh, expected);
+    }
+
+    #[test]
+    fn msh_of_a_pslg_mesh_without_regions_has_one_surface() {
+        let mut mesh = pslg_square();
+        mesh.triangle_regions.clear();
+        mesh.region_attributes.clear();
+        // Only positive markers: each is its own physical tag.
+        for s in &mut mesh.segments {
+            s.marker = s.marker.abs() + 1;
+        }
+        let msh = text(&mesh, |m, w| write_msh(m, w));
+        assert_eq!(
+            msh_section(&msh, "PhysicalNames"),
+            [
+                "4",
+                "1 1 \"marker 1\"",
+                "1 4 \"marker 4\"",
+                "1 6 \"marker 6\"",
+                "2 1 \"domain\""
+            ]
+        );
+        let entities = msh_section(&msh, "Entities");
+        assert_eq!(entities[0], "0 3 1 0");
+        assert_eq!(entities[4], "1 0 0 0 1 1 0 1 1 0");
+        let elements = msh_section(&msh, "Elements");
+        assert_eq!(elements[0], "4 11 1 11");
+        // Marker 1: the right side and the interior piece, then the boundary edges on no
+        // segment (the top and left sides).
+        assert_eq!(
+            elements[1..6],
+            ["1 1 1 4", "1 2 3", "2 2 5", "3 3 4", "4 4 1"]
+        );
+        let triangles = elements.iter().position(|l| *l == "2 1 2 4").unwrap();
+        assert_eq!(elements[triangles + 1], "8 1 2 5");
+        assert_eq!(elements.len(), triangles + 5);
+    }
+
+    /// The `d` attribute of the SVG path whose attributes start with `attributes`, as lists of
+    /// the numbers of its lines.
+    fn svg_path_with(svg: &str, attributes: &str) -> Vec<Vec<f64>> {
+        let path = svg.split(&format!("<path {attributes}")).nth(1).unwrap();
+        let d = path
+            .split(" d=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap();
+        d.lines()
+            .filter(|l| !l.is_empty())
+            .map(|line| {
+                line.split(['M', 'L', 'Z', ' '])
+                    .filter(|f| !f.is_empty())
+                    .map(|f| f.parse().unwrap())
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn svg_of_a_pslg_mesh_draws_segments_holes_and_regions() {
+        let svg = text(&pslg_square(), |m, w| write_svg(m, w, 100));
+        assert!(svg.starts_with("<svg ") && svg.ends_with("</svg>\n"));
+        assert!(open_tags(&svg).is_empty());
+        assert!(
+            svg.contains("5 subsegments (dark), 1 hole seeds (blue crosses), 2 regions (filled)"),
+            "{svg}"
+        );
+        // Region 0's one triangle in the first colour, region 1's two in the second; the
+        // triangle outside every region unfilled.
+        let first = svg_path_with(&svg, &format!("fill=\"{}\"", REGION_FILLS[0]));
+        assert_eq!(first, [vec![0.0, 0.0, 1.0, 0.0, 0.5, -0.5]]);
+        let second = svg_path_with(&svg, &format!("fill=\"{}\"", REGION_FILLS[1]));
+        assert_eq!(second.len(), 2);
+        assert_eq!(svg.matches("stroke=\"none\"").count(), 2);
+        // The fills come before the edges, which come before the subsegments.
+        let fill = svg.find(REGION_FILLS[0]).unwrap();
+        let edges = svg.find("stroke=\"black\"").unwrap();
+        let segments = svg.find("stroke=\"#303030\"").unwrap();
+        assert!(fill < edges && edges < segments);
+        assert_eq!(
+            svg_path_with(&svg, "fill=\"none\" stroke=\"black\"").len(),
+            8
+        );
+        let drawn = svg_path_with(&svg, "fill=\"none\" stroke=\"#303030\"");
+        assert_eq!(drawn.len(), 5);
+        assert_eq!(drawn[3], [0.5, -0.5, 1.0, -1.0]);
+        // One cross: a horizontal and a vertical stroke through the seed (2, 0.5).
+        let cross = svg_path_with(&svg, "fill=\"none\" stroke=\"blue\"");
+        assert_eq!(cross.len(), 1);
+        let c = &cross[0];
+        assert_eq!(c.len(), 8);
+        assert!(
+            c[0] < 2.0 && c[2] > 2.0 && c[1] == -0.5 && c[3] == -0.5,
+            "{c:?}"
+        );
+        assert!(
+            c[4] == 2.0 && c[6] == 2.0 && c[5] < -0.5 && c[7] > -0.5,
+            "{c:?}"
+        );
+    }
+
+    #[test]
+    fn svg_of_a_point_set_draws_no_pslg_parts() {
+        let svg = text(&four_triangles(), |m, w| write_svg(m, w, 100));
+        assert!(!svg.contains("#303030") && !svg.contains("blue") && !svg.contains("subsegments"));
+        assert!(REGION_FILLS.iter().all(|fill| !svg.contains(fill)));
+    }
+
     /// Every writer's bytes for `mesh` on a rayon pool of `threads` threads.
     fn all_bytes(mesh: &Mesh, threads: usize) -> Vec<Vec<u8>> {
         let pool = rayon::ThreadPoolBuilder::new()
@@ -1328,11 +2158,12 @@ mod tests {
             .unwrap();
         pool.install(|| {
             type Writer = fn(&Mesh, &mut Vec<u8>) -> io::Result<()>;
-            let writers: [Writer; 8] = [
+            let writers: [Writer; 9] = [
                 |m, w| write_node(m, w),
                 |m, w| write_ele(m, w),
                 |m, w| write_neigh(m, w),
                 |m, w| write_edge(m, w),
+                |m, w| write_poly(m, w),
                 |m, w| write_vtu(m, w),
                 |m, w| write_msh(m, w),
                 |m, w| write_svg(m, w, 5000),
@@ -1351,8 +2182,9 @@ mod tests {
 
     #[test]
     fn bytes_do_not_depend_on_the_thread_count() {
-        let mesh = grid(100);
-        assert!(mesh.triangles.len() > 2 * BLOCK && mesh.vertices.len() > BLOCK);
-        assert_eq!(all_bytes(&mesh, 1), all_bytes(&mesh, 2));
+        for mesh in [grid(100), pslg_grid(100)] {
+            assert!(mesh.triangles.len() > 2 * BLOCK && mesh.vertices.len() > BLOCK);
+            assert_eq!(all_bytes(&mesh, 1), all_bytes(&mesh, 2));
+        }
     }
 }

@@ -17,8 +17,8 @@ use std::path::Path;
 use glam::DVec2;
 
 pub use mesh_write::{
-    with_extension_appended, write_edge, write_ele, write_msh, write_neigh, write_node, write_svg,
-    write_triangle_files, write_vtu,
+    with_extension_appended, write_edge, write_ele, write_msh, write_neigh, write_node, write_poly,
+    write_svg, write_triangle_files, write_vtu,
 };
 pub use node::{parse_node, parse_poly, parse_poly_input};
 pub use text::parse_text;

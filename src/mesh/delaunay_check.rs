@@ -5,7 +5,10 @@
 //! decided once, from its lower-numbered triangle (the in-circle sign of the four points is the
 //! same seen from either side), with the exact in-circle predicate, so cocircular
 //! vertices pass whichever diagonal the mesh chose. Runs in parallel, O(n), and reports the
-//! lowest-indexed fault.
+//! lowest-indexed fault. In a mesh of a planar straight-line graph the edges on segments are
+//! exempt: the mesh is constrained Delaunay.
+
+use std::collections::HashSet;
 
 use glam::DVec2;
 
@@ -32,8 +35,23 @@ pub fn check_delaunay(mesh: &Mesh) -> Result<(), InvalidMesh> {
             ),
         });
     }
+    let walls: HashSet<(u32, u32)> = mesh
+        .segments
+        .iter()
+        .map(|s| {
+            let [a, b] = s.vertices;
+            (a.min(b), a.max(b))
+        })
+        .collect();
     first_fault(mesh.triangles.len(), |t| {
-        (0..3).find_map(|i| edge_fault(mesh, t, i))
+        (0..3).find_map(|i| {
+            let tri = mesh.triangles[t];
+            let (a, b) = (tri[(i + 1) % 3], tri[(i + 2) % 3]);
+            if walls.contains(&(a.min(b), a.max(b))) {
+                return None;
+            }
+            edge_fault(mesh, t, i)
+        })
     })
     .map_err(fault(MeshCheck::Delaunay))
 }

@@ -7,6 +7,7 @@ pub(crate) mod fixtures;
 mod report;
 mod topology;
 mod validate;
+mod validate_pslg;
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -20,6 +21,7 @@ pub use report::{AngleQuality, MeshReport, StageTimes};
 pub use topology::Edge;
 pub(crate) use topology::{EdgeLister, edges_listed_with, opposite_edge};
 pub use validate::{AngleBounds, InvalidMesh, MeshCheck, validate};
+pub use validate_pslg::{validate_pslg, validate_pslg_with};
 
 /// A conforming triangle mesh of a rectangle, or of the points' convex hull (`outline`).
 ///

@@ -66,6 +66,8 @@ pub struct MeshReport {
     pub histogram: [u64; 18],
     /// Wall-clock time of each stage.
     pub stages: Vec<(&'static str, Duration)>,
+    /// What cleaning a planar straight-line graph changed (none for a point set).
+    pub cleaning: Option<crate::pslg::CleanReport>,
 }
 
 impl MeshReport {
@@ -111,5 +113,6 @@ pub(crate) fn report_of(
         max_angle: quality.max,
         histogram: quality.histogram,
         stages: times.0,
+        cleaning: None,
     }
 }

@@ -3,11 +3,13 @@
 //! triangles' neighbours as options.
 //!
 //! Markers follow Triangle's convention: 0 for the interior, the side's [`BoundarySide`] value
-//! (1 bottom, 2 right, 3 top, 4 left) on the boundary.
+//! (1 bottom, 2 right, 3 top, 4 left) on the boundary of a rectangle, 1 on a convex hull. In a
+//! mesh of a planar straight-line graph the edges and vertices on segments carry the segments'
+//! markers, and those on the boundary whose segment marker is 0, or that lie on no segment, 1.
 //!
 //! [`BoundarySide`]: super::BoundarySide
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
 
@@ -21,7 +23,8 @@ pub struct Edge {
     /// The triangle that has the edge as `vertices[0] -> vertices[1]` on its counter-clockwise
     /// boundary, then the triangle on the other side, or [`NONE`] for a boundary edge.
     pub triangles: [u32; 2],
-    /// 0 for an interior edge; the marker of the boundary edge for a boundary edge.
+    /// For a boundary edge, the marker of its [`BoundaryEdge`](super::BoundaryEdge); for an
+    /// interior edge, the marker of the segment it lies on, or 0 if none.
     pub marker: i32,
 }
 
@@ -42,11 +45,18 @@ pub(crate) fn edges_listed_with(mesh: &Mesh, t: usize) -> usize {
     (0..3).filter(|&i| lists_edge(mesh, t, i)).count()
 }
 
+/// An edge's two vertices, the lower first: the same key for both directions.
+fn edge_key([a, b]: [u32; 2]) -> [u32; 2] {
+    [a.min(b), a.max(b)]
+}
+
 /// Lists the edges of a mesh triangle by triangle, with their markers.
 pub(crate) struct EdgeLister<'a> {
     mesh: &'a Mesh,
-    /// The marker of each boundary edge, by its two vertices, the lower first.
+    /// The marker of each boundary edge, by [`edge_key`].
     markers: HashMap<[u32; 2], i32>,
+    /// The marker of each subsegment, by [`edge_key`]; empty for a point set.
+    segments: HashMap<[u32; 2], i32>,
 }
 
 impl<'a> EdgeLister<'a> {
@@ -54,13 +64,18 @@ impl<'a> EdgeLister<'a> {
         let markers = mesh
             .boundary
             .iter()
-            .map(|e| (Self::key(e.vertices), e.marker))
+            .map(|e| (edge_key(e.vertices), e.marker))
             .collect();
-        EdgeLister { mesh, markers }
-    }
-
-    fn key([a, b]: [u32; 2]) -> [u32; 2] {
-        [a.min(b), a.max(b)]
+        let segments = mesh
+            .segments
+            .iter()
+            .map(|s| (edge_key(s.vertices), s.marker))
+            .collect();
+        EdgeLister {
+            mesh,
+            markers,
+            segments,
+        }
     }
 
     /// The edges triangle `t` lists (see [`Mesh::edges`]), by the corner they are opposite.
@@ -71,12 +86,13 @@ impl<'a> EdgeLister<'a> {
             .map(move |i| {
                 let vertices = opposite_edge(mesh.triangles[t], i);
                 let across = mesh.neighbours[t][i];
-                let marker = match across {
-                    // A side with no triangle across that is not listed as a boundary edge only
-                    // happens in an invalid mesh; it is given the interior's marker.
-                    NONE => self.markers.get(&Self::key(vertices)).copied().unwrap_or(0),
-                    _ => 0,
+                // A side with no triangle across that is not listed as a boundary edge only
+                // happens in an invalid mesh; it is given the interior's marker.
+                let listed = match across {
+                    NONE => &self.markers,
+                    _ => &self.segments,
                 };
+                let marker = listed.get(&edge_key(vertices)).copied().unwrap_or(0);
                 Edge {
                     vertices,
                     triangles: [t as u32, across],
@@ -122,15 +138,42 @@ impl Mesh {
     ///
     /// Every vertex of a boundary edge starts one in a valid mesh; a vertex that only ends one
     /// gets that edge's marker.
+    ///
+    /// In a mesh of a planar straight-line graph (Triangle's convention), a vertex on a segment
+    /// with a nonzero marker gets the first such marker in the order of [`Mesh::segments`]; the
+    /// other vertices on the boundary get the boundary edge's marker as above, which is then 1.
     pub fn vertex_markers(&self) -> Vec<i32> {
         let mut markers = vec![0; self.vertices.len()];
-        for e in &self.boundary {
-            markers[e.vertices[1] as usize] = e.marker;
+        for s in &self.segments {
+            for v in s.vertices {
+                if markers[v as usize] == 0 {
+                    markers[v as usize] = s.marker;
+                }
+            }
         }
-        for e in &self.boundary {
-            markers[e.vertices[0] as usize] = e.marker;
+        let on_segment: Vec<bool> = markers.iter().map(|&m| m != 0).collect();
+        let ends = self.boundary.iter().map(|e| (e.vertices[1], e.marker));
+        let starts = self.boundary.iter().map(|e| (e.vertices[0], e.marker));
+        for (v, marker) in ends.chain(starts) {
+            if !on_segment[v as usize] {
+                markers[v as usize] = marker;
+            }
         }
         markers
+    }
+
+    /// The marker of each of [`Mesh::segments`] in the output files (Triangle's convention):
+    /// its segment's marker, or 1 for a subsegment on the boundary whose segment's marker is 0.
+    pub fn segment_markers(&self) -> Vec<i32> {
+        let boundary: HashSet<[u32; 2]> =
+            self.boundary.iter().map(|e| edge_key(e.vertices)).collect();
+        self.segments
+            .iter()
+            .map(|s| match s.marker {
+                0 if boundary.contains(&edge_key(s.vertices)) => 1,
+                marker => marker,
+            })
+            .collect()
     }
 
     /// The input index (0-based, in input order) of vertex `v`, or `None` for a Steiner vertex.
@@ -165,7 +208,7 @@ mod tests {
 
     use super::*;
     use crate::generate::{Distribution2d, points};
-    use crate::mesh::fixtures::two_triangles;
+    use crate::mesh::fixtures::{pslg_square, two_triangles};
     use crate::mesh::{AngleBounds, BoundarySide, Domain};
     use crate::refine::{RefineOptions, refine_points};
     use crate::warp::ANGLE_BOUNDS;
@@ -374,6 +417,36 @@ mod tests {
         // Corners take the side that leaves them counter-clockwise; the centre is interior.
         assert_eq!(mesh.vertex_markers(), [1, 1, 2, 4, 0, 2, 4, 3, 3]);
         check_topology(&mesh);
+    }
+
+    #[test]
+    fn segments_carry_their_markers_to_edges_and_vertices() {
+        let mesh = pslg_square();
+        let edge = |vertices, triangles, marker| Edge {
+            vertices,
+            triangles,
+            marker,
+        };
+        // Interior edges on segments keep their markers, 0 included; boundary edges carry
+        // their boundary markers.
+        assert_eq!(
+            mesh.edges(),
+            [
+                edge([1, 4], [0, 1], 0),
+                edge([4, 0], [0, 3], -3),
+                edge([0, 1], [0, NONE], 5),
+                edge([2, 4], [1, 2], -3),
+                edge([1, 2], [1, NONE], 1),
+                edge([3, 4], [2, 3], 0),
+                edge([2, 3], [2, NONE], 1),
+                edge([3, 0], [3, NONE], 1),
+            ]
+        );
+        // The first nonzero segment marker; 1 on the boundary off such segments.
+        assert_eq!(mesh.vertex_markers(), [5, 5, -3, 1, -3]);
+        // The right side's marker 0 becomes 1 on the boundary; the interior piece keeps 0.
+        assert_eq!(mesh.segment_markers(), [5, 1, -3, -3, 0]);
+        assert!(two_triangles().segment_markers().is_empty());
     }
 
     #[test]

@@ -23,10 +23,10 @@ pub struct AngleBounds {
 }
 
 /// Slack on the angle bounds, degrees: `angles_deg` is itself rounded.
-const ANGLE_SLACK_DEG: f64 = 1e-9;
+pub(super) const ANGLE_SLACK_DEG: f64 = 1e-9;
 
 /// Allowed relative difference between the summed triangle areas and the domain's area.
-const AREA_REL_TOL: f64 = 1e-9;
+pub(super) const AREA_REL_TOL: f64 = 1e-9;
 
 /// Checks `mesh` against the input `points` it was made from; returns the first fault found.
 ///
@@ -73,6 +73,16 @@ pub enum MeshCheck {
     Angles,
     /// Every interior edge locally Delaunay (exact in-circle tests).
     Delaunay,
+    /// Every input segment beside the domain a chain of mesh edges from its first end to its
+    /// second, as `Mesh::segments` lists them, and the others without pieces
+    /// ([`super::validate_pslg`]).
+    Segments,
+    /// Every triangle inside the domain the segments and hole seeds enclose, none on a hole
+    /// seed ([`super::validate_pslg`]).
+    Domain,
+    /// Every triangle's region the one its face gets from the region seeds
+    /// ([`super::validate_pslg`]).
+    Regions,
 }
 
 /// A mesh that failed a check: which one, and its first fault.
@@ -122,11 +132,11 @@ fn edge(tri: [u32; 3], i: usize) -> (u32, u32) {
     (tri[(i + 1) % 3], tri[(i + 2) % 3])
 }
 
-fn directed_key(a: u32, b: u32) -> u64 {
+pub(super) fn directed_key(a: u32, b: u32) -> u64 {
     (u64::from(a) << 32) | u64::from(b)
 }
 
-fn key_vertices(key: u64) -> (u32, u32) {
+pub(super) fn key_vertices(key: u64) -> (u32, u32) {
     ((key >> 32) as u32, key as u32)
 }
 
@@ -176,7 +186,7 @@ fn check_domain(d: &Domain) -> Result<(), String> {
     }
 }
 
-fn triangle_index_fault(mesh: &Mesh, t: usize) -> Option<String> {
+pub(super) fn triangle_index_fault(mesh: &Mesh, t: usize) -> Option<String> {
     let (nv, nt) = (mesh.vertices.len(), mesh.triangles.len());
     let tri = mesh.triangles[t];
     if let Some(&v) = tri.iter().find(|&&v| v as usize >= nv) {
@@ -200,7 +210,7 @@ fn triangle_index_fault(mesh: &Mesh, t: usize) -> Option<String> {
 // ---------------------------------------------------------------------------------------------
 // 2. Orientation
 
-fn check_orientation(mesh: &Mesh) -> Result<(), String> {
+pub(super) fn check_orientation(mesh: &Mesh) -> Result<(), String> {
     first_fault(mesh.triangles.len(), |t| {
         let tri = mesh.triangles[t];
         let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
@@ -234,7 +244,7 @@ fn position_key(p: DVec2) -> (u64, u64) {
 }
 
 /// `(position key, vertex)` sorted, for the distinctness check and point look-ups.
-fn sorted_by_position(vertices: &[DVec2]) -> Vec<((u64, u64), u32)> {
+pub(super) fn sorted_by_position(vertices: &[DVec2]) -> Vec<((u64, u64), u32)> {
     let mut keys: Vec<_> = vertices
         .par_iter()
         .enumerate()
@@ -244,7 +254,7 @@ fn sorted_by_position(vertices: &[DVec2]) -> Vec<((u64, u64), u32)> {
     keys
 }
 
-fn check_distinct(by_position: &[((u64, u64), u32)]) -> Result<(), String> {
+pub(super) fn check_distinct(by_position: &[((u64, u64), u32)]) -> Result<(), String> {
     let n = by_position.len().saturating_sub(1);
     first_fault(n, |k| {
         let ((key, u), (next, v)) = (by_position[k], by_position[k + 1]);
@@ -281,7 +291,7 @@ fn half_edge(h: u64) -> (usize, usize) {
 
 /// Checks that every edge has one or two (opposite) triangles and that `neighbours` says so;
 /// returns the edges with one triangle as sorted `(directed key, triangle)`.
-fn check_edges(mesh: &Mesh) -> Result<Vec<(u64, usize)>, String> {
+pub(super) fn check_edges(mesh: &Mesh) -> Result<Vec<(u64, usize)>, String> {
     let edges = sorted_half_edges(mesh);
     let runs = || edges.par_chunk_by(|a, b| a.0 == b.0);
     if let Some(message) = runs().find_map_first(|run| run_fault(mesh, run)) {
@@ -439,7 +449,7 @@ fn check_boundary(mesh: &Mesh, single: &[(u64, usize)]) -> Result<(), String> {
 
 /// Both lists sorted and free of repeats: equal as sets iff equal elementwise. At the first
 /// difference the smaller key is missing from the other list.
-fn compare_boundary(
+pub(super) fn compare_boundary(
     mesh: &Mesh,
     single: &[(u64, usize)],
     listed: &[(u64, usize)],
@@ -567,13 +577,13 @@ fn narrow_corners(mesh: &Mesh, min_deg: f64) -> Vec<DVec2> {
 
 /// A Neumaier compensated sum.
 #[derive(Clone, Copy, Default)]
-struct Sum {
+pub(super) struct Sum {
     hi: f64,
     lo: f64,
 }
 
 impl Sum {
-    fn add(self, x: f64) -> Sum {
+    pub(super) fn add(self, x: f64) -> Sum {
         let s = self.hi + x;
         let err = if self.hi.abs() >= x.abs() {
             (self.hi - s) + x
@@ -586,7 +596,7 @@ impl Sum {
         }
     }
 
-    fn merge(self, other: Sum) -> Sum {
+    pub(super) fn merge(self, other: Sum) -> Sum {
         let s = self.add(other.hi);
         Sum {
             hi: s.hi,
@@ -594,7 +604,7 @@ impl Sum {
         }
     }
 
-    fn value(self) -> f64 {
+    pub(super) fn value(self) -> f64 {
         self.hi + self.lo
     }
 }
@@ -648,7 +658,7 @@ fn check_conformity(
     })
 }
 
-fn input_vertex_fault(mesh: &Mesh, points: &[DVec2], v: usize) -> Option<String> {
+pub(super) fn input_vertex_fault(mesh: &Mesh, points: &[DVec2], v: usize) -> Option<String> {
     let i = mesh.vertex_input[v];
     if i == NONE {
         return None;
@@ -674,7 +684,7 @@ fn input_vertex_fault(mesh: &Mesh, points: &[DVec2], v: usize) -> Option<String>
     })
 }
 
-fn check_inputs_once(mesh: &Mesh) -> Result<(), String> {
+pub(super) fn check_inputs_once(mesh: &Mesh) -> Result<(), String> {
     let mut owners: Vec<(u32, u32)> = mesh
         .vertex_input
         .par_iter()
@@ -712,7 +722,7 @@ fn check_inputs_used(mesh: &Mesh) -> Result<(), String> {
 
 /// Input point `j` must be at an input vertex whose point is `j` or an earlier exact duplicate.
 /// Duplicates are merged by value, so a later `-0.0` copy of a `0.0` point matches by value.
-fn point_fault(
+pub(super) fn point_fault(
     mesh: &Mesh,
     points: &[DVec2],
     by_position: &[((u64, u64), u32)],

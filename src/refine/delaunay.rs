@@ -60,8 +60,26 @@ pub(crate) struct RimEdge {
 /// vertex numbers to 31 bits.
 pub(crate) const MARK: u32 = 1 << 31;
 
-/// The most vertices a triangulation may have.
-pub(crate) const MAX_VERTICES: usize = MARK as usize - 1;
+/// The most vertices a triangulation may have (its triangles, about twice as many, must stay
+/// below [`SEGMENT`]).
+pub(crate) const MAX_VERTICES: usize = (MARK as usize >> 1) - 1;
+
+/// Marks, in the high bit of a link in `across`, an edge on an input segment: a wall that
+/// cavities and walks stop at and flips leave alone, with a triangle beyond it. [`NONE`] has
+/// the bit too: the domain's boundary is a wall with nothing beyond.
+pub(crate) const SEGMENT: u32 = 1 << 31;
+
+/// Whether the link `n` crosses a wall: a segment or the boundary.
+#[inline]
+pub(crate) fn is_wall(n: u32) -> bool {
+    n & SEGMENT != 0
+}
+
+/// The triangle link `n` leads to, segment or not ([`NONE`] beyond the boundary).
+#[inline]
+pub(crate) fn beyond(n: u32) -> u32 {
+    if n == NONE { NONE } else { n & !SEGMENT }
+}
 
 /// Where an insertion reads and writes vertices and triangles, and which triangles it may
 /// change: all of them in a whole triangulation, those of its own region in a tile that is
@@ -90,6 +108,23 @@ pub(crate) trait Store {
     fn vertex_count(&self) -> usize;
     /// Whether one more insertion fits in the room this store was given.
     fn room(&self) -> bool;
+    /// The region of triangle `t` ([`NONE`] where regions are not kept).
+    #[inline]
+    fn region(&self, _t: u32) -> u32 {
+        NONE
+    }
+    /// Puts triangle `t` in region `r`, where regions are kept.
+    #[inline]
+    fn set_region(&mut self, _t: u32, _r: u32) {}
+    /// The input segment that Steiner vertex `v` was put on ([`NONE`] for none, or where
+    /// segments are not kept).
+    #[inline]
+    fn segment_of(&self, _v: u32) -> u32 {
+        NONE
+    }
+    /// Notes that vertex `v` lies on input segment `segment`, where segments are kept.
+    #[inline]
+    fn set_segment_of(&mut self, _v: u32, _segment: u32) {}
 
     /// Triangle `t` (outside a cavity search).
     #[inline]
@@ -108,6 +143,10 @@ pub(crate) struct Triangulation {
     pub vertices: Vec<DVec2>,
     pub corners: Vec<[u32; 3]>,
     pub across: Vec<[u32; 3]>,
+    /// Per triangle, its region; empty where regions are not kept.
+    pub regions: Vec<u32>,
+    /// Per vertex, the input segment it was put on; empty where segments are not kept.
+    pub segment_of: Vec<u32>,
 }
 
 impl Triangulation {
@@ -118,6 +157,8 @@ impl Triangulation {
             vertices: vec![lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)],
             corners: vec![[0, 1, 2], [0, 2, 3]],
             across: vec![[NONE, 1, NONE], [NONE, NONE, 0]],
+            regions: Vec::new(),
+            segment_of: Vec::new(),
         }
     }
 
@@ -147,7 +188,7 @@ impl Triangulation {
     pub fn flip_to_delaunay(&mut self, mut edges: Vec<(u32, usize)>) {
         while let Some((t, i)) = edges.pop() {
             let u = self.across[t as usize][i];
-            if u == NONE {
+            if is_wall(u) {
                 continue;
             }
             let j = self.corner_facing(u, t);
@@ -161,9 +202,9 @@ impl Triangulation {
     }
 
     /// The corner of triangle `u` opposite its edge shared with triangle `t`.
-    fn corner_facing(&self, u: u32, t: u32) -> usize {
+    pub(super) fn corner_facing(&self, u: u32, t: u32) -> usize {
         (0..3)
-            .find(|&j| self.across[u as usize][j] == t)
+            .find(|&j| beyond(self.across[u as usize][j]) == t)
             .expect("neighbours link each other")
     }
 
@@ -187,11 +228,14 @@ impl Triangulation {
         self.relink(n_ca, t, u);
     }
 
-    /// Points triangle `n`'s link to `from` at `to` instead.
+    /// Points triangle `n`'s link to `from` at `to` instead (`n` a link, which keeps its
+    /// segment mark).
     fn relink(&mut self, n: u32, from: u32, to: u32) {
         if n != NONE {
+            let n = beyond(n);
             let k = self.corner_facing(n, from);
-            self.across[n as usize][k] = to;
+            let link = &mut self.across[n as usize][k];
+            *link = to | (*link & SEGMENT);
         }
     }
 }
@@ -222,12 +266,18 @@ impl Store for Triangulation {
     #[inline]
     fn push_vertex(&mut self, p: DVec2) -> u32 {
         self.vertices.push(p);
+        if !self.segment_of.is_empty() {
+            self.segment_of.push(NONE);
+        }
         (self.vertices.len() - 1) as u32
     }
     #[inline]
     fn push_triangle(&mut self) -> u32 {
         self.corners.push([0; 3]);
         self.across.push([NONE; 3]);
+        if !self.regions.is_empty() {
+            self.regions.push(NONE);
+        }
         (self.corners.len() - 1) as u32
     }
     #[inline]
@@ -243,6 +293,26 @@ impl Store for Triangulation {
     }
     fn room(&self) -> bool {
         true
+    }
+    #[inline]
+    fn region(&self, t: u32) -> u32 {
+        self.regions.get(t as usize).copied().unwrap_or(NONE)
+    }
+    #[inline]
+    fn set_region(&mut self, t: u32, r: u32) {
+        if let Some(slot) = self.regions.get_mut(t as usize) {
+            *slot = r;
+        }
+    }
+    #[inline]
+    fn segment_of(&self, v: u32) -> u32 {
+        self.segment_of.get(v as usize).copied().unwrap_or(NONE)
+    }
+    #[inline]
+    fn set_segment_of(&mut self, v: u32, segment: u32) {
+        if let Some(slot) = self.segment_of.get_mut(v as usize) {
+            *slot = segment;
+        }
     }
 }
 
@@ -291,21 +361,49 @@ impl<S: Store> Store for &mut S {
     fn room(&self) -> bool {
         (**self).room()
     }
+    #[inline]
+    fn region(&self, t: u32) -> u32 {
+        (**self).region(t)
+    }
+    #[inline]
+    fn set_region(&mut self, t: u32, r: u32) {
+        (**self).set_region(t, r);
+    }
+    #[inline]
+    fn segment_of(&self, v: u32) -> u32 {
+        (**self).segment_of(v)
+    }
+    #[inline]
+    fn set_segment_of(&mut self, v: u32, segment: u32) {
+        (**self).set_segment_of(v, segment);
+    }
 }
 
-/// Locates `p` by a visibility walk from triangle `start`. The walk ends on a Delaunay
-/// triangulation whatever edge it takes; a step count guards against a bug turning that into
-/// a hang, falling back to a scan of every triangle where the store holds them all. In a
-/// store that may change only some triangles, the walk stops where it would leave them.
+/// Locates `p` by a visibility walk from triangle `start`, which stops at walls: a point
+/// beyond a segment is reported [`Location::Outside`] that segment, as one beyond the
+/// boundary is. The walk ends on a Delaunay triangulation whatever edge it takes; a step
+/// count guards against a bug turning that into a hang, falling back to a scan of every
+/// triangle where the store holds them all. In a store that may change only some triangles,
+/// the walk stops where it would leave them.
 pub(crate) fn locate<S: Store>(s: &S, p: DVec2, start: u32) -> Location {
+    walk(s, p, start, false)
+}
+
+/// Locates `p` as [`locate`] does, walking across segments; only the boundary stops it.
+pub(crate) fn locate_across_segments<S: Store>(s: &S, p: DVec2, start: u32) -> Location {
+    walk(s, p, start, true)
+}
+
+fn walk<S: Store>(s: &S, p: DVec2, start: u32, across_segments: bool) -> Location {
     let mut t = start;
     let mut came_from = NONE;
     for _ in 0..=s.triangle_count() {
         match step(s, p, t, came_from) {
             Step::Found => return found(s, p, t),
             Step::Leave(i) => {
-                let next = s.across(t)[i];
-                if next == NONE {
+                let link = s.across(t)[i];
+                let next = beyond(link);
+                if next == NONE || (is_wall(link) && !across_segments) {
                     return Location::Outside {
                         triangle: t,
                         edge: i,
@@ -332,7 +430,7 @@ pub(crate) fn locate<S: Store>(s: &S, p: DVec2, start: u32) -> Location {
 fn step<S: Store>(s: &S, p: DVec2, t: u32, came_from: u32) -> Step {
     let tri = s.triangle(t);
     for i in 0..3 {
-        if tri.n[i] == came_from && came_from != NONE {
+        if beyond(tri.n[i]) == came_from && came_from != NONE {
             continue;
         }
         let (a, b) = tri.edge(i);
@@ -392,6 +490,16 @@ pub(crate) struct Cavity {
     after: Vec<u32>,
     /// Rim edges by their first vertex: an open-addressing table.
     by_start: Vec<u32>,
+    /// The region of each rim edge's cavity triangle, read before the slots are reused.
+    rim_regions: Vec<u32>,
+}
+
+/// A wall edge an insertion splits: its ends as the cavity triangle that holds it has them,
+/// and whether a triangle lies beyond it (an input segment inside the domain).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct Split {
+    pub ends: (u32, u32),
+    pub interior: bool,
 }
 
 impl Cavity {
@@ -400,6 +508,18 @@ impl Cavity {
     /// until [`Self::commit`]; [`Self::abandon`] drops the cavity instead. Returns false, with
     /// nothing changed, when the cavity reaches a triangle the store may not change.
     pub fn dig<S: Store>(&mut self, s: &mut S, p: DVec2, t: u32) -> bool {
+        self.dig_through(s, p, t, None)
+    }
+
+    /// Finds the cavity of `p` as [`Self::dig`] does, where `p` splits the segment `split`
+    /// (its ends as a cavity triangle has them): the triangle beyond it joins the cavity.
+    pub fn dig_through<S: Store>(
+        &mut self,
+        s: &mut S,
+        p: DVec2,
+        t: u32,
+        split: Option<(u32, u32)>,
+    ) -> bool {
         self.triangles.clear();
         self.left_out.clear();
         self.rim.clear();
@@ -412,7 +532,17 @@ impl Cavity {
             let tri = s.triangle(c);
             for i in 0..3 {
                 let o = tri.n[i];
-                if o != NONE {
+                let (a, b) = tri.edge(i);
+                let splits = o != NONE
+                    && split.is_some_and(|(x, y)| {
+                        let (a, b) = (a & !MARK, b & !MARK);
+                        (a, b) == (x, y) || (a, b) == (y, x)
+                    });
+                if splits {
+                    self.force_join(s, beyond(o));
+                    continue;
+                }
+                if !is_wall(o) {
                     match self.joins(s, o, p) {
                         Joins::Yes => continue,
                         Joins::No => {}
@@ -422,7 +552,6 @@ impl Cavity {
                         }
                     }
                 }
-                let (a, b) = tri.edge(i);
                 self.rim.push(RimEdge {
                     a: a & !MARK,
                     b: b & !MARK,
@@ -433,6 +562,21 @@ impl Cavity {
             }
         }
         true
+    }
+
+    /// Puts triangle `o`, beyond the segment being split, in the cavity: the split point lies
+    /// on their shared edge, inside its circumcircle but for rounding.
+    fn force_join<S: Store>(&mut self, s: &mut S, o: u32) {
+        let corners = s.corners(o);
+        if corners[0] & MARK != 0 {
+            return;
+        }
+        if corners[1] & MARK != 0 {
+            s.corners_mut(o)[1] &= !MARK;
+            self.left_out.retain(|&t| t != o);
+        }
+        s.corners_mut(o)[0] |= MARK;
+        self.triangles.push(o);
     }
 
     /// Whether triangle `o`, next to the cavity, is (now) in it; marks it either way.
@@ -480,16 +624,22 @@ impl Cavity {
 
     /// Inserts `p` into the cavity [`Self::dig`] last found for it: the cavity's triangles are
     /// replaced by a fan from `p`. A boundary edge that `p` lies on is split, and so is the
-    /// boundary edge `split` if given (`p` is its rounded midpoint, which may lie a rounding
-    /// off its line). Returns the new vertex; [`Self::created`] lists the new triangles.
-    pub fn commit<S: Store>(&mut self, s: &mut S, p: DVec2, split: Option<(u32, u32)>) -> u32 {
+    /// wall `split` if given (`p` is its rounded midpoint, which may lie a rounding off its
+    /// line): a boundary edge drops out of the rim, and an interior segment's two halves
+    /// become segments. Returns the new vertex; [`Self::created`] lists the new triangles.
+    pub fn commit<S: Store>(&mut self, s: &mut S, p: DVec2, split: Option<Split>) -> u32 {
         self.clear_left_out(s);
         let v = s.push_vertex(p);
+        let boundary_split = split.filter(|x| !x.interior).map(|x| x.ends);
         self.rim.retain(|e| {
             e.outer != NONE
-                || (Some((e.a, e.b)) != split
+                || (Some((e.a, e.b)) != boundary_split
                     && orientation(s.point(e.a), s.point(e.b), p) != Orientation::On)
         });
+        self.rim_regions.clear();
+        for e in &self.rim {
+            self.rim_regions.push(s.region(e.inner));
+        }
         // A fan has one triangle more than an interior cavity (one less for a boundary edge
         // split), so every cavity slot is reused, which also clears its mark.
         self.created.clear();
@@ -514,12 +664,14 @@ impl Cavity {
             // the one ending at a, linked below from that one's side.
             *s.corners_mut(id) = [e.a, e.b, v];
             *s.across_mut(id) = [fan(self.after[k]), NONE, e.outer];
+            s.set_region(id, self.rim_regions[k]);
             if e.outer != NONE {
-                let outer = s.triangle(e.outer);
+                let outer = beyond(e.outer);
+                let tri = s.triangle(outer);
                 let j = (0..3)
-                    .find(|&j| outer.edge(j) == (e.b, e.a))
+                    .find(|&j| tri.edge(j) == (e.b, e.a))
                     .expect("the triangle beyond a rim edge shares it");
-                s.across_mut(e.outer)[j] = id;
+                s.across_mut(outer)[j] = id | (e.outer & SEGMENT);
             }
         }
         for (k, &next) in self.after.iter().enumerate() {
@@ -527,7 +679,30 @@ impl Cavity {
                 s.across_mut(self.created[next as usize])[1] = self.created[k];
             }
         }
+        if let Some(Split {
+            ends: (a, b),
+            interior: true,
+        }) = split
+        {
+            self.mark_halves(s, a, b);
+        }
         v
+    }
+
+    /// Marks the fan's edges from the new vertex to `a` and to `b`, the halves of the segment
+    /// it split, as segments on both sides.
+    fn mark_halves<S: Store>(&self, s: &mut S, a: u32, b: u32) {
+        for &id in &self.created {
+            let c = s.corners(id);
+            // Fan triangle (x, y, new): the edge y → new is opposite corner 0, new → x
+            // opposite corner 1.
+            if c[1] == a || c[1] == b {
+                s.across_mut(id)[0] |= SEGMENT;
+            }
+            if c[0] == a || c[0] == b {
+                s.across_mut(id)[1] |= SEGMENT;
+            }
+        }
     }
 
     /// Finds, for each rim edge, the one that starts where it ends, through a hash table of

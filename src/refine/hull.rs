@@ -14,7 +14,7 @@ use std::collections::{HashMap, VecDeque};
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::delaunay::{NEXT, PREV, Triangulation};
+use super::delaunay::{NEXT, PREV, Triangulation, beyond};
 use crate::error::Error;
 use crate::mesh::NONE;
 use crate::predicates::{Orientation, orientation};
@@ -260,12 +260,12 @@ fn drop_triangles(t: &mut Triangulation, removed: &[u32]) {
 }
 
 /// A triangle around each vertex, kept current through the recovery's flips.
-struct Stars {
+pub(super) struct Stars {
     triangle_of: Vec<u32>,
 }
 
 impl Stars {
-    fn of(t: &Triangulation) -> Self {
+    pub fn of(t: &Triangulation) -> Self {
         let mut triangle_of = vec![NONE; t.vertices.len()];
         for (id, c) in t.corners.iter().enumerate() {
             for &v in c {
@@ -277,7 +277,7 @@ impl Stars {
 
     /// The triangle holding edge `a → b` counter-clockwise and the corner opposite it, if that
     /// edge exists; found by turning around `a`.
-    fn edge(&self, t: &Triangulation, a: u32, b: u32) -> Option<(u32, usize)> {
+    pub fn edge(&self, t: &Triangulation, a: u32, b: u32) -> Option<(u32, usize)> {
         self.around(t, a).find_map(|(id, i)| {
             // Corner i is a; the edge a → c[NEXT[i]] is opposite corner PREV[i].
             (t.corners[id as usize][NEXT[i]] == b).then_some((id, PREV[i]))
@@ -286,14 +286,18 @@ impl Stars {
 
     /// The triangles around vertex `a`, each with `a`'s corner in it, turning one way; for a
     /// vertex on the square's boundary, from the triangle at one end of its open fan.
-    fn around<'t>(&self, t: &'t Triangulation, a: u32) -> impl Iterator<Item = (u32, usize)> + 't {
+    pub fn around<'t>(
+        &self,
+        t: &'t Triangulation,
+        a: u32,
+    ) -> impl Iterator<Item = (u32, usize)> + 't {
         let corner = move |id: u32| (0..3).find(|&i| t.corners[id as usize][i] == a);
         let mut first = self.triangle_of[a as usize];
         // Turn the other way to the end of the fan, if it has one.
         let mut back = first;
         for _ in 0..t.corners.len() {
             let Some(i) = corner(back) else { break };
-            back = t.across[back as usize][NEXT[i]];
+            back = beyond(t.across[back as usize][NEXT[i]]);
             if back == NONE || back == self.triangle_of[a as usize] {
                 break;
             }
@@ -303,7 +307,7 @@ impl Stars {
         std::iter::from_fn(move || {
             let id = next?;
             let i = corner(id)?;
-            let after = t.across[id as usize][PREV[i]];
+            let after = beyond(t.across[id as usize][PREV[i]]);
             next = (after != first && after != NONE).then_some(after);
             Some((id, i))
         })
@@ -323,13 +327,13 @@ impl Stars {
 /// Makes `u → v` an edge by flipping the edges that cross it, queueing each one that cannot
 /// be flipped yet (its quadrilateral is not convex) behind the others (Sloan): some crossing
 /// edge can always be flipped, so the crossings run out. No vertex lies on the open segment.
-fn recover_edge(
+pub(super) fn recover_edge(
     t: &mut Triangulation,
     stars: &mut Stars,
     (u, v): (u32, u32),
     touched: &mut Vec<u32>,
 ) -> Result<(), Error> {
-    if stars.edge(t, u, v).is_some() {
+    if stars.edge(t, u, v).is_some() || stars.edge(t, v, u).is_some() {
         return Ok(());
     }
     let (pu, pv) = (t.vertices[u as usize], t.vertices[v as usize]);
@@ -377,7 +381,7 @@ fn separates((a, b): (DVec2, DVec2), p: DVec2, q: DVec2) -> bool {
 /// The corner of triangle `u` opposite its edge shared with triangle `t`.
 fn facing(t: &Triangulation, u: u32, from: u32) -> usize {
     (0..3)
-        .find(|&j| t.across[u as usize][j] == from)
+        .find(|&j| beyond(t.across[u as usize][j]) == from)
         .expect("neighbours link each other")
 }
 
@@ -454,10 +458,56 @@ fn compact(t: &mut Triangulation, vertex_input: &mut Vec<u32>) -> (Renumbering, 
     (vertex_map, triangle_map)
 }
 
+/// Drops the triangles not kept and every vertex no kept triangle uses, keeping the order of
+/// the rest (regions follow the triangles, segment marks the links). Returns the renumbering
+/// of vertices and of triangles; links to dropped triangles become boundary.
+pub(super) fn compact_keeping(
+    t: &mut Triangulation,
+    vertex_input: &mut Vec<u32>,
+    keep: &[bool],
+) -> (Renumbering, Renumbering) {
+    let mut used = vec![false; t.vertices.len()];
+    for (c, _) in t.corners.iter().zip(keep).filter(|(_, k)| **k) {
+        for &v in c {
+            used[v as usize] = true;
+        }
+    }
+    let vertices_gone: Vec<u32> = (0..used.len() as u32)
+        .into_par_iter()
+        .filter(|&v| !used[v as usize])
+        .collect();
+    let triangles_gone: Vec<u32> = (0..keep.len() as u32)
+        .into_par_iter()
+        .filter(|&id| !keep[id as usize])
+        .collect();
+    let vertex_map = Renumbering::new(t.vertices.len(), vertices_gone);
+    let triangle_map = Renumbering::new(t.corners.len(), triangles_gone);
+    remove_sorted(&mut t.vertices, &vertex_map.gone);
+    remove_sorted(vertex_input, &vertex_map.gone);
+    remove_sorted(&mut t.corners, &triangle_map.gone);
+    remove_sorted(&mut t.across, &triangle_map.gone);
+    if !t.regions.is_empty() {
+        remove_sorted(&mut t.regions, &triangle_map.gone);
+    }
+    t.corners
+        .par_iter_mut()
+        .for_each(|c| *c = c.map(|v| vertex_map.of(v)));
+    t.across.par_iter_mut().for_each(|n| {
+        *n = n.map(|link| match beyond(link) {
+            NONE => NONE,
+            u => match triangle_map.of(u) {
+                NONE => NONE,
+                m => m | (link & super::delaunay::SEGMENT),
+            },
+        });
+    });
+    (vertex_map, triangle_map)
+}
+
 /// The new numbers of items once a few of them (`gone`, sorted) are removed: each kept number
 /// moves down by the count of removed ones before it, found from a per-block count (blocks of
 /// 2^[`Renumbering::BLOCK_BITS`] numbers), with a binary search only in a block that lost some.
-struct Renumbering {
+pub(super) struct Renumbering {
     gone: Vec<u32>,
     /// The count of removed numbers below each block's first.
     before_block: Vec<u32>,
@@ -476,7 +526,7 @@ impl Renumbering {
 
     /// The new number of `i`, or [`NONE`] if it was removed.
     #[inline]
-    fn of(&self, i: u32) -> u32 {
+    pub fn of(&self, i: u32) -> u32 {
         let b = (i >> Self::BLOCK_BITS) as usize;
         let (lo, hi) = (self.before_block[b], self.before_block[b + 1]);
         if lo == hi {

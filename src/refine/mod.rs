@@ -39,6 +39,7 @@ mod delaunay;
 mod hull;
 mod queue;
 mod refiner;
+mod segments;
 mod strips;
 mod tiles;
 
@@ -51,6 +52,7 @@ use crate::mesh::{
     angles_deg, interior_angles_deg, report_of,
 };
 use crate::morton::{FloatOrder, SortAlgorithm, bounding_box, float_morton_order};
+use crate::options::Input;
 use delaunay::{Cavity, Location, MAX_VERTICES, NEXT, PREV, Triangulation, locate};
 use refiner::{Bounds, Finish, Refiner, Work};
 
@@ -170,6 +172,152 @@ pub fn refine_points(
     refine_order(order, points, options, times)
 }
 
+/// How a planar straight-line graph is meshed, beyond the quality bounds of
+/// [`RefineOptions`] (whose `domain` it does not use).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PslgOptions {
+    /// Mesh the points' convex hull minus the holes (Triangle's `-c`), instead of what the
+    /// segments enclose.
+    pub convex_hull: bool,
+    /// Never split a boundary edge (Triangle's `-Y`): boundary segments stay whole, and angles
+    /// beside them may stay below the bound.
+    pub no_boundary_steiner: bool,
+    /// Split crossing segments at their intersection instead of refusing them.
+    pub split_crossings: bool,
+}
+
+/// The refined constrained Delaunay mesh of a planar straight-line graph: its points,
+/// segments (each a union of mesh edges, with its marker), holes and regions (each region's
+/// attribute on its triangles, its area bound applied with `options.max_area`), on the current
+/// rayon pool, with its report.
+///
+/// The input is cleaned first ([`crate::pslg::clean`]): duplicates merged, segments split at
+/// points on them (and at crossings, if asked). The mesh's `vertex_input` and its segment
+/// pieces' `segment` refer to the input as given. Corners between segments narrower than the
+/// angle bound keep their angle (see the module's notes); refinement is the sequential loop.
+///
+/// # Errors
+/// What [`crate::pslg::clean`] refuses, [`Error::InvalidOption`] for a bound out of range,
+/// [`Error::NothingEnclosed`] when the segments enclose nothing, [`Error::Degenerate`] for
+/// collinear points with `convex_hull`, and as [`refine_points`] for the refinement.
+pub fn refine_pslg(
+    input: &Input,
+    options: &RefineOptions,
+    pslg: PslgOptions,
+) -> Result<(Mesh, MeshReport), Error> {
+    options.check()?;
+    let mut times = StageTimes::default();
+    let clean_options = crate::pslg::CleanOptions {
+        split_crossings: pslg.split_crossings,
+    };
+    let (clean, cleaning) = times.time("clean", || crate::pslg::clean(input, clean_options))?;
+    let points = &clean.points[..];
+    let morton = times.time("morton", || float_morton_order(points))?;
+    let square = square_around(points);
+    let distinct = morton.order.len();
+    let capacity = 2 * options.expected_vertices(distinct);
+    let (mut t, mut vertex_input) = times.time("delaunay", || {
+        delaunay_of(points, &morton.order, square, capacity, true)
+    })?;
+    if pslg.convex_hull {
+        times.time("hull", || hull::cut_to_hull(&mut t, &mut vertex_input))?;
+    }
+    let constrained = times.time("segments", || {
+        segments::constrain(
+            &mut t,
+            &mut vertex_input,
+            &clean,
+            pslg.convex_hull,
+            options.min_angle_deg,
+        )
+    })?;
+    let (lo, hi) = bounding_box(&t.vertices);
+    let domain = Domain { lo, hi };
+    let region_areas: Vec<Option<f64>> = clean.regions.iter().map(|r| r.max_area).collect();
+    let bounds = Bounds::new(options, lo, hi).with_walls(
+        constrained.walls,
+        &region_areas,
+        !pslg.no_boundary_steiner,
+    );
+    let budget = options.budget(distinct);
+    let refined = times.time("refine", || {
+        refine(&mut t, &bounds, domain, distinct, budget)
+    });
+    let unmet = match refined? {
+        Finish::Done => None,
+        Finish::OutOfBudget => Some(unmet_triangles(&t, &bounds)),
+    };
+    let mesh = times.time("mesh", || {
+        let walls = bounds.walls().expect("a graph's bounds have walls");
+        let (mut pieces, boundary) = segments::segment_pieces(&t, walls, &clean);
+        for piece in &mut pieces {
+            piece.segment = cleaning.segment_origin[piece.segment as usize];
+        }
+        let first_input = first_occurrences(&cleaning.point_map, points.len());
+        for v in &mut vertex_input {
+            if *v != NONE {
+                *v = first_input[*v as usize];
+            }
+        }
+        let regions = std::mem::take(&mut t.regions);
+        let mut mesh = into_mesh(t, vertex_input, domain, true);
+        mesh.boundary = boundary;
+        mesh.segments = pieces;
+        if constrained.regions {
+            mesh.triangle_regions = regions;
+            mesh.region_attributes = clean.regions.iter().map(|r| r.attribute).collect();
+        }
+        mesh.holes = clean.holes.clone();
+        mesh
+    });
+    let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
+    let mut report = report_of(&mesh, distinct, cleaning.merged_points, &quality, times);
+    report.cleaning = Some(cleaning);
+    match unmet {
+        None => Ok((mesh, report)),
+        Some(unmet) => Err(Error::VertexBudget(Box::new(Incomplete {
+            limit: budget,
+            mesh,
+            report,
+            unmet,
+        }))),
+    }
+}
+
+/// For each cleaned point, the first input point at its position ([`NONE`] for a point the
+/// cleaning made at a crossing).
+fn first_occurrences(point_map: &[u32], cleaned: usize) -> Vec<u32> {
+    let mut first = vec![NONE; cleaned];
+    for (i, &o) in point_map.iter().enumerate().rev() {
+        first[o as usize] = i as u32;
+    }
+    first
+}
+
+/// The Delaunay triangulation of the distinct points in Morton order `order` and the corners
+/// of `square`, in strips where there are many points and `strips` allows, and the input index
+/// of each vertex.
+fn delaunay_of(
+    points: &[DVec2],
+    order: &[u32],
+    square: Domain,
+    capacity: usize,
+    strips: bool,
+) -> Result<(Triangulation, Vec<u32>), Error> {
+    let strip_count = if strips {
+        strips::strip_count(order.len())
+    } else {
+        1
+    };
+    if strip_count > 1 {
+        return strips::triangulate(points, order, square, strip_count, capacity);
+    }
+    let mut t = Triangulation::rectangle(square.lo, square.hi);
+    t.reserve(capacity, order.len() + 4);
+    let vertex_input = insert_in_order(&mut t, points, order)?;
+    Ok((t, vertex_input))
+}
+
 /// The square centred on the points' bounding box, twice its larger side (or of side 2 around
 /// a single point).
 fn square_around(points: &[DVec2]) -> Domain {
@@ -205,18 +353,8 @@ fn refine_order(
         // Without bounds the mesh of a rectangle is the Delaunay triangulation of the points and
         // its corners alone, which the strips' seams would add vertices to.
         let hull = options.domain == RefineDomain::ConvexHull;
-        let strip_count = if hull || !options.unbounded() {
-            strips::strip_count(distinct)
-        } else {
-            1
-        };
-        if strip_count > 1 {
-            return strips::triangulate(points, &morton.order, square, strip_count, capacity);
-        }
-        let mut t = Triangulation::rectangle(square.lo, square.hi);
-        t.reserve(capacity, distinct + 4);
-        let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
-        Ok::<_, Error>((t, vertex_input))
+        let strips = hull || !options.unbounded();
+        delaunay_of(points, &morton.order, square, capacity, strips)
     })?;
     let outline = match options.domain {
         RefineDomain::ConvexHull => Some(times.time("hull", || {
@@ -305,13 +443,14 @@ fn refine(
         return Ok(Finish::Done);
     }
     let (mut bad, mut edges) = refiner::inspect_all(t, bounds);
-    if points >= tiles::MIN_POINTS {
+    // The tiles refine point sets: they keep neither segments nor regions.
+    if points >= tiles::MIN_POINTS && bounds.walls().is_none() {
         let side = (domain.hi - domain.lo).max_element();
         (bad, edges) = tiles::refine_tiles(t, domain.lo, side, bounds, bad, edges, budget)?;
     }
     let mut work = Work::new();
     work.queue_all(&bad, &edges);
-    Refiner::new(t, &mut work, *bounds, budget).run()
+    Refiner::new(t, &mut work, bounds, budget).run()
 }
 
 /// Inserts the distinct points in Morton order, each walk starting from the last new triangle,
@@ -352,9 +491,12 @@ fn into_mesh(t: Triangulation, mut vertex_input: Vec<u32>, domain: Domain, hull:
     let Triangulation {
         vertices,
         corners,
-        across,
+        mut across,
         ..
     } = t;
+    across
+        .par_iter_mut()
+        .for_each(|n| *n = n.map(delaunay::beyond));
     vertex_input.resize(vertices.len(), NONE);
     let boundary = boundary_edges(&corners, &across, &vertices, (!hull).then_some(domain));
     Mesh {

@@ -5,13 +5,18 @@
 //! The loop runs on a [`Store`]: a whole triangulation, or one tile of it that is refined
 //! alongside others. A tile sets aside, as deferred, the work that would reach beyond it.
 
+use std::sync::Arc;
+
 use glam::DVec2;
 use rayon::prelude::*;
 
 use super::RefineOptions;
-use super::delaunay::{Cavity, Location, MARK, NEXT, PREV, Store, Triangulation, locate};
+use super::delaunay::{
+    Cavity, Location, MARK, NEXT, PREV, Split, Store, Triangulation, is_wall, locate,
+};
 use super::hull::ACUTE_CORNER_DEG;
 use super::queue::{Queued, SizeQueue};
+use super::segments::Walls;
 use crate::error::Error;
 use crate::mesh::NONE;
 use crate::morton::interleave::interleave32;
@@ -39,7 +44,7 @@ struct Inspection {
 }
 
 /// The quality bounds and the frame of the Morton keys, fixed for a whole refinement.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub(super) struct Bounds {
     /// sin² of the angle bound.
     sin2: f64,
@@ -55,6 +60,12 @@ pub(super) struct Bounds {
     /// triangle whose smallest angle lies in one narrower than the bound is left as it is (no
     /// triangle there can meet it).
     acute: [AcuteCorner; 2],
+    /// The segments of a planar straight-line graph and the corners between them.
+    walls: Option<Arc<Walls>>,
+    /// Twice the area bound of each region, where regions bound it.
+    region_area2: Arc<[f64]>,
+    /// Whether boundary edges may be split.
+    boundary_steiner: bool,
 }
 
 /// A domain corner narrower than [`ACUTE_CORNER_DEG`].
@@ -97,6 +108,55 @@ impl Bounds {
             origin: lo,
             scale: 2f64.powi(32) / side * (1.0 - f64::EPSILON),
             acute: [AcuteCorner::NONE; 2],
+            walls: None,
+            region_area2: Arc::from([]),
+            boundary_steiner: true,
+        }
+    }
+
+    /// These bounds with a planar straight-line graph's segments and corners, its regions'
+    /// area bounds (`None` for unbounded) and whether boundary edges may be split.
+    pub fn with_walls(
+        mut self,
+        walls: Walls,
+        region_areas: &[Option<f64>],
+        boundary_steiner: bool,
+    ) -> Self {
+        self.walls = Some(Arc::new(walls));
+        self.region_area2 = region_areas
+            .iter()
+            .map(|a| a.map_or(f64::INFINITY, |a| 2.0 * a))
+            .collect();
+        self.boundary_steiner = boundary_steiner;
+        self
+    }
+
+    /// The segments of the graph being refined, if it is one.
+    pub fn walls(&self) -> Option<&Walls> {
+        self.walls.as_deref()
+    }
+
+    /// Twice the largest area allowed in region `r`.
+    #[inline]
+    fn max_area2_in(&self, r: u32) -> f64 {
+        match self.region_area2.get(r as usize) {
+            Some(&a) => a.min(self.max_area2),
+            None => self.max_area2,
+        }
+    }
+
+    /// Whether a wall link may be split: a segment always, the boundary unless forbidden.
+    #[inline]
+    fn splits(&self, link: u32) -> bool {
+        link != NONE || self.boundary_steiner
+    }
+
+    /// Whether vertex `v` is a corner between walls narrower than [`ACUTE_CORNER_DEG`].
+    #[inline]
+    fn is_acute(&self, v: u32) -> bool {
+        match &self.walls {
+            Some(w) => w.is_acute(v),
+            None => self.acute_corner(v).is_some(),
         }
     }
 
@@ -155,7 +215,9 @@ impl Bounds {
 
     /// Whether no triangle can be bad: the Delaunay triangulation is the mesh.
     pub fn unbounded(&self) -> bool {
-        self.sin2 == 0.0 && self.max_area2 == f64::INFINITY
+        self.sin2 == 0.0
+            && self.max_area2 == f64::INFINITY
+            && self.region_area2.iter().all(|a| *a == f64::INFINITY)
     }
 }
 
@@ -207,14 +269,14 @@ pub(super) enum Finish {
 pub(super) struct Refiner<'w, S: Store> {
     s: S,
     work: &'w mut Work,
-    bounds: Bounds,
+    bounds: &'w Bounds,
     budget: usize,
     /// Bad triangles of larger size classes are set aside, not fixed.
     class_limit: usize,
 }
 
 impl<'w, S: Store> Refiner<'w, S> {
-    pub fn new(s: S, work: &'w mut Work, bounds: Bounds, budget: usize) -> Self {
+    pub fn new(s: S, work: &'w mut Work, bounds: &'w Bounds, budget: usize) -> Self {
         Refiner {
             s,
             work,
@@ -243,7 +305,7 @@ impl<'w, S: Store> Refiner<'w, S> {
             }
             if let Some(e) = self.work.encroached.pop() {
                 if self.is_live(&e) {
-                    self.split_boundary_edge(e)?;
+                    self.split_wall(e)?;
                 }
                 continue;
             }
@@ -275,7 +337,7 @@ impl<'w, S: Store> Refiner<'w, S> {
     /// Inserts the off-center (or circumcenter) of a bad triangle, unless it would encroach on
     /// boundary edges: then those are queued for splitting and the triangle waits again.
     fn fix(&mut self, class: usize, q: Queued) -> Result<(), Error> {
-        let Some((corner, shortest2)) = badness(&self.s, &self.bounds, q.triangle) else {
+        let Some((corner, shortest2)) = badness(&self.s, self.bounds, q.triangle) else {
             return Ok(());
         };
         debug_assert_eq!(class, SizeQueue::class_of(shortest2));
@@ -292,8 +354,13 @@ impl<'w, S: Store> Refiner<'w, S> {
         };
         match locate(&self.s, p, q.triangle) {
             Location::Outside { triangle, edge } => {
-                // Rounding put a circumcenter just past the boundary: split the edge it crossed.
-                let ends = self.s.triangle(triangle).edge(edge);
+                // The point lies beyond a segment, or rounding put a circumcenter just past the
+                // boundary: split the wall it crossed, where that is allowed.
+                let tri = self.s.triangle(triangle);
+                if !self.bounds.splits(tri.n[edge]) {
+                    return Ok(());
+                }
+                let ends = tri.edge(edge);
                 self.work.encroached.push(Encroached {
                     triangle,
                     corner: edge as u8,
@@ -313,7 +380,13 @@ impl<'w, S: Store> Refiner<'w, S> {
                     return Ok(());
                 }
                 let before = self.work.encroached.len();
-                for e in self.work.cavity.rim().iter().filter(|e| e.outer == NONE) {
+                let walls = self
+                    .work
+                    .cavity
+                    .rim()
+                    .iter()
+                    .filter(|e| is_wall(e.outer) && self.bounds.splits(e.outer));
+                for e in walls {
                     if encroaches(&self.s, p, (e.a, e.b)) {
                         self.work.encroached.push(Encroached {
                             triangle: e.inner,
@@ -345,7 +418,7 @@ impl<'w, S: Store> Refiner<'w, S> {
     fn inspect_created(&mut self) {
         self.work.inserted += 1;
         for k in 0..self.work.cavity.created().len() {
-            let found = inspection(&self.s, &self.bounds, self.work.cavity.created()[k]);
+            let found = inspection(&self.s, self.bounds, self.work.cavity.created()[k]);
             self.queue(found);
         }
     }
@@ -389,14 +462,14 @@ impl<'w, S: Store> Refiner<'w, S> {
         }
     }
 
-    /// Splits a boundary edge: at its midpoint, which on an axis-parallel edge keeps the
-    /// side's constant coordinate bit for bit; or, on an edge from an acute domain corner, where
-    /// a circle around the corner of a power-of-two radius meets it nearest the midpoint
-    /// (Ruppert's concentric shells), so that the splits on the corner's two sides stay at
-    /// equal distances from it and stop encroaching on each other.
-    fn split_boundary_edge(&mut self, e: Encroached) -> Result<(), Error> {
+    /// Splits a wall (a boundary edge or a segment): at its midpoint, which on an
+    /// axis-parallel edge keeps the side's constant coordinate bit for bit; or, on an edge from
+    /// an acute corner between walls, where a circle around the corner of a power-of-two radius
+    /// meets it nearest the midpoint (Ruppert's concentric shells), so that the splits on the
+    /// corner's two sides stay at equal distances from it and stop encroaching on each other.
+    fn split_wall(&mut self, e: Encroached) -> Result<(), Error> {
         let (a, b) = (self.s.point(e.ends.0), self.s.point(e.ends.1));
-        let acute = |v: u32| self.bounds.acute_corner(v).is_some();
+        let acute = |v: u32| self.bounds.is_acute(v);
         let mut m = match (acute(e.ends.0), acute(e.ends.1)) {
             (true, false) => on_shell(a, b),
             (false, true) => on_shell(b, a),
@@ -410,13 +483,41 @@ impl<'w, S: Store> Refiner<'w, S> {
         if m == a || m == b {
             return Err(Error::RefinementResolution { x: m.x, y: m.y });
         }
-        if !self.work.cavity.dig(&mut self.s, m, e.triangle) {
+        let interior = self.s.across(e.triangle)[e.corner as usize] != NONE;
+        let through = interior.then_some(e.ends);
+        if !self
+            .work
+            .cavity
+            .dig_through(&mut self.s, m, e.triangle, through)
+        {
             self.work.deferred_edges.push(e);
             return Ok(());
         }
-        self.work.cavity.commit(&mut self.s, m, Some(e.ends));
+        let segment = self.segment_between(e.ends);
+        let split = Split {
+            ends: e.ends,
+            interior,
+        };
+        let v = self.work.cavity.commit(&mut self.s, m, Some(split));
+        self.s.set_segment_of(v, segment);
         self.inspect_created();
         Ok(())
+    }
+
+    /// The input segment the wall between `a` and `b` lies on ([`NONE`] for a hull side).
+    fn segment_between(&self, (a, b): (u32, u32)) -> u32 {
+        let on = self.s.segment_of(a);
+        if on != NONE {
+            return on;
+        }
+        let on = self.s.segment_of(b);
+        if on != NONE {
+            return on;
+        }
+        self.bounds
+            .walls
+            .as_ref()
+            .map_or(NONE, |w| w.segment_between(a, b))
     }
 }
 
@@ -428,7 +529,7 @@ pub(super) fn is_current<S: Store>(s: &S, q: &Queued) -> bool {
 /// Whether the queued boundary edge is still there.
 pub(super) fn is_live<S: Store>(s: &S, e: &Encroached) -> bool {
     let tri = s.triangle(e.triangle);
-    tri.n[e.corner as usize] == NONE && tri.edge(e.corner as usize) == e.ends
+    is_wall(tri.n[e.corner as usize]) && tri.edge(e.corner as usize) == e.ends
 }
 
 /// Every bad triangle of a fresh triangulation, and every boundary edge its triangle's apex
@@ -442,7 +543,7 @@ pub(super) fn inspect_all(t: &Triangulation, bounds: &Bounds) -> (Vec<Pending>, 
         .collect();
     let edges = triangles
         .into_par_iter()
-        .filter(|&id| t.across[id as usize].contains(&NONE))
+        .filter(|&id| t.across[id as usize].iter().any(|&n| is_wall(n)))
         .flat_map_iter(|id| inspection(t, bounds, id).encroached.into_iter().flatten())
         .collect();
     (bad, edges)
@@ -462,7 +563,7 @@ fn inspection<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Inspection {
     // on the path every new triangle takes.
     let mut encroached = [None; 3];
     for (i, found) in encroached.iter_mut().enumerate() {
-        if tri.n[i] == NONE {
+        if is_wall(tri.n[i]) && bounds.splits(tri.n[i]) {
             let ends = tri.edge(i);
             if encroaches(s, s.point(tri.v[i]), ends) {
                 *found = Some(Encroached {
@@ -504,10 +605,39 @@ pub(super) fn badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usiz
     // The smallest angle faces the shortest edge, and its sine is twice the area over the
     // product of the two other sides.
     let others = len2[NEXT[shortest]] * len2[PREV[shortest]];
-    let skinny = area2 * area2 < bounds.sin2 * others
-        && !bounds.in_narrow_corner(c[shortest] & !MARK)
-        && !bounds.spans_narrow_corner(v[NEXT[shortest]], v[PREV[shortest]], v[shortest]);
-    (skinny || area2 > bounds.max_area2).then_some((shortest, len2[shortest]))
+    let skinny = area2 * area2 < bounds.sin2 * others && !input_forced(s, bounds, c, v, shortest);
+    let max_area2 = if bounds.region_area2.is_empty() {
+        bounds.max_area2
+    } else {
+        bounds.max_area2_in(s.region(id))
+    };
+    (skinny || area2 > max_area2).then_some((shortest, len2[shortest]))
+}
+
+/// Whether the small angle of a skinny triangle (corners `c` at `v`, its shortest edge opposite
+/// corner `shortest`) is forced by a corner between walls narrower than the bound: its
+/// smallest angle lies in that corner, or its shortest edge spans it with its third corner no
+/// further out (Shewchuk's rule).
+fn input_forced<S: Store>(
+    s: &S,
+    bounds: &Bounds,
+    c: [u32; 3],
+    v: [DVec2; 3],
+    shortest: usize,
+) -> bool {
+    let (apex, p, q) = (shortest, NEXT[shortest], PREV[shortest]);
+    match &bounds.walls {
+        None => {
+            bounds.in_narrow_corner(c[apex] & !MARK)
+                || bounds.spans_narrow_corner(v[p], v[q], v[apex])
+        }
+        Some(walls) => {
+            let ids = c.map(|x| x & !MARK);
+            walls.in_narrow_corner(ids[apex], v[apex], v[p], v[q])
+                || walls
+                    .spans_narrow_corner([s.segment_of(ids[p]), s.segment_of(ids[q])], [v[p], v[q]])
+        }
+    }
 }
 
 /// The point of segment `apex → other` at the power-of-two distance from `apex` nearest its

@@ -263,6 +263,8 @@ fn glue(
         vertices,
         corners,
         across,
+        regions: Vec::new(),
+        segment_of: Vec::new(),
     };
     (t, vertex_input, seam_edges)
 }

@@ -927,7 +927,7 @@ fn run_tile(
     work.queue_all(&job.work.bad, &job.work.edges);
     work.inserted = 0;
     // The store goes into the loop by reference so that its chunks can be read back after.
-    let result = Refiner::new(&mut store, work, *bounds, usize::MAX)
+    let result = Refiner::new(&mut store, work, bounds, usize::MAX)
         .up_to_class(class_limit)
         .run();
     let deferred = Lists {

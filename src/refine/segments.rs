@@ -1,0 +1,422 @@
+//! Planar straight-line graphs in the Delaunay mode: the constrained Delaunay triangulation of
+//! the points and segments, cut down to the domain the segments enclose, with regions.
+//!
+//! The points' Delaunay triangulation (of a square around them, or cut to their hull) gets
+//! each segment that is not already an edge by flipping the edges that cross it (Sloan's
+//! method, as for hull sides); the segment edges are then marked as walls in the links, and
+//! Lawson's flips, which leave walls alone, make the rest constrained Delaunay. Triangles
+//! reachable from the outside (the square's corners) or from a hole seed without crossing a
+//! segment go, as Triangle's `-p` eats them; each region seed then gives its attribute to
+//! the triangles it reaches. [`Walls`] keeps what refinement needs: which segment joins two
+//! vertices, and the corners between walls narrower than 60° (split on concentric shells) and
+//! than the angle bound (left as they are).
+
+use std::collections::{HashMap, VecDeque};
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use super::delaunay::{
+    Location, NEXT, PREV, SEGMENT, Triangulation, beyond, is_wall, locate_across_segments,
+};
+use super::hull::{ACUTE_CORNER_DEG, Stars, compact_keeping, recover_edge};
+use crate::domain::SubSegment;
+use crate::error::Error;
+use crate::mesh::{BoundaryEdge, NONE};
+use crate::options::Input;
+use crate::predicates::{Orientation, orientation};
+
+/// The marker Triangle gives boundary edges and vertices that carry none of their own.
+pub(super) const BOUNDARY_MARKER: i32 = 1;
+
+/// A corner between two walls at a vertex, narrower than the angle bound: from the wall
+/// towards `first` counter-clockwise to the wall towards `second` (their far ends when the
+/// triangulation was made).
+#[derive(Clone, Copy, Debug)]
+struct NarrowCorner {
+    first: DVec2,
+    second: DVec2,
+}
+
+/// The segments of a planar straight-line graph as refinement sees them.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Walls {
+    /// Input segments by their end vertices, the smaller first.
+    by_ends: HashMap<(u32, u32), u32>,
+    /// Per vertex of the triangulation before refinement, whether a corner between walls
+    /// there is narrower than [`ACUTE_CORNER_DEG`].
+    acute: Vec<bool>,
+    /// The corners narrower than the bound, by vertex.
+    narrow: HashMap<u32, Vec<NarrowCorner>>,
+    /// The vertex and position of the narrow corner between two segments, by the segments,
+    /// the smaller first.
+    narrow_pairs: HashMap<(u32, u32), DVec2>,
+}
+
+impl Walls {
+    /// Whether a corner between walls at vertex `v` is narrower than [`ACUTE_CORNER_DEG`].
+    #[inline]
+    pub fn is_acute(&self, v: u32) -> bool {
+        self.acute.get(v as usize).copied().unwrap_or(false)
+    }
+
+    /// The input segment joining vertices `a` and `b`, or [`NONE`].
+    pub fn segment_between(&self, a: u32, b: u32) -> u32 {
+        self.by_ends
+            .get(&(a.min(b), a.max(b)))
+            .copied()
+            .unwrap_or(NONE)
+    }
+
+    /// Whether the corner of a triangle at vertex `v` (at `at`, the triangle's other corners
+    /// at `x` and `y`) lies in a corner between walls narrower than the bound.
+    pub fn in_narrow_corner(&self, v: u32, at: DVec2, x: DVec2, y: DVec2) -> bool {
+        let Some(corners) = self.narrow.get(&v) else {
+            return false;
+        };
+        let within = |c: &NarrowCorner, p: DVec2| {
+            orientation(at, c.first, p) != Orientation::Right
+                && orientation(at, p, c.second) != Orientation::Right
+        };
+        corners.iter().any(|c| within(c, x) && within(c, y))
+    }
+
+    /// Whether `p` and `q`, on segments `segments`, lie on the two sides of a corner narrower
+    /// than the bound at equal distances from it (Shewchuk's rule, as Triangle applies it): the
+    /// concentric shells put them there, and splitting a triangle on such an edge would only
+    /// shrink the splits towards the corner.
+    pub fn spans_narrow_corner(&self, segments: [u32; 2], [p, q]: [DVec2; 2]) -> bool {
+        let [a, b] = segments;
+        if a == NONE || b == NONE || a == b {
+            return false;
+        }
+        self.narrow_pairs
+            .get(&(a.min(b), a.max(b)))
+            .is_some_and(|&c| {
+                let (dp, dq) = (p.distance_squared(c), q.distance_squared(c));
+                dp < 1.001 * dq && dp > 0.999 * dq
+            })
+    }
+}
+
+/// What [`constrain`] leaves: the domain's triangulation and its walls.
+pub(super) struct Constrained {
+    pub walls: Walls,
+    /// The triangles of each region seed, when the input has regions.
+    pub regions: bool,
+}
+
+/// Puts the input's segments into the Delaunay triangulation `t` of its points, cuts away
+/// the outside (unless `hull`: `t` is already cut to the hull) and the holes, and gives the
+/// regions their triangles. `vertex_input` follows the vertices; `t.segment_of` and, with
+/// regions, `t.regions` are filled.
+///
+/// # Errors
+/// [`Error::NothingEnclosed`] when no triangle is left.
+pub(super) fn constrain(
+    t: &mut Triangulation,
+    vertex_input: &mut Vec<u32>,
+    input: &Input,
+    hull: bool,
+    min_angle_deg: f64,
+) -> Result<Constrained, Error> {
+    let mut vertex_of = vec![NONE; input.points.len()];
+    for (v, &i) in vertex_input.iter().enumerate() {
+        if i != NONE {
+            vertex_of[i as usize] = v as u32;
+        }
+    }
+    let ends = |k: usize| input.segments[k].ends.map(|i| vertex_of[i as usize]);
+    let mut stars = Stars::of(t);
+    let mut touched = Vec::new();
+    for k in 0..input.segments.len() {
+        let [u, v] = ends(k);
+        recover_edge(t, &mut stars, (u, v), &mut touched)?;
+    }
+    for k in 0..input.segments.len() {
+        let [u, v] = ends(k);
+        let (id, i) = stars
+            .edge(t, u, v)
+            .or_else(|| stars.edge(t, v, u))
+            .expect("a recovered segment is an edge");
+        mark_wall(t, id, i);
+    }
+    let edges = touched
+        .iter()
+        .flat_map(|&id| (0..3).map(move |i| (id, i)))
+        .collect();
+    t.flip_to_delaunay(edges);
+
+    let outside = eat_outside(t, vertex_input, &input.holes, hull);
+    if outside.iter().all(|&gone| gone) {
+        return Err(Error::NothingEnclosed);
+    }
+    let regions = !input.regions.is_empty();
+    if regions {
+        let seeds: Vec<DVec2> = input.regions.iter().map(|r| r.seed).collect();
+        t.regions = spread_regions(t, &outside, &seeds);
+    }
+    let keep: Vec<bool> = outside.iter().map(|&gone| !gone).collect();
+    let (vertex_map, _) = compact_keeping(t, vertex_input, &keep);
+    t.segment_of = vec![NONE; t.vertices.len()];
+    let by_ends = (0..input.segments.len())
+        .filter_map(|k| {
+            let [u, v] = ends(k).map(|x| vertex_map.of(x));
+            (u != NONE && v != NONE).then_some(((u.min(v), u.max(v)), k as u32))
+        })
+        .collect();
+    let mut walls = Walls {
+        by_ends,
+        ..Walls::default()
+    };
+    find_corners(t, &mut walls, min_angle_deg);
+    Ok(Constrained { walls, regions })
+}
+
+/// Marks the edge opposite corner `i` of triangle `id` as a segment, on both its sides.
+fn mark_wall(t: &mut Triangulation, id: u32, i: usize) {
+    let other = t.across[id as usize][i];
+    if other == NONE {
+        return;
+    }
+    let other = beyond(other);
+    let j = t.corner_facing(other, id);
+    t.across[id as usize][i] |= SEGMENT;
+    t.across[other as usize][j] |= SEGMENT;
+}
+
+/// The triangles outside the domain: those reached without crossing a wall from a triangle
+/// with a vertex that is not an input point (the square's corners and the strips' seam ends;
+/// none once cut to the hull) or from a hole seed.
+fn eat_outside(t: &Triangulation, vertex_input: &[u32], holes: &[DVec2], hull: bool) -> Vec<bool> {
+    let mut outside = vec![false; t.len()];
+    let mut queue: VecDeque<u32> = VecDeque::new();
+    if !hull {
+        let starts: Vec<u32> = (0..t.len() as u32)
+            .into_par_iter()
+            .filter(|&id| {
+                t.corners[id as usize]
+                    .iter()
+                    .any(|&v| vertex_input[v as usize] == NONE)
+            })
+            .collect();
+        queue.extend(starts);
+    }
+    queue.extend(holes.iter().filter_map(|&seed| triangle_at(t, seed)));
+    for &id in &queue {
+        outside[id as usize] = true;
+    }
+    spread(t, &mut queue, |id| {
+        let fresh = !outside[id as usize];
+        outside[id as usize] = true;
+        fresh
+    });
+    outside
+}
+
+/// The triangle holding `p`, if any (a point on an edge or vertex gets one of its triangles).
+fn triangle_at(t: &Triangulation, p: DVec2) -> Option<u32> {
+    if !p.is_finite() || t.len() == 0 {
+        return None;
+    }
+    match locate_across_segments(t, p, 0) {
+        Location::Inside(id) => Some(id),
+        Location::Vertex(v) => t
+            .corners
+            .iter()
+            .position(|c| c.contains(&v))
+            .map(|id| id as u32),
+        Location::Outside { .. } | Location::Foreign => None,
+    }
+}
+
+/// Spreads from the queued triangles across every link that is not a wall, to each triangle
+/// that `visit` takes (returns true for).
+fn spread(t: &Triangulation, queue: &mut VecDeque<u32>, mut visit: impl FnMut(u32) -> bool) {
+    while let Some(id) = queue.pop_front() {
+        for &n in &t.across[id as usize] {
+            if !is_wall(n) && visit(n) {
+                queue.push_back(n);
+            }
+        }
+    }
+}
+
+/// Per triangle, the last region seed (in input order) whose region holds it, or [`NONE`]:
+/// each seed's triangle and all it reaches without crossing a wall.
+fn spread_regions(t: &Triangulation, outside: &[bool], seeds: &[DVec2]) -> Vec<u32> {
+    let mut region = vec![NONE; t.len()];
+    let mut stamp = vec![NONE; t.len()];
+    for (k, &seed) in seeds.iter().enumerate() {
+        let Some(start) = triangle_at(t, seed).filter(|&id| !outside[id as usize]) else {
+            continue;
+        };
+        let k = k as u32;
+        region[start as usize] = k;
+        stamp[start as usize] = k;
+        let mut queue = VecDeque::from([start]);
+        spread(t, &mut queue, |id| {
+            let fresh = stamp[id as usize] != k;
+            stamp[id as usize] = k;
+            region[id as usize] = k;
+            fresh
+        });
+    }
+    region
+}
+
+/// Finds, at every vertex, the corners between consecutive walls around it: those narrower
+/// than [`ACUTE_CORNER_DEG`] and those narrower than the bound.
+fn find_corners(t: &Triangulation, walls: &mut Walls, min_angle_deg: f64) {
+    let stars = Stars::of(t);
+    let found: Vec<(u32, Vec<WallCorner>)> = (0..t.vertices.len() as u32)
+        .into_par_iter()
+        .filter_map(|v| {
+            let corners = corners_at(t, &stars, v);
+            (!corners.is_empty()).then_some((v, corners))
+        })
+        .collect();
+    walls.acute = vec![false; t.vertices.len()];
+    for (v, corners) in found {
+        let at = t.vertices[v as usize];
+        for (angle, first, second) in corners {
+            if angle < ACUTE_CORNER_DEG {
+                walls.acute[v as usize] = true;
+            }
+            if angle < min_angle_deg {
+                let corner = NarrowCorner {
+                    first: t.vertices[first as usize],
+                    second: t.vertices[second as usize],
+                };
+                walls.narrow.entry(v).or_default().push(corner);
+                let (a, b) = (
+                    walls.segment_between(v, first),
+                    walls.segment_between(v, second),
+                );
+                if a != NONE && b != NONE {
+                    walls.narrow_pairs.insert((a.min(b), a.max(b)), at);
+                }
+            }
+        }
+    }
+}
+
+/// A corner between two walls at a vertex: its angle (degrees) and the far ends of its walls,
+/// counter-clockwise.
+type WallCorner = (f64, u32, u32);
+
+/// The corners between consecutive walls around vertex `v`, each as its angle (degrees) and
+/// the far ends of its two walls, counter-clockwise from the first; none where fewer than two
+/// walls meet.
+fn corners_at(t: &Triangulation, stars: &Stars, v: u32) -> Vec<WallCorner> {
+    let at = t.vertices[v as usize];
+    // Clockwise around v; in each triangle, with v at corner i, the edge from v to the corner
+    // PREV[i] (opposite NEXT[i]) comes first, the edge to NEXT[i] (opposite PREV[i]) last.
+    let fan: Vec<(u32, usize)> = stars.around(t, v).collect();
+    let starts_at_wall = |(id, i): (u32, usize)| is_wall(t.across[id as usize][NEXT[i]]);
+    let ends_at_wall = |(id, i): (u32, usize)| is_wall(t.across[id as usize][PREV[i]]);
+    let Some(start) = fan.iter().position(|&f| starts_at_wall(f)) else {
+        return Vec::new();
+    };
+    let mut corners = Vec::new();
+    let (mut angle, mut second) = (0.0, NONE);
+    for k in 0..fan.len() {
+        let (id, i) = fan[(start + k) % fan.len()];
+        let c = t.corners[id as usize];
+        if starts_at_wall((id, i)) {
+            angle = 0.0;
+            second = c[PREV[i]];
+        }
+        let (x, y) = (
+            t.vertices[c[NEXT[i]] as usize] - at,
+            t.vertices[c[PREV[i]] as usize] - at,
+        );
+        angle += x.perp_dot(y).atan2(x.dot(y)).to_degrees();
+        if ends_at_wall((id, i)) {
+            corners.push((angle, c[NEXT[i]], second));
+        }
+    }
+    // A single wall (a segment ending inside the domain) makes one corner all around.
+    if corners.len() == 1 && corners[0].1 == corners[0].2 {
+        corners.clear();
+    }
+    corners
+}
+
+/// The pieces of the input segments among the triangulation's walls, ordered by segment and
+/// along each from its first end, and the boundary edges with Triangle's markers: a
+/// segment's own if nonzero, else [`BOUNDARY_MARKER`].
+pub(super) fn segment_pieces(
+    t: &Triangulation,
+    walls: &Walls,
+    input: &Input,
+) -> (Vec<SubSegment>, Vec<BoundaryEdge>) {
+    let segment_of = |a: u32, b: u32| {
+        for x in [a, b] {
+            let s = t.segment_of.get(x as usize).copied().unwrap_or(NONE);
+            if s != NONE {
+                return s;
+            }
+        }
+        walls.segment_between(a, b)
+    };
+    let found: Vec<(SubSegment, bool)> = (0..t.len() as u32)
+        .into_par_iter()
+        .flat_map_iter(|id| {
+            let (c, n) = (t.corners[id as usize], t.across[id as usize]);
+            (0..3).filter_map(move |i| {
+                let link = n[i];
+                // Each interior wall once, from the triangle with the smaller number.
+                if !is_wall(link) || (link != NONE && beyond(link) < id) {
+                    return None;
+                }
+                let (a, b) = (c[NEXT[i]], c[PREV[i]]);
+                Some((a, b, link == NONE))
+            })
+        })
+        .map(|(a, b, boundary)| {
+            let segment = segment_of(a, b);
+            let marker = if segment == NONE {
+                BOUNDARY_MARKER
+            } else {
+                input.segments[segment as usize].marker
+            };
+            (
+                SubSegment {
+                    vertices: [a, b],
+                    segment,
+                    marker,
+                },
+                boundary,
+            )
+        })
+        .collect();
+    let boundary = found
+        .iter()
+        .filter(|(_, boundary)| *boundary)
+        .map(|(s, _)| BoundaryEdge {
+            vertices: s.vertices,
+            marker: if s.marker == 0 || s.segment == NONE {
+                BOUNDARY_MARKER
+            } else {
+                s.marker
+            },
+        })
+        .collect();
+    let mut pieces: Vec<(SubSegment, f64)> = found
+        .into_iter()
+        .filter(|(s, _)| s.segment != NONE)
+        .map(|(mut s, _)| {
+            let [i, j] = input.segments[s.segment as usize].ends;
+            let (p, q) = (input.points[i as usize], input.points[j as usize]);
+            let [a, b] = s.vertices.map(|v| t.vertices[v as usize]);
+            if (b - a).dot(q - p) < 0.0 {
+                s.vertices.swap(0, 1);
+            }
+            let along = ((a + b) * 0.5 - p).dot(q - p);
+            (s, along)
+        })
+        .collect();
+    pieces.par_sort_unstable_by(|(s, x), (r, y)| s.segment.cmp(&r.segment).then(x.total_cmp(y)));
+    (pieces.into_iter().map(|(s, _)| s).collect(), boundary)
+}
