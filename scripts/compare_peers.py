@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""Compare quadmesh with two peer meshers, Triangle and spade, on the same generated points.
+"""Compare quadmesh with two peer meshers, Triangle and spade, on the same generated points,
+and quadmesh with Triangle on planar straight-line graphs (.poly files).
 
 Usage (from the repository root):
 
@@ -8,6 +9,9 @@ Usage (from the repository root):
         [--threads 1,2] [--repeats 3] [--angles 20,30] [--domain hull|square]
         [--tools triangle,spade,quadmesh,quadmesh-refine]
         [--quadmesh-args='--some-flag value'] [--timeout 600] [--out results.json] [--markdown]
+    python3 scripts/compare_peers.py [--pslg FILE.poly ...] [--pslg-examples]
+        [--pslg-generated [--pslg-segments 200000] [--pslg-holes 2000] [--pslg-dir DIR]]
+        [--threads 1,2] [--repeats 3] [--angles 20,30] [--markdown] [--out results.json]
 
 Options that take a value beginning with '-' need the '=' form, as in --quadmesh-args above.
 
@@ -93,6 +97,30 @@ as JSON, with the machine's description.
 Triangle and spade see the points only after they were written as text and read back; the
 ``x y`` text that ``quadmesh generate`` writes reads back to the same doubles, so all three
 tools mesh exactly the same points.
+
+Planar straight-line graphs. Any of ``--pslg FILE ...`` (Triangle ``.poly`` files),
+``--pslg-examples`` (Triangle's examples A, face, la, double_hex and square_circle_hole from the
+``triangle`` package's data directory) and ``--pslg-generated`` (nested wavy rings with
+``--pslg-segments`` segments and a block with ``--pslg-holes`` rectangular holes, written by
+``quadmesh generate --pslg nested|holes --seed 1`` into ``--pslg-dir`` or a temporary
+directory) runs this comparison instead of the point sets. For every file and every angle A of
+``--angles``:
+
+* Triangle, through the ``triangle`` package in a fresh Python process per run, on the file as
+  Triangle reads it (a region line with one value after its seed takes it as both attribute and
+  area bound), with switches ``pq<A>``, plus ``a`` when a region bounds the area of its
+  triangles (quadmesh applies regional bounds always), plus ``A`` when there are regions
+  (quadmesh always gives their triangles the attribute), plus ``Q``. Only the ``triangulate``
+  call is timed; its peak memory is the child's ``ru_maxrss`` after it, interpreter and arrays
+  included;
+* quadmesh: ``quadmesh bench --input FILE --min-angle A --threads T --json`` for every T of
+  ``--threads`` (plus ``--quadmesh-args``); its time is ``total_s`` (meshing, not reading the
+  file), its peak memory the process's high-water mark, the file as read included.
+
+The runs alternate, Triangle then quadmesh on each thread count, ``--repeats`` rounds. One table
+follows, a row per file, angle and thread count: triangles of each and their ratio
+(quadmesh / Triangle), median times and their ratio, smallest angles (a corner of the input
+narrower than A stays as it is in both) and peak memory per output triangle.
 """
 
 import argparse
@@ -248,7 +276,28 @@ def parse_args():
     parser.add_argument("--out", type=Path, help="write all raw results to this JSON file")
     parser.add_argument("--markdown", action="store_true", help="print GitHub markdown tables")
     parser.add_argument("--no-build", action="store_true", help="do not run cargo build")
+    pslg = parser.add_argument_group(
+        "planar straight-line graphs", "any of these compares quality meshes of .poly files "
+        "instead of point sets (--angles, --threads, --repeats, --timeout, --quadmesh-args, "
+        "--out and --markdown apply)")
+    pslg.add_argument("--pslg", nargs="+", type=Path, default=[], metavar="FILE",
+                      help="Triangle .poly files")
+    pslg.add_argument("--pslg-examples", action="store_true",
+                      help=f"Triangle's examples {', '.join(PSLG_EXAMPLES)} from the triangle "
+                           f"package's data directory")
+    pslg.add_argument("--pslg-generated", action="store_true",
+                      help="nested rings and a block with holes from `quadmesh generate --pslg`")
+    pslg.add_argument("--pslg-segments", type=int, default=200_000, metavar="N",
+                      help="segments of the generated nested rings (default 200000)")
+    pslg.add_argument("--pslg-holes", type=int, default=2_000, metavar="N",
+                      help="holes of the generated block (default 2000)")
+    pslg.add_argument("--pslg-dir", type=Path, metavar="DIR",
+                      help="keep the generated .poly files in DIR (default: a temporary "
+                           "directory)")
     args = parser.parse_args()
+    args.pslg_mode = bool(args.pslg or args.pslg_examples or args.pslg_generated)
+    if args.pslg_mode and args.pslg_segments < 16:
+        parser.error("--pslg-segments must be at least 16")
     if args.repeats < 1:
         parser.error("--repeats must be at least 1")
     unknown = set(args.tools) - set(TOOLS)
@@ -604,6 +653,230 @@ def print_table(dist, size, results, markdown, angles, threads):
     sys.stdout.flush()
 
 
+# --------------------------------------------------------------------------------------------
+# Planar straight-line graphs (--pslg, --pslg-examples, --pslg-generated).
+
+PSLG_CHILD_MARK = "__triangle_pslg_child__"
+
+# Triangle's example .poly files (from the `triangle` package's data directory) of
+# --pslg-examples.
+PSLG_EXAMPLES = ("A", "face", "la", "double_hex", "square_circle_hole")
+
+
+def poly_lines(path):
+    """The significant lines of a Triangle file, as lists of fields ('#' starts a comment)."""
+    with open(path) as f:
+        for line in f:
+            fields = line.split("#", 1)[0].split()
+            if fields:
+                yield fields
+
+
+def read_poly(path):
+    """A Triangle .poly file as the `triangle` package's input dictionary, read the way
+    Triangle reads it: indices in the base of the first vertex, the vertices in the .node file
+    of the same name when the header declares none, and a region line with one value after its
+    seed taking it as both attribute and area bound. Regions are [x, y, attribute, area]."""
+    import numpy as np
+
+    lines = poly_lines(path)
+    header = next(lines)
+    count = int(header[0])
+    source = lines
+    if count == 0:
+        source = poly_lines(Path(path).with_suffix(".node"))
+        count = int(next(source)[0])
+    rows = [next(source) for _ in range(count)]
+    base = int(rows[0][0]) if rows else 0
+    data = {"vertices": np.array([[float(r[1]), float(r[2])] for r in rows], dtype=np.float64)}
+    head = next(lines)
+    rows = [next(lines) for _ in range(int(head[0]))]
+    data["segments"] = np.array([[int(r[1]) - base, int(r[2]) - base] for r in rows],
+                                dtype=np.int32).reshape(-1, 2)
+    if len(head) > 1 and int(head[1]) > 0:
+        data["segment_markers"] = np.array([int(r[3]) if len(r) > 3 else 0 for r in rows],
+                                           dtype=np.int32).reshape(-1, 1)
+    rows = [next(lines) for _ in range(int(next(lines)[0]))]
+    if rows:
+        data["holes"] = np.array([[float(r[1]), float(r[2])] for r in rows], dtype=np.float64)
+    head = next(lines, None)
+    rows = [next(lines) for _ in range(int(head[0]))] if head else []
+    if rows:
+        data["regions"] = np.array(
+            [[float(r[1]), float(r[2]), float(r[3]), float(r[4] if len(r) > 4 else r[3])]
+             for r in rows], dtype=np.float64)
+    return data
+
+
+def triangle_switches(data, angle):
+    """Triangle's switches for a quality mesh of the graph `data` at `angle`: `pq<A>`, `a` when
+    a region bounds its triangles' area (quadmesh applies regional bounds always), `A` when
+    there are regions (quadmesh always gives their triangles the attribute), `Q`."""
+    regions = data.get("regions")
+    has_regions = regions is not None and len(regions) > 0
+    bounded = has_regions and bool((regions[:, 3] > 0).any())
+    return f"pq{angle:g}" + ("a" if bounded else "") + ("A" if has_regions else "") + "Q"
+
+
+def triangle_pslg_child(poly, switches):
+    """Runs in a fresh interpreter: mesh the .poly file with Triangle and print one JSON line.
+    Only the triangulate call is timed."""
+    import resource
+
+    import numpy as np
+    import triangle
+
+    data = read_poly(poly)
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    start = time.perf_counter()
+    out = triangle.triangulate(data, switches)
+    elapsed = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    tris = out.get("triangles", np.zeros((0, 3), dtype=np.int32))
+    verts = out["vertices"]
+    lo, hi = angle_range(verts, tris)
+    print(json.dumps({"tool": "triangle", "switches": switches, "time_s": elapsed,
+                      "vertices": int(len(verts)), "triangles": int(len(tris)),
+                      "min_angle": lo, "max_angle": hi, "peak_rss_bytes": peak,
+                      "peak_rss_before_mesh_bytes": before}))
+
+
+def pslg_inputs(args, directory):
+    """(name, path) of every graph asked for; generated ones are written to `directory`."""
+    inputs = [(Path(p).stem, Path(p)) for p in args.pslg]
+    if args.pslg_examples:
+        import triangle
+
+        data = Path(triangle.__file__).resolve().parent / "data"
+        inputs += [(name, data / f"{name}.poly") for name in PSLG_EXAMPLES]
+    if args.pslg_generated:
+        generated = [(f"nested-{args.pslg_segments}", ["--pslg", "nested", "--segments",
+                                                      str(args.pslg_segments)]),
+                     (f"holes-{args.pslg_holes}", ["--pslg", "holes", "--holes",
+                                                   str(args.pslg_holes)])]
+        for name, how in generated:
+            path = directory / f"{name}.poly"
+            log(f"generating {path}")
+            subprocess.run([str(QUADMESH), "generate"] + how + ["--seed", "1", "-o", str(path)],
+                           check=True, timeout=args.timeout)
+            inputs.append((name, path))
+    return inputs
+
+
+def pslg_runs(args, path, angle, switches):
+    """Triangle and quadmesh on each thread count, alternating, `--repeats` rounds; each run
+    list stops at its first failure. Returns {label: (runs, error)}."""
+    extra = shlex.split(args.quadmesh_args)
+    commands = {"Triangle": [sys.executable, str(Path(__file__).resolve()), PSLG_CHILD_MARK,
+                             str(path), switches]}
+    for t in args.threads:
+        commands[t] = ([str(QUADMESH), "bench", "--input", str(path), "--min-angle",
+                        f"{angle:g}", "--threads", str(t), "--json"] + extra)
+    results = {label: ([], None) for label in commands}
+    for i in range(args.repeats):
+        for label, command in commands.items():
+            runs, error = results[label]
+            if error is not None:
+                continue
+            log(f"  {path.name} q{angle:g} {label if label == 'Triangle' else f'quadmesh {label}T'}"
+                f" run {i + 1}/{args.repeats}")
+            record, error = run_json(command, args.timeout)
+            if error is None:
+                runs.append(record)
+            else:
+                log(f"    failed: {error}")
+            results[label] = (runs, error)
+    return results
+
+
+def pslg_summary(runs, error, time_key):
+    if not runs:
+        return {"error": error}
+    summary = summarize(runs, time_key)
+    summary["error"] = error
+    return summary
+
+
+def pslg_rows(args, name, path):
+    """One row per angle and quadmesh thread count."""
+    data = read_poly(path)
+    rows = []
+    for angle in args.angles:
+        switches = triangle_switches(data, angle)
+        results = pslg_runs(args, path, angle, switches)
+        base = pslg_summary(*results.pop("Triangle"), "time_s")
+        for t, (runs, error) in results.items():
+            rows.append({"input": name, "path": str(path), "segments": int(len(data["segments"])),
+                         "angle": angle, "threads": t, "switches": switches, "triangle": base,
+                         "quadmesh": pslg_summary(runs, error, "total_s")})
+    return rows
+
+
+PSLG_HEADER = ["input", "segments", "angle", "quadmesh threads", "Triangle switches",
+               "triangles Triangle", "triangles quadmesh", "ratio", "time Triangle s",
+               "time quadmesh s", "ratio", "min angle Triangle / quadmesh",
+               "bytes/triangle Triangle / quadmesh"]
+
+
+def pslg_cells(row):
+    base, ours = row["triangle"], row["quadmesh"]
+
+    def num(value, fmt):
+        return format(value, fmt) if isinstance(value, (int, float)) else "-"
+
+    def per_triangle(summary):
+        peak, tris = summary.get("max_peak_rss_bytes"), summary.get("triangles")
+        return peak / tris if isinstance(peak, int) and tris else None
+
+    def failed(summary):
+        return "failed: " + " ".join(summary["error"].split()) if summary.get("error") else ""
+
+    cells = [row["input"], f"{row['segments']:,}", f"{row['angle']:g}", str(row["threads"]),
+             row["switches"],
+             num(base.get("triangles"), ",") + (f" ({failed(base)})" if failed(base) else ""),
+             num(ours.get("triangles"), ",") + (f" ({failed(ours)})" if failed(ours) else ""),
+             num(ratio_of(ours.get("triangles"), base.get("triangles")), ".2f"),
+             num(base.get("median_time_s"), ".4f"), num(ours.get("median_time_s"), ".4f"),
+             num(ratio_of(ours.get("median_time_s"), base.get("median_time_s")), ".2f"),
+             f"{num(base.get('min_angle'), '.2f')} / {num(ours.get('min_angle'), '.2f')}",
+             f"{num(per_triangle(base), '.0f')} / {num(per_triangle(ours), '.0f')}"]
+    return cells
+
+
+def print_pslg_table(rows, markdown):
+    cells = [pslg_cells(r) for r in rows]
+    if markdown:
+        print("| " + " | ".join(PSLG_HEADER) + " |")
+        print("|" + "|".join("---" if i in (0, 4) else "---:"
+                             for i in range(len(PSLG_HEADER))) + "|")
+        for row in cells:
+            print("| " + " | ".join(c.replace("|", "\\|") for c in row) + " |")
+    else:
+        widths = [max(len(c) for c in column) for column in zip(PSLG_HEADER, *cells)]
+        for row in [PSLG_HEADER] + cells:
+            print("  ".join(c.ljust(w) if i in (0, 4) else c.rjust(w)
+                            for i, (c, w) in enumerate(zip(row, widths))).rstrip())
+    sys.stdout.flush()
+
+
+def main_pslg(args):
+    """The PSLG comparison: one table, written at the end."""
+    everything = {"machine": machine(), "arguments": {k: (str(v) if isinstance(v, Path) else v)
+                                                      for k, v in vars(args).items()},
+                  "pslg": []}
+    with tempfile.TemporaryDirectory(prefix="compare-peers-pslg-") as tmp:
+        directory = args.pslg_dir or Path(tmp)
+        directory.mkdir(parents=True, exist_ok=True)
+        for name, path in pslg_inputs(args, directory):
+            log(f"{name}: {path}")
+            everything["pslg"] += pslg_rows(args, name, path)
+            if args.out:
+                args.out.write_text(json.dumps(everything, indent=1) + "\n")
+    print_pslg_table(everything["pslg"], args.markdown)
+    if args.out:
+        log(f"raw results written to {args.out}")
+
+
 def main():
     args = parse_args()
     if "triangle" in args.tools:
@@ -616,11 +889,16 @@ def main():
     import numpy as np
 
     if not args.no_build:
-        log("building: cargo build --release --bin quadmesh --example spade_mesh")
-        build = subprocess.run(["cargo", "build", "--release", "--bin", "quadmesh",
-                                "--example", "spade_mesh"], cwd=REPO)
+        targets = ["--bin", "quadmesh"] + ([] if args.pslg_mode else ["--example", "spade_mesh"])
+        log(f"building: cargo build --release {' '.join(targets)}")
+        build = subprocess.run(["cargo", "build", "--release"] + targets, cwd=REPO)
         if build.returncode != 0:
             sys.exit("compare_peers: cargo build failed")
+    if args.pslg_mode:
+        if not QUADMESH.exists():
+            sys.exit(f"compare_peers: {QUADMESH} is missing; build it or drop --no-build")
+        main_pslg(args)
+        return
     needed = [QUADMESH] + ([SPADE] if "spade" in args.tools else [])
     for binary in needed:
         if not binary.exists():
@@ -714,5 +992,7 @@ def main():
 if __name__ == "__main__":
     if len(sys.argv) == 5 and sys.argv[1] == CHILD_MARK:
         triangle_child(sys.argv[2], sys.argv[3], sys.argv[4])
+    elif len(sys.argv) == 4 and sys.argv[1] == PSLG_CHILD_MARK:
+        triangle_pslg_child(sys.argv[2], sys.argv[3])
     else:
         main()

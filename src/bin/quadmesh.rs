@@ -19,8 +19,8 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{
-    read_input, read_points, with_extension_appended, write_leaves_csv, write_msh, write_points,
-    write_svg, write_triangle_files, write_vtu,
+    read_input, read_points, with_extension_appended, write_input_poly, write_leaves_csv,
+    write_msh, write_points, write_svg, write_triangle_files, write_vtu,
 };
 use quadmesh::mesh::{Domain, validate_pslg_with};
 use quadmesh::morton::MortonKey;
@@ -89,10 +89,15 @@ enum Command {
         #[command(flatten)]
         quality: QualityArgs,
     },
-    /// Generate points in memory and mesh them, for timing and scaling studies.
+    /// Generate points in memory (or read a file) and mesh them, for timing and scaling studies.
+    #[command(mut_arg("points", |a| a.required_unless_present("input")))]
     Bench {
         #[command(flatten)]
         points: PointsArgs,
+        /// Mesh this file instead of generated points: Triangle `.poly` (a planar
+        /// straight-line graph) or `.node`, or `x y` text. Reading is not timed.
+        #[arg(long, value_name = "FILE", conflicts_with_all = ["points", "dist", "seed"])]
+        input: Option<PathBuf>,
         /// Worker threads [default: all cores].
         #[arg(long, value_name = "N")]
         threads: Option<NonZeroUsize>,
@@ -102,11 +107,22 @@ enum Command {
         #[command(flatten)]
         quality: QualityArgs,
     },
-    /// Write seeded random points as `x y` lines that read back exactly.
+    /// Write seeded random points as `x y` lines, or a seeded planar straight-line graph as a
+    /// Triangle `.poly` file (`--pslg`), that read back exactly.
+    #[command(mut_arg("points", |a| a.required_unless_present("pslg")))]
     Generate {
         #[command(flatten)]
         points: PointsArgs,
-        /// Where to write the points; `-` for standard output.
+        /// A planar straight-line graph instead of points.
+        #[arg(long, value_name = "nested|holes", conflicts_with_all = ["points", "dist"])]
+        pslg: Option<PslgShape>,
+        /// For `--pslg nested`: how many segments (at least 16).
+        #[arg(long, value_name = "N", requires = "pslg", conflicts_with = "holes")]
+        segments: Option<usize>,
+        /// For `--pslg holes`: how many holes.
+        #[arg(long, value_name = "N", requires = "pslg")]
+        holes: Option<usize>,
+        /// Where to write the points or the `.poly` file; `-` for standard output.
         #[arg(short, long, value_name = "FILE")]
         output: PathBuf,
     },
@@ -258,7 +274,7 @@ fn cli_terms(e: &quadmesh::Error) -> String {
 struct PointsArgs {
     /// How many points.
     #[arg(long, value_name = "N")]
-    points: usize,
+    points: Option<usize>,
     /// Distribution: uniform, cluster, kuzmin or grid.
     #[arg(long, default_value = "uniform")]
     dist: Distribution2d,
@@ -307,14 +323,18 @@ fn main() -> ExitCode {
         ),
         Command::Bench {
             points,
+            input,
             threads,
             json,
             quality,
-        } => bench(points, threads, json, quality),
-        Command::Generate { points, output } => {
-            let points = generate::points(points.dist, points.points, points.seed);
-            write_to(&output, |w| write_points(w, &points))
-        }
+        } => bench(points, input, threads, json, quality),
+        Command::Generate {
+            points,
+            pslg,
+            segments,
+            holes,
+            output,
+        } => generate(points, pslg.map(|shape| (shape, segments, holes)), &output),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -324,6 +344,15 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+/// A generated planar straight-line graph.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum PslgShape {
+    /// Nested wavy rings, every other annulus a hole (`--segments`).
+    Nested,
+    /// A square block with rectangular holes (`--holes`).
+    Holes,
 }
 
 /// A mesh output format.
@@ -529,44 +558,53 @@ fn histogram_line(histogram: &[u64; 18]) -> String {
     bins.join(", ")
 }
 
-/// `quadmesh bench`: generate, mesh, report; with `json`, one JSON object as the last line.
+/// `quadmesh bench`: generate (or read), mesh, report; with `json`, one JSON object as the last
+/// line.
 fn bench(
     points: PointsArgs,
+    input: Option<PathBuf>,
     threads: Option<NonZeroUsize>,
     json: bool,
     quality: QualityArgs,
 ) -> Result<()> {
-    let PointsArgs {
-        points: n,
-        dist,
-        seed,
-    } = points;
     quality.check()?;
     let pool = pool(threads)?;
-    let points = pool.install(|| generate::points(dist, n, seed));
-    let ((_, meshed), wall) = timed(|| pool.install(|| quality.mesh(Input::points(points))));
-    let (mesh, report) = meshed?;
+    let (source, geometry) = match &input {
+        Some(path) => {
+            let read = pool.install(|| read_input(path))?;
+            let source = format!(
+                "\"input\":{},\"points\":{},\"segments\":{}",
+                json_string(&path.display().to_string()),
+                read.points.len(),
+                read.segments.len()
+            );
+            (source, read)
+        }
+        None => {
+            let PointsArgs { points, dist, seed } = points;
+            let n = points.context("--points N or --input FILE is required")?;
+            let source = format!("\"points\":{n},\"dist\":\"{dist:?}\",\"seed\":{seed}");
+            (
+                source,
+                Input::points(pool.install(|| generate::points(dist, n, seed))),
+            )
+        }
+    };
+    let ((_, meshed), wall) = timed(|| pool.install(|| quality.mesh(geometry)));
+    let (mesh, report) = match (meshed, &input) {
+        (Ok(done), _) => done,
+        (Err(e), Some(path)) => return Err(anyhow::anyhow!("{}: {e}", path.display())),
+        (Err(e), None) => return Err(e.into()),
+    };
     let mut out = io::stdout().lock();
     print_report(&mut out, &report, &mesh);
     let _ = writeln!(out, "{:<24}{}", "time total", millis(wall));
     if json {
-        // A stage that ran twice (a domain's graded attempt given up) counts once, summed.
-        let mut totals: Vec<(&str, f64)> = Vec::new();
-        for (stage, d) in &report.stages {
-            match totals.iter_mut().find(|(name, _)| name == stage) {
-                Some((_, total)) => *total += d.as_secs_f64(),
-                None => totals.push((stage, d.as_secs_f64())),
-            }
-        }
-        let stages: Vec<String> = totals
-            .iter()
-            .map(|(stage, s)| format!("\"{}_s\":{s}", stage.replace(' ', "_")))
-            .collect();
         writeln!(
             out,
-            "{{\"points\":{n},\"dist\":\"{dist:?}\",\"seed\":{seed},\"threads\":{},{},\"total_s\":{},\"vertices\":{},\"triangles\":{},\"min_angle\":{},\"max_angle\":{},\"peak_rss_bytes\":{}}}",
+            "{{{source},\"threads\":{},{},\"total_s\":{},\"vertices\":{},\"triangles\":{},\"min_angle\":{},\"max_angle\":{},\"peak_rss_bytes\":{}}}",
             pool.current_num_threads(),
-            stages.join(","),
+            stage_seconds_json(&report),
             wall.as_secs_f64(),
             report.vertices,
             report.triangles,
@@ -576,6 +614,64 @@ fn bench(
         )?;
     }
     Ok(())
+}
+
+/// `"<stage>_s":seconds` for each stage, comma-separated; a stage that ran twice (a domain's
+/// graded attempt given up) counts once, summed.
+fn stage_seconds_json(report: &MeshReport) -> String {
+    let mut totals: Vec<(&str, f64)> = Vec::new();
+    for (stage, d) in &report.stages {
+        match totals.iter_mut().find(|(name, _)| name == stage) {
+            Some((_, total)) => *total += d.as_secs_f64(),
+            None => totals.push((stage, d.as_secs_f64())),
+        }
+    }
+    let stages: Vec<String> = totals
+        .iter()
+        .map(|(stage, s)| format!("\"{}_s\":{s}", stage.replace(' ', "_")))
+        .collect();
+    stages.join(",")
+}
+
+/// `text` as a JSON string literal.
+fn json_string(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 2);
+    out.push('"');
+    for c in text.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            c if c.is_control() => out.push_str(&format!("\\u{:04x}", u32::from(c))),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
+}
+
+/// `quadmesh generate`: seeded points as `x y` text, or, with `pslg` (a shape and its
+/// `--segments` or `--holes`), a seeded planar straight-line graph as a `.poly` file.
+fn generate(
+    points: PointsArgs,
+    pslg: Option<(PslgShape, Option<usize>, Option<usize>)>,
+    output: &Path,
+) -> Result<()> {
+    let seed = points.seed;
+    let input = match pslg {
+        None => {
+            let n = points.points.context("--points N or --pslg is required")?;
+            let points = generate::points(points.dist, n, seed);
+            return write_to(output, |w| write_points(w, &points));
+        }
+        Some((PslgShape::Nested, Some(n), None)) if n >= 16 => generate::nested_curves(n, seed),
+        Some((PslgShape::Nested, Some(n), None)) => {
+            anyhow::bail!("--segments: --pslg nested needs at least 16, got {n}")
+        }
+        Some((PslgShape::Nested, ..)) => anyhow::bail!("--pslg nested needs --segments N"),
+        Some((PslgShape::Holes, None, Some(n))) => generate::block_with_holes(n, seed),
+        Some((PslgShape::Holes, ..)) => anyhow::bail!("--pslg holes needs --holes N"),
+    };
+    write_to(output, |w| write_input_poly(&input, w))
 }
 
 /// The process's peak resident memory (Linux `VmHWM`), if the system reports it.

@@ -80,8 +80,9 @@ fn no_vertices(source_name: &str, line: usize) -> Error {
 ///
 /// Vertex attributes and markers are not kept. The points count from 0 in file order; segment
 /// ends are read in the file's index base, which is Triangle's: 0 when the first vertex's index
-/// is 0, else 1. A region line is `<index> <x> <y> <attribute> [maximum area]`; a missing, zero
-/// or negative area means no bound, as in Triangle. The regions section may be left out; the
+/// is 0, else 1. A region line is `<index> <x> <y> <attribute> [maximum area]`; a zero or
+/// negative area means no bound, and a line without one takes its attribute as its area bound
+/// too, as Triangle reads it. The regions section may be left out; the
 /// holes section may not (Triangle requires it too). A segment line whose header declares a
 /// marker may leave it out (it is then 0, Triangle's rule).
 ///
@@ -384,10 +385,12 @@ fn parse_region(line: &Line, source_name: &str) -> Result<RegionSeed, Error> {
     let number = |i: usize, what: &str| parse_finite(fields[i], what, source_name, line.number);
     let seed = DVec2::new(number(1, "region's x")?, number(2, "region's y")?);
     let attribute = number(3, "region's attribute")?;
+    // Triangle reads a line with one value after the seed as both attribute and area bound.
     let max_area = match fields.get(4) {
-        Some(_) => Some(number(4, "region's maximum area")?).filter(|&a| a > 0.0),
-        None => None,
+        Some(_) => number(4, "region's maximum area")?,
+        None => attribute,
     };
+    let max_area = Some(max_area).filter(|&a| a > 0.0);
     Ok(RegionSeed {
         seed,
         attribute,
@@ -671,6 +674,21 @@ mod tests {
         2\n1 1 1 3.5 0.25\n2 3 3 -1 -1\n";
 
     #[test]
+    fn a_region_line_with_one_value_takes_it_as_attribute_and_area_bound() {
+        let text = SQUARE.replace(
+            "2\n1 1 1 3.5 0.25\n2 3 3 -1 -1\n",
+            "2\n1 1 1 0.5\n2 3 3 -2\n",
+        );
+        let input = parse_poly_input(&text, "t.poly").unwrap();
+        let read: Vec<(f64, Option<f64>)> = input
+            .regions
+            .iter()
+            .map(|r| (r.attribute, r.max_area))
+            .collect();
+        assert_eq!(read, vec![(0.5, Some(0.5)), (-2.0, None)]);
+    }
+
+    #[test]
     fn poly_input_reads_every_section() {
         let input = parse_poly_input(SQUARE, "t.poly").unwrap();
         assert_eq!(input.points.len(), 4);
@@ -704,11 +722,12 @@ mod tests {
         assert_eq!(ends, vec![[0, 1], [1, 2], [2, 0]]);
         assert!(input.segments.iter().all(|s| s.marker == 0));
         assert!(input.holes.is_empty() && input.regions.is_empty());
-        // A missing marker is 0 even when the header declares markers; a region without an area.
+        // A missing marker is 0 even when the header declares markers; a region with one value
+        // takes it as its area bound too.
         let text = "2\n1 0 0\n2 1 0\n1 1\n1 1 2\n0\n1\n1 0.5 0 2\n";
         let input = parse_poly_input(text, "t.poly").unwrap();
         assert_eq!(input.segments[0].marker, 0);
-        assert_eq!(input.regions[0].max_area, None);
+        assert_eq!(input.regions[0].max_area, Some(2.0));
     }
 
     #[test]

@@ -8,6 +8,7 @@ use rayon::prelude::*;
 
 use crate::framework::NONE;
 use crate::morton::MortonKey;
+use crate::options::Input;
 use crate::pipeline::{Tree, TreeBuild};
 use crate::quadtree::Leaf;
 
@@ -64,19 +65,61 @@ pub fn write_points<W: Write>(w: W, points: &[DVec2]) -> io::Result<()> {
     write_lines(w, points, |buf, p| writeln!(buf, "{} {}", p.x, p.y))
 }
 
+/// Writes `input` as a Triangle `.poly` file that [`parse_poly_input`](super::parse_poly_input)
+/// and Triangle read back to the same input: vertices numbered from 0 with no attributes or
+/// markers, segments with their markers, the hole seeds, and the regions as
+/// `<index> <x> <y> <attribute> <maximum area>` (-1 for no bound). Floats are written in Rust's
+/// shortest round-trip form, so they read back exactly. (An input without points gets a header
+/// of 0 vertices, which Triangle's format reads as "the vertices are in the `.node` file".)
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_input_poly<W: Write>(input: &Input, mut w: W) -> io::Result<()> {
+    writeln!(w, "{} 2 0 0", input.points.len())?;
+    write_numbered_lines(&mut w, &input.points, |buf, i, p| {
+        writeln!(buf, "{i} {} {}", p.x, p.y)
+    })?;
+    writeln!(w, "{} 1", input.segments.len())?;
+    write_numbered_lines(&mut w, &input.segments, |buf, i, s| {
+        writeln!(buf, "{i} {} {} {}", s.ends[0], s.ends[1], s.marker)
+    })?;
+    writeln!(w, "{}", input.holes.len())?;
+    write_numbered_lines(&mut w, &input.holes, |buf, i, p| {
+        writeln!(buf, "{i} {} {}", p.x, p.y)
+    })?;
+    writeln!(w, "{}", input.regions.len())?;
+    write_numbered_lines(&mut w, &input.regions, |buf, i, r| {
+        let area = r.max_area.unwrap_or(-1.0);
+        writeln!(buf, "{i} {} {} {} {area}", r.seed.x, r.seed.y, r.attribute)
+    })
+}
+
 /// Formats `items` with `line` in parallel blocks and writes the blocks in order, then flushes.
-fn write_lines<T, W, F>(mut w: W, items: &[T], line: F) -> io::Result<()>
+fn write_lines<T, W, F>(w: W, items: &[T], line: F) -> io::Result<()>
 where
     T: Sync,
     W: Write,
     F: Fn(&mut Vec<u8>, &T) -> io::Result<()> + Sync,
 {
-    for batch in items.chunks(BATCH) {
+    write_numbered_lines(w, items, |buf, _, item| line(buf, item))
+}
+
+/// [`write_lines`], with each item's index in `items` passed to `line`.
+fn write_numbered_lines<T, W, F>(mut w: W, items: &[T], line: F) -> io::Result<()>
+where
+    T: Sync,
+    W: Write,
+    F: Fn(&mut Vec<u8>, usize, &T) -> io::Result<()> + Sync,
+{
+    for (b, batch) in items.chunks(BATCH).enumerate() {
         let blocks: Vec<io::Result<Vec<u8>>> = batch
             .par_chunks(BLOCK)
-            .map(|block| {
+            .enumerate()
+            .map(|(k, block)| {
+                let first = b * BATCH + k * BLOCK;
                 let mut buf = Vec::with_capacity(block.len() * 48);
-                block.iter().try_for_each(|item| line(&mut buf, item))?;
+                (block.iter().enumerate())
+                    .try_for_each(|(i, item)| line(&mut buf, first + i, item))?;
                 Ok(buf)
             })
             .collect();
@@ -140,6 +183,25 @@ mod tests {
         write_points(&mut out, &points).unwrap();
         let back = super::super::parse_text(std::str::from_utf8(&out).unwrap(), "t").unwrap();
         assert_eq!(back, points);
+    }
+
+    #[test]
+    fn inputs_round_trip_through_poly() {
+        use crate::generate::{block_with_holes, nested_curves};
+        use crate::options::RegionSeed;
+        let mut bounded = block_with_holes(5, 2);
+        bounded.regions.push(RegionSeed {
+            seed: DVec2::new(0.1, 0.1),
+            attribute: -2.5,
+            max_area: Some(0.125),
+        });
+        for input in [nested_curves(3 * BLOCK, 1), bounded] {
+            let mut out = Vec::new();
+            write_input_poly(&input, &mut out).unwrap();
+            let text = std::str::from_utf8(&out).unwrap();
+            let back = super::super::parse_poly_input(text, "t").unwrap();
+            assert_eq!(back, input);
+        }
     }
 
     #[test]

@@ -51,11 +51,12 @@ pub fn validate_pslg(mesh: &Mesh, input: &Input, bounds: AngleBounds) -> Result<
 ///    plus the PSLG fields' sizes and indices; `Boundary`: `mesh.boundary` is the set of edges
 ///    with one triangle.
 /// 2. `Conformity`: every input point in or beside a face of the domain a vertex of a triangle,
-///    bit for bit (one away from the domain may be left out, or kept in no triangle). `Segments`: the pieces of each segment in `mesh.segments` run from
-///    its first end to its second, each an edge of a triangle with the segment's marker, the
-///    vertices between on its line within 64 roundings (of its largest coordinate plus its
-///    length) and in order; a segment with no face of the domain beside it has no pieces.
-///    `Boundary`: every edge with one triangle lies on a segment or (`hull`) on a hull side.
+///    bit for bit (one away from the domain may be left out, or kept in no triangle).
+///    `Segments`: the pieces of each segment in `mesh.segments` run from its first end to its
+///    second, each an edge of a triangle with the segment's marker, the vertices between on its
+///    line within 64 roundings (of its largest coordinate plus its length) and in order; a
+///    segment with no face of the domain beside it has no pieces. `Boundary`: every edge with
+///    one triangle lies on a segment or (`hull`) on a hull side.
 /// 3. `Domain`: every triangle in a face of the domain (triangles joined across edges that are no
 ///    segment's share a face, located once by its largest triangle's centroid), no triangle on a
 ///    hole seed; `Area`: the triangles' areas sum to the domain's within a relative 1e-9.
@@ -70,8 +71,9 @@ pub fn validate_pslg(mesh: &Mesh, input: &Input, bounds: AngleBounds) -> Result<
 /// segment or an input point names no face and is reported as a `Domain` or `Regions` fault.
 ///
 /// # Complexity
-/// O(n log n) in the mesh, O(f·s) in the input for f faces and s segments (each face is located
-/// by a scan of the cycles), and O(h·n) for h hole seeds.
+/// O(n log n) in the mesh (a hole seed is looked for only among the triangles whose x range
+/// holds it), and O(f·s) in the input for f faces and s segments: each group of triangles,
+/// seed and nested component is located by a scan of the cycles.
 pub fn validate_pslg_with(
     mesh: &Mesh,
     input: &Input,
@@ -191,14 +193,9 @@ fn check_input(input: &Input) -> Result<(), String> {
     if np >= NONE as usize {
         return Err(format!("{np} input points do not fit u32 indices"));
     }
-    let seeds = input.regions.iter().map(|r| r.seed);
-    let all = input
-        .points
-        .iter()
-        .chain(&input.holes)
-        .copied()
-        .chain(seeds);
-    if let Some(p) = all.into_iter().find(|p| !p.is_finite()) {
+    let seeds = input.regions.iter().map(|r| &r.seed);
+    let mut all = input.points.iter().chain(&input.holes).chain(seeds);
+    if let Some(&p) = all.find(|p| !p.is_finite()) {
         return Err(format!(
             "the input has a non-finite point or seed {}",
             pt(p)
@@ -431,7 +428,8 @@ impl Chain<'_> {
         }
         if from != last {
             return Err(format!(
-                "the pieces of segment {s} end at vertex {from}, not at its second end, vertex {last}"
+                "the pieces of segment {s} end at vertex {from}, not at its second end, vertex \
+                 {last}"
             ));
         }
         Ok(())
@@ -484,7 +482,8 @@ impl Chain<'_> {
         }
         if !(t > after && t < 1.0) {
             return Err(format!(
-                "vertex {w} at {} on segment {s} is out of order: {t} of the way along, after {after}",
+                "vertex {w} at {} on segment {s} is out of order: {t} of the way along, after \
+                 {after}",
                 pt(p)
             ));
         }
@@ -1201,7 +1200,8 @@ fn check_area(mesh: &Mesh, faces: &Faces, holes: &[u32]) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!(
-            "triangle areas sum to {total}, the domain's area is {want} (relative difference {rel:e})"
+            "triangle areas sum to {total}, the domain's area is {want} (relative difference \
+             {rel:e})"
         ))
     }
 }

@@ -52,6 +52,9 @@ pub(super) struct Bounds {
     max_area2: f64,
     /// Off-centers lie this many shortest-edge lengths from the edge's midpoint.
     offset: f64,
+    /// cos² of twice the angle bound (0 without a bound): a point sees an edge it encroaches on
+    /// at an angle whose cosine, negative, has at least this square.
+    lens: f64,
     /// The domain's lower-left corner and the scale that maps it onto 32-bit grid coordinates.
     origin: DVec2,
     scale: f64,
@@ -105,6 +108,11 @@ impl Bounds {
             sin2: angle.sin().powi(2),
             max_area2: options.max_area.map_or(f64::INFINITY, |a| 2.0 * a),
             offset,
+            lens: if angle > 0.0 {
+                (2.0 * angle).cos().powi(2)
+            } else {
+                0.0
+            },
             origin: lo,
             scale: 2f64.powi(32) / side * (1.0 - f64::EPSILON),
             acute: [AcuteCorner::NONE; 2],
@@ -387,7 +395,7 @@ impl<'w, S: Store> Refiner<'w, S> {
                     .iter()
                     .filter(|e| is_wall(e.outer) && self.bounds.splits(e.outer));
                 for e in walls {
-                    if encroaches(&self.s, p, (e.a, e.b)) {
+                    if encroaches(&self.s, self.bounds, p, (e.a, e.b)) {
                         self.work.encroached.push(Encroached {
                             triangle: e.inner,
                             corner: e.corner,
@@ -565,7 +573,7 @@ fn inspection<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Inspection {
     for (i, found) in encroached.iter_mut().enumerate() {
         if is_wall(tri.n[i]) && bounds.splits(tri.n[i]) {
             let ends = tri.edge(i);
-            if encroaches(s, s.point(tri.v[i]), ends) {
+            if encroaches(s, bounds, s.point(tri.v[i]), ends) {
                 *found = Some(Encroached {
                     triangle: id,
                     corner: i as u8,
@@ -577,10 +585,15 @@ fn inspection<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Inspection {
     Inspection { bad, encroached }
 }
 
-/// Whether `p` lies in the closed diametral circle of the edge between vertices `ends`: it
-/// sees the edge at 90° or more.
-fn encroaches<S: Store>(s: &S, p: DVec2, (a, b): (u32, u32)) -> bool {
-    (s.point(a) - p).dot(s.point(b) - p) <= 0.0
+/// Whether `p` lies in the diametral lens of the edge between vertices `ends` (Shewchuk's, as
+/// Triangle uses): it sees the edge at 180° less twice the angle bound or more. A point outside
+/// the lens makes no triangle on the edge worse than the bound; the lens is narrower than the
+/// diametral circle, so fewer splits are made. Without an angle bound, the circle: 90° or more.
+#[inline]
+fn encroaches<S: Store>(s: &S, bounds: &Bounds, p: DVec2, (a, b): (u32, u32)) -> bool {
+    let (u, v) = (s.point(a) - p, s.point(b) - p);
+    let dot = u.dot(v);
+    dot <= 0.0 && dot * dot >= bounds.lens * u.length_squared() * v.length_squared()
 }
 
 /// The Morton key of point `p` on a 2^32 grid over the domain.
