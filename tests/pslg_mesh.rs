@@ -404,3 +404,24 @@ fn a_vertex_budget_returns_the_mesh_reached() {
         other => panic!("expected the budget error, got {other:?}"),
     }
 }
+
+#[test]
+fn large_graphs_refine_in_tiles_the_same_on_any_thread_count() {
+    // Enough points for the parallel tiles: nested rings with holes and regions, and a block
+    // with rectangular holes.
+    let rings = quadmesh::generate::nested_curves(40_000, 3);
+    let (mesh, _) = mesh_checked(&rings, Options::default().min_angle(30.0), false);
+    assert!(mesh.triangles.len() > 40_000);
+    let three = common::on_threads(3, || {
+        quadmesh::mesh(&rings, &Options::default().min_angle(30.0))
+    })
+    .unwrap();
+    assert_eq!(mesh, three.0);
+    let block = quadmesh::generate::block_with_holes(3_000, 5);
+    let (mesh, _) = mesh_checked(
+        &block,
+        Options::default().min_angle(25.0).max_area(0.05),
+        false,
+    );
+    assert!(mesh.triangles.len() > 20_000);
+}

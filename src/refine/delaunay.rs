@@ -539,6 +539,10 @@ impl Cavity {
                         (a, b) == (x, y) || (a, b) == (y, x)
                     });
                 if splits {
+                    if !S::WHOLE && !s.may_change(s.corners(beyond(o))) {
+                        self.abandon(s);
+                        return false;
+                    }
                     self.force_join(s, beyond(o));
                     continue;
                 }

@@ -158,7 +158,13 @@ pub(super) fn constrain(
     }
     let keep: Vec<bool> = outside.iter().map(|&gone| !gone).collect();
     let (vertex_map, _) = compact_keeping(t, vertex_input, &keep);
-    t.segment_of = vec![NONE; t.vertices.len()];
+    // As much room as the vertices and triangles have, which the tiles refine within.
+    t.segment_of = Vec::with_capacity(t.vertices.capacity());
+    t.segment_of.resize(t.vertices.len(), NONE);
+    if !t.regions.is_empty() {
+        t.regions
+            .reserve(t.corners.capacity().saturating_sub(t.regions.len()));
+    }
     let by_ends = (0..input.segments.len())
         .filter_map(|k| {
             let [u, v] = ends(k).map(|x| vertex_map.of(x));

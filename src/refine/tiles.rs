@@ -22,7 +22,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::delaunay::{MARK, Store, Triangulation};
+use super::delaunay::{MARK, SEGMENT, Store, Triangulation, beyond};
 use super::queue::SizeQueue;
 use super::refiner::{Bounds, Encroached, Pending, Refiner, Work, is_current, is_live, newest};
 use crate::error::Error;
@@ -173,6 +173,10 @@ struct Arrays {
     vertices: *mut DVec2,
     corners: *mut [u32; 3],
     across: *mut [u32; 3],
+    /// Per triangle, its region; null where regions are not kept.
+    regions: *mut u32,
+    /// Per vertex, the input segment it lies on; null where segments are not kept.
+    segment_of: *mut u32,
     vertex_capacity: u32,
     triangle_capacity: u32,
 }
@@ -262,11 +266,17 @@ impl<'t> Shared<'t> {
         self.settle(lists);
         let t = &mut *self.t;
         let grow = |len: usize, more: usize| (len + more).max(len + len / 2);
-        t.vertices
-            .reserve_exact(grow(t.vertices.len(), vertices) - t.vertices.len());
+        let m = grow(t.vertices.len(), vertices) - t.vertices.len();
+        t.vertices.reserve_exact(m);
+        if !t.segment_of.is_empty() {
+            t.segment_of.reserve_exact(m);
+        }
         let n = grow(t.corners.len(), triangles) - t.corners.len();
         t.corners.reserve_exact(n);
         t.across.reserve_exact(n);
+        if !t.regions.is_empty() {
+            t.regions.reserve_exact(n);
+        }
         self.arrays = arrays_of(t);
         assert!(
             self.arrays.vertex_capacity as usize <= MARK as usize,
@@ -289,11 +299,13 @@ impl<'t> Shared<'t> {
                 vertex_map[(v - v0) as usize]
             }
         };
-        let new_triangle = |t: u32| {
+        // A link keeps its segment mark.
+        let new_triangle = |link: u32| {
+            let t = beyond(link);
             if t < t0 || t == NONE {
-                t
+                link
             } else {
-                triangle_map[(t - t0) as usize]
+                triangle_map[(t - t0) as usize] | (link & SEGMENT)
             }
         };
         for bad in std::iter::once(&mut lists.bad).chain(lists.later.iter_mut().flatten()) {
@@ -319,7 +331,17 @@ impl<'t> Shared<'t> {
         let across = gather(self.arrays.across, &self.triangle_chunks, |n| {
             n.map(new_triangle)
         });
+        let regions = (!self.arrays.regions.is_null())
+            .then(|| gather(self.arrays.regions, &self.triangle_chunks, |r| r));
+        let segment_of = (!self.arrays.segment_of.is_null())
+            .then(|| gather(self.arrays.segment_of, &self.vertex_chunks, |s| s));
         let t = &mut *self.t;
+        if let Some(regions) = regions {
+            t.regions.par_extend(regions.par_iter().copied());
+        }
+        if let Some(segment_of) = segment_of {
+            t.segment_of.par_extend(segment_of.par_iter().copied());
+        }
         t.corners
             .par_iter_mut()
             .for_each(|c| *c = c.map(new_vertex));
@@ -366,15 +388,31 @@ where
 }
 
 fn arrays_of(t: &mut Triangulation) -> Arrays {
+    let kept = |v: &mut Vec<u32>| {
+        if v.is_empty() {
+            (std::ptr::null_mut(), usize::MAX)
+        } else {
+            (v.as_mut_ptr(), v.capacity())
+        }
+    };
+    let (regions, region_capacity) = kept(&mut t.regions);
+    let (segment_of, segment_capacity) = kept(&mut t.segment_of);
     Arrays {
         vertices: t.vertices.as_mut_ptr(),
         corners: t.corners.as_mut_ptr(),
         across: t.across.as_mut_ptr(),
-        vertex_capacity: t.vertices.capacity().min(u32::MAX as usize) as u32,
+        regions,
+        segment_of,
+        vertex_capacity: t
+            .vertices
+            .capacity()
+            .min(segment_capacity)
+            .min(u32::MAX as usize) as u32,
         triangle_capacity: t
             .corners
             .capacity()
             .min(t.across.capacity())
+            .min(region_capacity)
             .min(u32::MAX as usize) as u32,
     }
 }
@@ -611,8 +649,14 @@ impl Store for TileStore<'_> {
         assert!(v < self.arrays.vertex_capacity, "vertex room was reserved");
         // SAFETY: in bounds (asserted just above); `v` is a fresh number of this tile's chunk,
         // which no other tile was given (`fetch_add` in `take`) and nothing reads before this
-        // write; `write` drops nothing, so the slot may be uninitialised.
-        unsafe { self.vertex_ptr(v).write(p) };
+        // write; `write` drops nothing, so the slot may be uninitialised. The same holds for
+        // the segment array, whose capacity bounds `vertex_capacity` too where it is kept.
+        unsafe {
+            self.vertex_ptr(v).write(p);
+            if !self.arrays.segment_of.is_null() {
+                self.arrays.segment_of.add(v as usize).write(NONE);
+            }
+        }
         v
     }
     fn push_triangle(&mut self) -> u32 {
@@ -631,6 +675,9 @@ impl Store for TileStore<'_> {
         unsafe {
             self.corners_ptr(t).write([0; 3]);
             self.across_ptr(t).write([NONE; 3]);
+            if !self.arrays.regions.is_null() {
+                self.arrays.regions.add(t as usize).write(NONE);
+            }
         }
         t
     }
@@ -649,6 +696,45 @@ impl Store for TileStore<'_> {
     }
     fn room(&self) -> bool {
         self.allowance > 0
+    }
+    #[inline]
+    fn region(&self, t: u32) -> u32 {
+        if self.arrays.regions.is_null() {
+            return NONE;
+        }
+        debug_assert!(t < self.arrays.triangle_capacity);
+        // SAFETY: as for `corners`: a triangle the tile reached, whose slot (within the
+        // capacity, which the region array's bounds) was written before the pass or by this
+        // tile's `push_triangle`, and which no other tile of the pass touches.
+        unsafe { *self.arrays.regions.add(t as usize) }
+    }
+    #[inline]
+    fn set_region(&mut self, t: u32, r: u32) {
+        if !self.arrays.regions.is_null() {
+            debug_assert!(t < self.arrays.triangle_capacity);
+            // SAFETY: as for `corners_mut`: a triangle of the tile, touched by no other tile.
+            unsafe { self.arrays.regions.add(t as usize).write(r) }
+        }
+    }
+    #[inline]
+    fn segment_of(&self, v: u32) -> u32 {
+        if self.arrays.segment_of.is_null() {
+            return NONE;
+        }
+        let v = v & !MARK;
+        debug_assert!(v < self.arrays.vertex_capacity);
+        // SAFETY: as for `point`: a vertex that existed before the pass or that this tile
+        // made, written then; a vertex's segment is written only by the tile that makes it,
+        // right after `push_vertex`, before any other tile can reach the vertex.
+        unsafe { *self.arrays.segment_of.add(v as usize) }
+    }
+    #[inline]
+    fn set_segment_of(&mut self, v: u32, segment: u32) {
+        if !self.arrays.segment_of.is_null() {
+            debug_assert!(v < self.arrays.vertex_capacity);
+            // SAFETY: `v` is a vertex this tile just made (see `segment_of`).
+            unsafe { self.arrays.segment_of.add(v as usize).write(segment) }
+        }
     }
 }
 
