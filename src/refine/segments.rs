@@ -71,6 +71,9 @@ impl Walls {
     /// Whether the corner of a triangle at vertex `v` (at `at`, the triangle's other corners
     /// at `x` and `y`) lies in a corner between walls narrower than the bound.
     pub fn in_narrow_corner(&self, v: u32, at: DVec2, x: DVec2, y: DVec2) -> bool {
+        if self.narrow.is_empty() {
+            return false;
+        }
         let Some(corners) = self.narrow.get(&v) else {
             return false;
         };
@@ -87,7 +90,7 @@ impl Walls {
     /// shrink the splits towards the corner.
     pub fn spans_narrow_corner(&self, segments: [u32; 2], [p, q]: [DVec2; 2]) -> bool {
         let [a, b] = segments;
-        if a == NONE || b == NONE || a == b {
+        if self.narrow_pairs.is_empty() || a == NONE || b == NONE || a == b {
             return false;
         }
         self.narrow_pairs
