@@ -143,7 +143,8 @@ pub(super) fn key_vertices(key: u64) -> (u32, u32) {
 // ---------------------------------------------------------------------------------------------
 // 1. Sizes and indices
 
-fn check_sizes(mesh: &Mesh) -> Result<(), String> {
+/// The arrays' lengths agree, and every index fits below [`NONE`].
+pub(super) fn check_counts(mesh: &Mesh) -> Result<(), String> {
     let (nv, nt) = (mesh.vertices.len(), mesh.triangles.len());
     if mesh.vertex_input.len() != nv {
         return Err(format!(
@@ -166,6 +167,12 @@ fn check_sizes(mesh: &Mesh) -> Result<(), String> {
             "{nv} vertices or {nt} triangles do not fit u32 indices"
         ));
     }
+    Ok(())
+}
+
+fn check_sizes(mesh: &Mesh) -> Result<(), String> {
+    check_counts(mesh)?;
+    let (nv, nt) = (mesh.vertices.len(), mesh.triangles.len());
     check_domain(&mesh.domain)?;
     first_fault(nv, |v| {
         let p = mesh.vertices[v];

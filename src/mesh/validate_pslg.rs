@@ -18,10 +18,10 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::validate::{
-    ANGLE_SLACK_DEG, AREA_REL_TOL, AngleBounds, InvalidMesh, MeshCheck, Sum, check_distinct,
-    check_edges, check_inputs_once, check_orientation, compare_boundary, directed_key, fault,
-    first_fault, input_vertex_fault, key_vertices, point_fault, pt, sorted_by_position,
-    triangle_index_fault,
+    ANGLE_SLACK_DEG, AREA_REL_TOL, AngleBounds, InvalidMesh, MeshCheck, Sum, check_counts,
+    check_distinct, check_edges, check_inputs_once, check_orientation, compare_boundary,
+    directed_key, fault, first_fault, input_vertex_fault, key_vertices, point_fault, pt,
+    sorted_by_position, triangle_index_fault,
 };
 use super::{Mesh, NONE, SubSegment, angles_deg};
 use crate::options::{Input, Segment};
@@ -160,31 +160,6 @@ fn check_sizes(mesh: &Mesh, input: &Input) -> Result<(), String> {
     })?;
     first_fault(mesh.segments.len(), |k| piece_index_fault(mesh, input, k))?;
     check_region_fields(mesh, input)
-}
-
-fn check_counts(mesh: &Mesh) -> Result<(), String> {
-    let (nv, nt) = (mesh.vertices.len(), mesh.triangles.len());
-    if mesh.vertex_input.len() != nv {
-        return Err(format!(
-            "vertex_input has {} entries for {nv} vertices",
-            mesh.vertex_input.len()
-        ));
-    }
-    if mesh.neighbours.len() != nt {
-        return Err(format!(
-            "neighbours has {} entries for {nt} triangles",
-            mesh.neighbours.len()
-        ));
-    }
-    if nt == 0 {
-        return Err("the mesh has no triangles".to_string());
-    }
-    if nv >= NONE as usize || nt >= NONE as usize {
-        return Err(format!(
-            "{nv} vertices or {nt} triangles do not fit u32 indices"
-        ));
-    }
-    Ok(())
 }
 
 /// The input must be what cleaning leaves: finite, its segments joining two distinct points.

@@ -427,35 +427,22 @@ fn crossing_edges(
     None
 }
 
-/// Drops every triangle with a vertex that is not an input point and every such vertex,
-/// keeping the order of the rest. Returns the renumbering of vertices and of triangles. The
-/// dropped ones are few (the square's corners, the seams' ends and the triangles at them).
+/// Drops every triangle with a vertex that is not an input point and every such vertex (no
+/// triangle left uses one), keeping the order of the rest. Returns the renumbering of vertices
+/// and of triangles. The dropped ones are few (the square's corners, the seams' ends and the
+/// triangles at them).
 fn compact(t: &mut Triangulation, vertex_input: &mut Vec<u32>) -> (Renumbering, Renumbering) {
-    let vertices_gone: Vec<u32> = (0..vertex_input.len() as u32)
-        .into_par_iter()
-        .filter(|&v| vertex_input[v as usize] == NONE)
-        .collect();
-    let triangles_gone: Vec<u32> = (0..t.corners.len() as u32)
-        .into_par_iter()
-        .filter(|&id| {
-            t.corners[id as usize]
-                .iter()
-                .any(|&v| vertex_input[v as usize] == NONE)
-        })
-        .collect();
-    let vertex_map = Renumbering::new(vertex_input.len(), vertices_gone);
-    let triangle_map = Renumbering::new(t.corners.len(), triangles_gone);
-    remove_sorted(&mut t.vertices, &vertex_map.gone);
-    remove_sorted(vertex_input, &vertex_map.gone);
-    remove_sorted(&mut t.corners, &triangle_map.gone);
-    remove_sorted(&mut t.across, &triangle_map.gone);
+    let keep: Vec<bool> = touches_no_added_vertex(t, vertex_input);
+    compact_keeping(t, vertex_input, &keep)
+}
+
+/// Per triangle, whether all its corners are input points (not the square's corners or the
+/// strips' seam ends).
+pub(super) fn touches_no_added_vertex(t: &Triangulation, vertex_input: &[u32]) -> Vec<bool> {
     t.corners
-        .par_iter_mut()
-        .for_each(|c| *c = c.map(|v| vertex_map.of(v)));
-    t.across
-        .par_iter_mut()
-        .for_each(|n| *n = n.map(|u| if u == NONE { NONE } else { triangle_map.of(u) }));
-    (vertex_map, triangle_map)
+        .par_iter()
+        .map(|c| c.iter().all(|&v| vertex_input[v as usize] != NONE))
+        .collect()
 }
 
 /// Drops the triangles not kept and every vertex no kept triangle uses, keeping the order of

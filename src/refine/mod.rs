@@ -240,13 +240,9 @@ pub fn refine_pslg(
         !pslg.no_boundary_steiner,
     );
     let budget = options.budget(distinct);
-    let refined = times.time("refine", || {
-        refine(&mut t, &bounds, domain, distinct, budget)
-    });
-    let unmet = match refined? {
-        Finish::Done => None,
-        Finish::OutOfBudget => Some(unmet_triangles(&t, &bounds)),
-    };
+    let unmet = times.time("refine", || {
+        refine_to_budget(&mut t, &bounds, domain, distinct, budget)
+    })?;
     let mesh = times.time("mesh", || {
         let walls = bounds.walls().expect("a graph's bounds have walls");
         let (mut pieces, boundary) = segments::segment_pieces(&t, walls, &clean);
@@ -273,15 +269,7 @@ pub fn refine_pslg(
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
     let mut report = report_of(&mesh, distinct, cleaning.merged_points, &quality, times);
     report.cleaning = Some(cleaning);
-    match unmet {
-        None => Ok((mesh, report)),
-        Some(unmet) => Err(Error::VertexBudget(Box::new(Incomplete {
-            limit: budget,
-            mesh,
-            report,
-            unmet,
-        }))),
-    }
+    within_budget(mesh, report, unmet, budget)
 }
 
 /// Whether a graph's points are triangulated in strips: no. The strips' seams cross every curve
@@ -391,13 +379,9 @@ fn refine_order(
         .collect();
     let bounds = Bounds::new(options, domain.lo, domain.hi).with_corners(&hull_corners);
     let budget = options.budget(distinct);
-    let refined = times.time("refine", || {
-        refine(&mut triangulation, &bounds, domain, distinct, budget)
-    });
-    let unmet = match refined? {
-        Finish::Done => None,
-        Finish::OutOfBudget => Some(unmet_triangles(&triangulation, &bounds)),
-    };
+    let unmet = times.time("refine", || {
+        refine_to_budget(&mut triangulation, &bounds, domain, distinct, budget)
+    })?;
     let hull = outline.is_some();
     let mut mesh = times.time("mesh", || {
         into_mesh(triangulation, vertex_input, domain, hull)
@@ -405,6 +389,32 @@ fn refine_order(
     mesh.outline = outline.map(|_| corners);
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
     let report = report_of(&mesh, distinct, morton.duplicates.count, &quality, times);
+    within_budget(mesh, report, unmet, budget)
+}
+
+/// Refines as [`refine`] does; at the vertex budget, returns the triangles still outside the
+/// bounds.
+fn refine_to_budget(
+    t: &mut Triangulation,
+    bounds: &Bounds,
+    domain: Domain,
+    points: usize,
+    budget: usize,
+) -> Result<Option<Vec<Unmet>>, Error> {
+    Ok(match refine(t, bounds, domain, points, budget)? {
+        Finish::Done => None,
+        Finish::OutOfBudget => Some(unmet_triangles(t, bounds)),
+    })
+}
+
+/// The finished mesh, or, with triangles left unmet at the vertex budget, the error that
+/// carries it.
+fn within_budget(
+    mesh: Mesh,
+    report: MeshReport,
+    unmet: Option<Vec<Unmet>>,
+    budget: usize,
+) -> Result<(Mesh, MeshReport), Error> {
     match unmet {
         None => Ok((mesh, report)),
         Some(unmet) => Err(Error::VertexBudget(Box::new(Incomplete {

@@ -19,7 +19,9 @@ use rayon::prelude::*;
 use super::delaunay::{
     Location, NEXT, PREV, SEGMENT, Triangulation, beyond, is_wall, locate_across_segments,
 };
-use super::hull::{ACUTE_CORNER_DEG, Stars, compact_keeping, recover_edge};
+use super::hull::{
+    ACUTE_CORNER_DEG, Stars, compact_keeping, recover_edge, touches_no_added_vertex,
+};
 use crate::domain::SubSegment;
 use crate::error::Error;
 use crate::mesh::{BoundaryEdge, NONE};
@@ -201,15 +203,8 @@ fn eat_outside(t: &Triangulation, vertex_input: &[u32], holes: &[DVec2], hull: b
     let mut outside = vec![false; t.len()];
     let mut queue: VecDeque<u32> = VecDeque::new();
     if !hull {
-        let starts: Vec<u32> = (0..t.len() as u32)
-            .into_par_iter()
-            .filter(|&id| {
-                t.corners[id as usize]
-                    .iter()
-                    .any(|&v| vertex_input[v as usize] == NONE)
-            })
-            .collect();
-        queue.extend(starts);
+        let inside = touches_no_added_vertex(t, vertex_input);
+        queue.extend((0..t.len() as u32).filter(|&id| !inside[id as usize]));
     }
     queue.extend(holes.iter().filter_map(|&seed| triangle_at(t, seed)));
     for &id in &queue {
