@@ -425,3 +425,85 @@ fn large_graphs_refine_in_tiles_the_same_on_any_thread_count() {
     );
     assert!(mesh.triangles.len() > 20_000);
 }
+
+/// A polygon star-shaped around `centre`: corners at the given angles (radians, increasing in
+/// [0, 2π)) and radii.
+fn star(centre: DVec2, corners: &[(f64, f64)]) -> Vec<DVec2> {
+    corners
+        .iter()
+        .map(|&(a, r)| centre + r * DVec2::new(a.cos(), a.sin()))
+        .collect()
+}
+
+/// `n` corners (in the range) of a star polygon: at angles `2π (k + jitter) / n` with jitter in
+/// [0, 0.8), so consecutive angles are less than `3.6π / n` apart, and radii in the range.
+fn star_corners(
+    n: std::ops::Range<usize>,
+    radii: std::ops::Range<f64>,
+) -> impl Strategy<Value = Vec<(f64, f64)>> {
+    n.prop_flat_map(move |n| {
+        proptest::collection::vec((0.0..0.8f64, radii.clone()), n).prop_map(move |c| {
+            c.iter()
+                .enumerate()
+                .map(|(k, &(jitter, r))| {
+                    (std::f64::consts::TAU * (k as f64 + jitter) / n as f64, r)
+                })
+                .collect()
+        })
+    })
+}
+
+use proptest::prelude::*;
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 48, ..ProptestConfig::default() })]
+
+    /// Random star-shaped domains with a star-shaped hole, at random bounds: every mesh passes
+    /// the independent check and is the same on 1 and 2 threads.
+    #[test]
+    fn random_domains_with_a_hole_mesh_and_check(
+        outer in star_corners(9..40, 0.5..1.5),
+        inner in star_corners(4..16, 0.1..0.3),
+        angle in 0.0..30.0f64,
+        area in proptest::option::of(0.001..0.5f64),
+    ) {
+        // With 9 corners or more, the outer star's sides (radii at least 0.5, angles less than
+        // 1.26 apart) stay further than 0.5 cos 0.63 > 0.4 from the centre, outside the inner
+        // star (radii at most 0.3), whose 4 corners or more keep it simple.
+        let mut input = Input::default();
+        closed_loop(&mut input.points, &mut input.segments, &star(DVec2::ZERO, &outer), 1);
+        closed_loop(&mut input.points, &mut input.segments, &star(DVec2::ZERO, &inner), 2);
+        input.holes.push(DVec2::ZERO);
+        let mut options = Options::default().min_angle(angle).max_vertices(100_000);
+        if let Some(a) = area {
+            options = options.max_area(a);
+        }
+        let (mesh, _) = mesh_checked(&input, options, false);
+        prop_assert!(mesh.segments.len() >= input.segments.len());
+    }
+
+    /// Random segments thrown into a square, crossing or not: with crossings split the mesh is
+    /// made or refused with a typed error, never a panic.
+    #[test]
+    fn random_crossing_segments_never_panic(
+        ends in proptest::collection::vec(((0.0..4.0f64, 0.0..4.0f64), (0.0..4.0f64, 0.0..4.0f64)), 1..12),
+        angle in 0.0..30.0f64,
+    ) {
+        let mut input = Input::default();
+        closed_loop(&mut input.points, &mut input.segments, &square(DVec2::ZERO, 4.0), 1);
+        for ((ax, ay), (bx, by)) in ends {
+            let first = input.points.len() as u32;
+            input.points.extend([DVec2::new(ax, ay), DVec2::new(bx, by)]);
+            input.segments.push(Segment { ends: [first, first + 1], marker: 3 });
+        }
+        let options = Options::default().min_angle(angle).split_crossings().max_vertices(50_000);
+        match quadmesh::mesh(&input, &options) {
+            Ok((mesh, _)) => {
+                prop_assert!((common::mesh_area(&mesh) - 16.0).abs() < 1e-9);
+                mesh.check_delaunay().unwrap();
+            }
+            Err(Error::ZeroLengthSegment { .. } | Error::VertexBudget(_)) => {}
+            Err(e) => prop_assert!(false, "unexpected error {e}"),
+        }
+    }
+}
