@@ -542,6 +542,19 @@ fn print_report(err: &mut dyn Write, report: &MeshReport, mesh: &Mesh) {
     for (label, value) in lines {
         let _ = writeln!(err, "{label:<24}{value}");
     }
+    if let Some(cleaning) = &report.cleaning {
+        let graph = [
+            ("splits at points", cleaning.vertex_splits),
+            ("crossings split", cleaning.crossing_splits),
+            ("repeated segments", cleaning.repeated_segments),
+            ("segment pieces", mesh.segments.len()),
+            ("holes", mesh.holes.len()),
+            ("regions", mesh.region_attributes.len()),
+        ];
+        for (label, value) in graph {
+            let _ = writeln!(err, "{label:<24}{value}");
+        }
+    }
     for (stage, d) in &report.stages {
         let _ = writeln!(err, "{:<24}{}", format!("time {stage}"), millis(*d));
     }
