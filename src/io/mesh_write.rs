@@ -1148,28 +1148,8 @@ mod tests {
     use std::collections::HashMap;
 
     use super::*;
-    use crate::mesh::fixtures::{pslg_square, square_boundary, two_triangles, unit_domain};
+    use crate::mesh::fixtures::{bounding_box, four_triangles, pslg_square, two_triangles};
     use crate::mesh::{BoundaryEdge, Domain, SubSegment};
-
-    /// The unit square fanned around its centre, which is the only input point.
-    fn four_triangles() -> Mesh {
-        Mesh {
-            outline: None,
-            vertices: vec![
-                DVec2::new(0.0, 0.0),
-                DVec2::new(1.0, 0.0),
-                DVec2::new(1.0, 1.0),
-                DVec2::new(0.0, 1.0),
-                DVec2::new(0.5, 0.5),
-            ],
-            vertex_input: vec![NONE, NONE, NONE, NONE, 0],
-            triangles: vec![[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]],
-            neighbours: vec![[1, 3, NONE], [2, 0, NONE], [3, 1, NONE], [0, 2, NONE]],
-            boundary: square_boundary([0, 1, 2, 3]),
-            domain: unit_domain(),
-            ..Mesh::default()
-        }
-    }
 
     /// An `n` by `n` grid of unit squares, each cut along the diagonal from its lower-left
     /// corner; every third vertex is an input point.
@@ -1258,6 +1238,27 @@ mod tests {
         String::from_utf8(out).unwrap()
     }
 
+    type Writer = fn(&Mesh, &mut Vec<u8>) -> io::Result<()>;
+
+    /// The writers of Triangle's files in the order [`write_triangle_files`] writes them, the
+    /// last (`.poly`) only for a mesh with segments.
+    const TRIANGLE_WRITERS: [Writer; 5] = [
+        |m, w| write_node(m, w),
+        |m, w| write_ele(m, w),
+        |m, w| write_neigh(m, w),
+        |m, w| write_edge(m, w),
+        |m, w| write_poly(m, w),
+    ];
+
+    /// Checks the text of each of Triangle's files of `mesh` (see [`TRIANGLE_WRITERS`]).
+    fn assert_triangle_files(mesh: &Mesh, expected: &[&str]) {
+        let files = if mesh.segments.is_empty() { 4 } else { 5 };
+        assert_eq!(expected.len(), files, "one text per file");
+        for (write, expected) in TRIANGLE_WRITERS.iter().zip(expected) {
+            assert_eq!(text(mesh, write), *expected);
+        }
+    }
+
     #[test]
     fn integer_lines_match_display() {
         let fields = [0, -1, 7, 10, 42, -1000, i64::MAX, i64::MIN];
@@ -1292,9 +1293,7 @@ mod tests {
 
     #[test]
     fn triangle_files_of_two_triangles() {
-        let mesh = two_triangles();
-        let node = text(&mesh, |m, w| write_node(m, w));
-        let expected_node = "\
+        let node = "\
 # vertex (numbered from 1), x, y, input index (0-based, -1 for none), boundary marker
 4 2 1 1
 1 0 0 0 1
@@ -1302,25 +1301,19 @@ mod tests {
 3 1 1 1 3
 4 0 1 -1 4
 ";
-        assert_eq!(node, expected_node);
-        let ele = text(&mesh, |m, w| write_ele(m, w));
-        let expected_ele = "\
+        let ele = "\
 # triangle, its vertices counter-clockwise (all numbered from 1)
 2 3 0
 1 1 2 3
 2 1 3 4
 ";
-        assert_eq!(ele, expected_ele);
-        let neigh = text(&mesh, |m, w| write_neigh(m, w));
-        let expected_neigh = "\
+        let neigh = "\
 # triangle, the triangles across from its corners (numbered from 1, -1 for none)
 2 3
 1 -1 2 -1
 2 -1 -1 1
 ";
-        assert_eq!(neigh, expected_neigh);
-        let edge = text(&mesh, |m, w| write_edge(m, w));
-        let expected_edge = "\
+        let edge = "\
 # edge (numbered from 1), its vertices, side marker (1 bottom, 2 right, 3 top, 4 left, 0 interior)
 5 1
 1 2 3 2
@@ -1329,7 +1322,7 @@ mod tests {
 4 3 4 3
 5 4 1 4
 ";
-        assert_eq!(edge, expected_edge);
+        assert_triangle_files(&two_triangles(), &[node, ele, neigh, edge]);
     }
 
     #[test]
@@ -1584,11 +1577,9 @@ mod tests {
 
         let (lo, hi) = (mesh.domain.lo, mesh.domain.hi);
         let outline = mesh.outline.as_ref().unwrap();
-        let min = outline.iter().fold(DVec2::INFINITY, |m, &p| m.min(p));
-        let max = outline.iter().fold(DVec2::NEG_INFINITY, |m, &p| m.max(p));
         assert_eq!(
-            (lo, hi),
-            (min, max),
+            mesh.domain,
+            bounding_box(outline),
             "the domain is the outline's bounding box"
         );
         let entities = msh_section(&msh, "Entities");
@@ -1700,15 +1691,15 @@ mod tests {
         }
     }
 
+    /// The `d` attribute of the first path in `svg`.
+    fn path_d(svg: &str) -> &str {
+        let d = svg.split(" d=\"").nth(1).unwrap();
+        d.split('"').next().unwrap()
+    }
+
     /// The segments of the path of an SVG picture, in SVG coordinates.
     fn svg_path(svg: &str) -> Vec<[DVec2; 2]> {
-        let d = svg
-            .split(" d=\"")
-            .nth(1)
-            .unwrap()
-            .split('"')
-            .next()
-            .unwrap();
+        let d = path_d(svg);
         d.lines()
             .filter(|l| !l.is_empty())
             .map(|line| {
@@ -1805,9 +1796,7 @@ mod tests {
 
     #[test]
     fn triangle_files_of_a_pslg_mesh() {
-        let mesh = pslg_square();
-        let node = text(&mesh, |m, w| write_node(m, w));
-        let expected_node = "\
+        let node = "\
 # vertex (numbered from 1), x, y, input index (0-based, -1 for none), boundary marker
 5 2 1 1
 1 0 0 0 5
@@ -1816,9 +1805,7 @@ mod tests {
 4 0 1 3 1
 5 0.5 0.5 4 -3
 ";
-        assert_eq!(node, expected_node);
-        let ele = text(&mesh, |m, w| write_ele(m, w));
-        let expected_ele = "\
+        let ele = "\
 # triangle, its vertices counter-clockwise (all numbered from 1), regional attribute (0 \
 outside every region)
 4 3 1
@@ -1827,9 +1814,15 @@ outside every region)
 3 3 4 5 -1
 4 4 1 5 -1
 ";
-        assert_eq!(ele, expected_ele);
-        let edge = text(&mesh, |m, w| write_edge(m, w));
-        let expected_edge = "\
+        let neigh = "\
+# triangle, the triangles across from its corners (numbered from 1, -1 for none)
+4 3
+1 2 4 -1
+2 3 1 -1
+3 4 2 -1
+4 1 3 -1
+";
+        let edge = "\
 # edge (numbered from 1), its vertices, marker (its segment's, 1 if that is 0 on the boundary; \
 else 1 boundary, 0 interior)
 8 1
@@ -1842,9 +1835,7 @@ else 1 boundary, 0 interior)
 7 3 4 1
 8 4 1 1
 ";
-        assert_eq!(edge, expected_edge);
-        let poly = text(&mesh, |m, w| write_poly(m, w));
-        let expected_poly = "\
+        let poly = "\
 # no vertices: they are in the .node file
 0 2 1 1
 # subsegment (numbered from 1), its vertices, boundary marker
@@ -1860,7 +1851,7 @@ else 1 boundary, 0 interior)
 # no regions: the regional attributes are in the .ele file
 0
 ";
-        assert_eq!(poly, expected_poly);
+        assert_triangle_files(&pslg_square(), &[node, ele, neigh, edge, poly]);
     }
 
     #[test]
@@ -2081,14 +2072,7 @@ $EndElements
     /// The `d` attribute of the SVG path whose attributes start with `attributes`, as lists of
     /// the numbers of its lines.
     fn svg_path_with(svg: &str, attributes: &str) -> Vec<Vec<f64>> {
-        let path = svg.split(&format!("<path {attributes}")).nth(1).unwrap();
-        let d = path
-            .split(" d=\"")
-            .nth(1)
-            .unwrap()
-            .split('"')
-            .next()
-            .unwrap();
+        let d = path_d(svg.split(&format!("<path {attributes}")).nth(1).unwrap());
         d.lines()
             .filter(|l| !l.is_empty())
             .map(|line| {
@@ -2157,20 +2141,15 @@ $EndElements
             .build()
             .unwrap();
         pool.install(|| {
-            type Writer = fn(&Mesh, &mut Vec<u8>) -> io::Result<()>;
-            let writers: [Writer; 9] = [
-                |m, w| write_node(m, w),
-                |m, w| write_ele(m, w),
-                |m, w| write_neigh(m, w),
-                |m, w| write_edge(m, w),
-                |m, w| write_poly(m, w),
+            let others: [Writer; 4] = [
                 |m, w| write_vtu(m, w),
                 |m, w| write_msh(m, w),
                 |m, w| write_svg(m, w, 5000),
                 |m, w| write_svg(m, w, 100_000),
             ];
-            writers
+            TRIANGLE_WRITERS
                 .iter()
+                .chain(&others)
                 .map(|write| {
                     let mut out = Vec::new();
                     write(mesh, &mut out).unwrap();

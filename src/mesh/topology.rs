@@ -208,7 +208,7 @@ mod tests {
 
     use super::*;
     use crate::generate::{Distribution2d, points};
-    use crate::mesh::fixtures::{pslg_square, two_triangles};
+    use crate::mesh::fixtures::{neighbours_of, pslg_square, two_triangles};
     use crate::mesh::{AngleBounds, BoundarySide, Domain};
     use crate::refine::{RefineOptions, refine_points};
     use crate::warp::ANGLE_BOUNDS;
@@ -256,23 +256,7 @@ mod tests {
                 mesh.triangles.push([a, c, d]);
             }
         }
-        // The neighbours from the half-edges.
-        let mut half_edges = HashMap::new();
-        for (t, &triangle) in mesh.triangles.iter().enumerate() {
-            for i in 0..3 {
-                half_edges.insert(opposite_edge(triangle, i), t as u32);
-            }
-        }
-        mesh.neighbours = mesh
-            .triangles
-            .iter()
-            .map(|&triangle| {
-                [0, 1, 2].map(|i| {
-                    let [a, b] = opposite_edge(triangle, i);
-                    half_edges.get(&[b, a]).copied().unwrap_or(NONE)
-                })
-            })
-            .collect();
+        mesh.neighbours = neighbours_of(&mesh.triangles);
         let sides = [
             (BoundarySide::Bottom, [[0, 0], [1, 0], [2, 0]]),
             (BoundarySide::Right, [[2, 0], [2, 1], [2, 2]]),
@@ -372,6 +356,15 @@ mod tests {
         mesh
     }
 
+    /// The edge with these fields, as [`Mesh::edges`] lists it.
+    fn edge(vertices: [u32; 2], triangles: [u32; 2], marker: i32) -> Edge {
+        Edge {
+            vertices,
+            triangles,
+            marker,
+        }
+    }
+
     const RIGHT_ISOSCELES: AngleBounds = AngleBounds {
         min_deg: 45.0,
         max_deg: 90.0,
@@ -381,11 +374,6 @@ mod tests {
     fn edges_of_two_triangles() {
         let mesh = two_triangles();
         let mesh = validated(mesh.clone(), &input_points(&mesh), RIGHT_ISOSCELES);
-        let edge = |vertices, triangles, marker| Edge {
-            vertices,
-            triangles,
-            marker,
-        };
         assert_eq!(
             mesh.edges(),
             [
@@ -422,11 +410,6 @@ mod tests {
     #[test]
     fn segments_carry_their_markers_to_edges_and_vertices() {
         let mesh = pslg_square();
-        let edge = |vertices, triangles, marker| Edge {
-            vertices,
-            triangles,
-            marker,
-        };
         // Interior edges on segments keep their markers, 0 included; boundary edges carry
         // their boundary markers.
         assert_eq!(

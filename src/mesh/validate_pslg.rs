@@ -1310,7 +1310,8 @@ fn check_angles(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{BoundaryEdge, Domain};
+    use crate::mesh::fixtures::{bounding_box, neighbours_of};
+    use crate::mesh::{BoundaryEdge, opposite_edge};
     use crate::options::RegionSeed;
     use spade::{
         AngleLimit, ConstrainedDelaunayTriangulation, Point2, RefinementParameters, Triangulation,
@@ -1318,10 +1319,11 @@ mod tests {
 
     type Cdt = ConstrainedDelaunayTriangulation<Point2<f64>>;
 
-    const LOOSE: AngleBounds = AngleBounds {
-        min_deg: 0.0,
-        max_deg: 180.0,
-    };
+    const fn bounds(min_deg: f64, max_deg: f64) -> AngleBounds {
+        AngleBounds { min_deg, max_deg }
+    }
+
+    const LOOSE: AngleBounds = bounds(0.0, 180.0);
 
     /// Points and segments, segment `s` with marker `s + 1`.
     fn input(points: &[[f64; 2]], segments: &[[u32; 2]]) -> Input {
@@ -1343,18 +1345,14 @@ mod tests {
         (0..n).map(|k| [first + k, first + (k + 1) % n]).collect()
     }
 
+    /// The corners of the square [lo, hi]², counter-clockwise from (lo, lo).
+    fn square(lo: f64, hi: f64) -> [[f64; 2]; 4] {
+        [[lo, lo], [hi, lo], [hi, hi], [lo, hi]]
+    }
+
     /// The unit square around the square [0.25, 0.75]², a hole seed in the middle.
     fn square_with_hole() -> Input {
-        let points = [
-            [0.0, 0.0],
-            [1.0, 0.0],
-            [1.0, 1.0],
-            [0.0, 1.0],
-            [0.25, 0.25],
-            [0.75, 0.25],
-            [0.75, 0.75],
-            [0.25, 0.75],
-        ];
+        let points = [square(0.0, 1.0), square(0.25, 0.75)].concat();
         let mut input = input(&points, &[ring(0, 4), ring(4, 4)].concat());
         input.holes = vec![DVec2::splat(0.5)];
         input
@@ -1400,6 +1398,12 @@ mod tests {
         on.into_iter().map(|(_, v)| v).collect()
     }
 
+    /// The mesh of the triangles of the input's constrained Delaunay triangulation whose
+    /// centroid passes `keep`.
+    fn meshed(input: &Input, keep: impl Fn(DVec2) -> bool) -> Mesh {
+        mesh_of(&cdt(input, &[]), input, keep)
+    }
+
     /// The mesh of the triangles of `cdt` whose centroid passes `keep`.
     fn mesh_of(cdt: &Cdt, input: &Input, keep: impl Fn(DVec2) -> bool) -> Mesh {
         let all: Vec<DVec2> = cdt.vertices().map(|v| point(v.position())).collect();
@@ -1441,54 +1445,40 @@ mod tests {
     /// A mesh of these triangles: the input map, neighbours, boundary and segment pieces
     /// worked out.
     fn assemble(vertices: Vec<DVec2>, triangles: Vec<[u32; 3]>, input: &Input) -> Mesh {
-        let vertex_input = vertices
-            .iter()
-            .map(|p| {
-                input
-                    .points
-                    .iter()
-                    .position(|q| q == p)
-                    .map_or(NONE, |i| i as u32)
-            })
-            .collect();
-        let mut owner = HashMap::new();
-        for (t, tri) in triangles.iter().enumerate() {
-            for i in 0..3 {
-                owner.insert((tri[(i + 1) % 3], tri[(i + 2) % 3]), t as u32);
-            }
-        }
-        let across = |t: usize, i: usize| {
-            let tri: [u32; 3] = triangles[t];
-            let (a, b) = (tri[(i + 1) % 3], tri[(i + 2) % 3]);
-            owner.get(&(b, a)).copied().unwrap_or(NONE)
-        };
-        let neighbours: Vec<[u32; 3]> = (0..triangles.len())
-            .map(|t| [0, 1, 2].map(|i| across(t, i)))
-            .collect();
-        let mut boundary = Vec::new();
-        for (t, tri) in triangles.iter().enumerate() {
-            for i in (0..3).filter(|&i| neighbours[t][i] == NONE) {
-                let vertices = [tri[(i + 1) % 3], tri[(i + 2) % 3]];
-                boundary.push(BoundaryEdge {
-                    vertices,
-                    marker: 1,
-                });
-            }
-        }
-        let segments = pieces(&vertices, input);
-        let lo = vertices.iter().fold(DVec2::INFINITY, |m, &p| m.min(p));
-        let hi = vertices.iter().fold(-DVec2::INFINITY, |m, &p| m.max(p));
+        let neighbours = neighbours_of(&triangles);
         Mesh {
+            vertex_input: input_indices(&vertices, input),
+            boundary: hull_edges(&triangles, &neighbours),
+            domain: bounding_box(&vertices),
+            segments: pieces(&vertices, input),
+            holes: input.holes.clone(),
             vertices,
-            vertex_input,
             triangles,
             neighbours,
-            boundary,
-            domain: Domain { lo, hi },
-            segments,
-            holes: input.holes.clone(),
             ..Mesh::default()
         }
+    }
+
+    /// The index of each vertex among the input points, or [`NONE`].
+    fn input_indices(vertices: &[DVec2], input: &Input) -> Vec<u32> {
+        let index = |p: &DVec2| input.points.iter().position(|q| q == p);
+        vertices
+            .iter()
+            .map(|p| index(p).map_or(NONE, |i| i as u32))
+            .collect()
+    }
+
+    /// The triangles' sides with no triangle across, marked 1 as on a convex hull.
+    fn hull_edges(triangles: &[[u32; 3]], neighbours: &[[u32; 3]]) -> Vec<BoundaryEdge> {
+        let open = |(t, &triangle): (usize, &[u32; 3])| {
+            (0..3)
+                .filter(move |&i| neighbours[t][i] == NONE)
+                .map(move |i| BoundaryEdge {
+                    vertices: opposite_edge(triangle, i),
+                    marker: 1,
+                })
+        };
+        triangles.iter().enumerate().flat_map(open).collect()
     }
 
     fn pieces(vertices: &[DVec2], input: &Input) -> Vec<SubSegment> {
@@ -1525,7 +1515,7 @@ mod tests {
     #[test]
     fn square_with_a_hole_passes() {
         let input = square_with_hole();
-        let mesh = mesh_of(&cdt(&input, &[]), &input, |c| !in_middle(c));
+        let mesh = meshed(&input, |c| !in_middle(c));
         assert_eq!(mesh.segments.len(), 8);
         assert_eq!(validate_pslg(&mesh, &input, LOOSE), Ok(()));
     }
@@ -1564,17 +1554,9 @@ mod tests {
         assert!(cdt.refine(parameters).refinement_complete);
         let mesh = mesh_of(&cdt, &input, |c| !in_middle(c));
         assert!(mesh.segments.len() > 16, "{} pieces", mesh.segments.len());
-        let bounds = AngleBounds {
-            min_deg: 25.0,
-            max_deg: 130.0,
-        };
-        assert_eq!(validate_pslg(&mesh, &input, bounds), Ok(()));
-        let tight = AngleBounds {
-            min_deg: 61.0,
-            max_deg: 130.0,
-        };
+        assert_eq!(validate_pslg(&mesh, &input, bounds(25.0, 130.0)), Ok(()));
         fails(
-            validate_pslg(&mesh, &input, tight),
+            validate_pslg(&mesh, &input, bounds(61.0, 130.0)),
             MeshCheck::Angles,
             &["not at an input angle narrower than 61"],
         );
@@ -1583,7 +1565,7 @@ mod tests {
     #[test]
     fn a_triangle_in_the_hole_fails() {
         let input = square_with_hole();
-        let mesh = mesh_of(&cdt(&input, &[]), &input, |_| true);
+        let mesh = meshed(&input, |_| true);
         fails(
             validate_pslg(&mesh, &input, LOOSE),
             MeshCheck::Domain,
@@ -1594,7 +1576,7 @@ mod tests {
     #[test]
     fn the_hole_seed_alone_is_checked_too() {
         let input = square_with_hole();
-        let mesh = mesh_of(&cdt(&input, &[]), &input, |_| true);
+        let mesh = meshed(&input, |_| true);
         let err = check_hole_seeds(&mesh, &input.holes).expect_err("a covered seed");
         assert!(err.contains("covers hole seed 0 at (0.5, 0.5)"), "{err}");
     }
@@ -1604,13 +1586,13 @@ mod tests {
         // Without its hole seed the middle square belongs to the domain.
         let mut input = square_with_hole();
         input.holes.clear();
-        let mesh = mesh_of(&cdt(&input, &[]), &input, |c| !in_middle(c));
+        let mesh = meshed(&input, |c| !in_middle(c));
         fails(
             validate_pslg(&mesh, &input, LOOSE),
             MeshCheck::Area,
             &["sum to 0.75", "the domain's area is 1"],
         );
-        let full = mesh_of(&cdt(&input, &[]), &input, |_| true);
+        let full = meshed(&input, |_| true);
         assert_eq!(validate_pslg(&full, &input, LOOSE), Ok(()));
     }
 
@@ -1634,15 +1616,15 @@ mod tests {
         input
     }
 
+    /// The region of a triangle of [`halves`] with centroid `c`: 0 on the left, 1 on the right.
+    fn left_or_right(c: DVec2) -> u32 {
+        u32::from(c.x > 0.5)
+    }
+
     #[test]
     fn two_regions_split_by_a_segment() {
         let input = halves();
-        let left_right = |c: DVec2| u32::from(c.x > 0.5);
-        let mesh = with_regions(
-            mesh_of(&cdt(&input, &[]), &input, |_| true),
-            &input,
-            left_right,
-        );
+        let mesh = with_regions(meshed(&input, |_| true), &input, left_or_right);
         assert_eq!(validate_pslg(&mesh, &input, LOOSE), Ok(()));
         let mut wrong = mesh.clone();
         let t = wrong.triangle_regions.iter().position(|&r| r == 1).unwrap();
@@ -1673,8 +1655,8 @@ mod tests {
             attribute: 3.0,
             max_area: Some(0.5),
         });
-        let base = mesh_of(&cdt(&input, &[]), &input, |_| true);
-        let first = with_regions(base.clone(), &input, |c| u32::from(c.x > 0.5));
+        let base = meshed(&input, |_| true);
+        let first = with_regions(base.clone(), &input, left_or_right);
         fails(
             validate_pslg(&first, &input, LOOSE),
             MeshCheck::Regions,
@@ -1688,15 +1670,14 @@ mod tests {
     fn region_seeds_in_holes_are_ignored() {
         let mut input = halves();
         input.holes = vec![DVec2::new(0.75, 0.25)];
-        let mesh = mesh_of(&cdt(&input, &[]), &input, |c| c.x < 0.5);
+        let mesh = meshed(&input, |c| c.x < 0.5);
         let mesh = with_regions(mesh, &input, |_| 0);
         assert_eq!(validate_pslg(&mesh, &input, LOOSE), Ok(()));
     }
 
     /// The unit square with its diagonal from corner 0 to corner 2 as segment 4.
     fn square_and_diagonal() -> Input {
-        let points = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-        input(&points, &[ring(0, 4), vec![[0, 2]]].concat())
+        input(&square(0.0, 1.0), &[ring(0, 4), vec![[0, 2]]].concat())
     }
 
     #[test]
@@ -1777,7 +1758,7 @@ mod tests {
     fn a_boundary_edge_on_no_segment_fails() {
         // The whole square meshed, though only the triangle in it is enclosed.
         let input = triangle_in_square();
-        let mesh = mesh_of(&cdt(&input, &[]), &input, |_| true);
+        let mesh = meshed(&input, |_| true);
         fails(
             validate_pslg(&mesh, &input, LOOSE),
             MeshCheck::Boundary,
@@ -1798,7 +1779,7 @@ mod tests {
         ];
         let segments = [ring(0, 4), vec![[4, 5], [0, 6]]].concat();
         let input = input(&points, &segments);
-        let mesh = mesh_of(&cdt(&input, &[]), &input, |_| true);
+        let mesh = meshed(&input, |_| true);
         assert_eq!(validate_pslg(&mesh, &input, LOOSE), Ok(()));
         // A hole seed beside the floating segment empties the whole square.
         let mut holed = input.clone();
@@ -1819,7 +1800,7 @@ mod tests {
     fn seeds_on_segments_are_ambiguous() {
         let mut input = square_with_hole();
         input.holes = vec![DVec2::new(0.5, 0.25)];
-        let mut mesh = mesh_of(&cdt(&input, &[]), &input, |c| !in_middle(c));
+        let mut mesh = meshed(&input, |c| !in_middle(c));
         mesh.holes = input.holes.clone();
         fails(
             validate_pslg(&mesh, &input, LOOSE),
@@ -1860,7 +1841,7 @@ mod tests {
             &["lies on no segment"],
         );
         let triangle = [5, 6, 7].map(|i| input.points[i]);
-        let inner = mesh_of(&cdt(&input, &[]), &input, |c| !outside(c, triangle));
+        let inner = meshed(&input, |c| !outside(c, triangle));
         assert_eq!(validate_pslg(&inner, &input, LOOSE), Ok(()));
         let mut holed = input.clone();
         holed.holes = vec![DVec2::new(1.0, 0.8)];
@@ -1885,7 +1866,7 @@ mod tests {
         let halves = halves();
         let corners = [0, 2, 3, 5].map(|i| halves.points[i]).to_vec();
         let mesh = assemble(corners, vec![[0, 1, 2], [0, 2, 3]], &halves);
-        let mesh = with_regions(mesh, &halves, |c| u32::from(c.x > 0.5));
+        let mesh = with_regions(mesh, &halves, left_or_right);
         fails(
             validate_pslg(&mesh, &halves, LOOSE),
             MeshCheck::Conformity,
@@ -1902,7 +1883,7 @@ mod tests {
     #[test]
     fn a_triangle_outside_the_hull_domain_fails() {
         let input = triangle_in_square();
-        let mut mesh = mesh_of(&cdt(&input, &[]), &input, |_| true);
+        let mut mesh = meshed(&input, |_| true);
         // A triangle hung below the bottom side, at a new vertex.
         let below = mesh.vertices.len() as u32;
         mesh.vertices.push(DVec2::new(1.0, -1.0));
@@ -1928,15 +1909,26 @@ mod tests {
         (input, mesh)
     }
 
+    /// The angle bounds the wedge's triangles meet, but for its narrow corner.
+    const WEDGE_BOUNDS: AngleBounds = bounds(20.0, 140.0);
+
+    /// Checks that [`wedge`], its segments cut down by `cut` and its mesh assembled again, is a
+    /// valid mesh of its convex hull.
+    fn assert_wedge_hull_passes(cut: impl FnOnce(&mut Vec<Segment>)) {
+        let (mut input, mesh) = wedge();
+        cut(&mut input.segments);
+        let mesh = assemble(mesh.vertices, mesh.triangles, &input);
+        assert_eq!(
+            validate_pslg_with(&mesh, &input, WEDGE_BOUNDS, true),
+            Ok(())
+        );
+    }
+
     #[test]
     fn triangles_in_a_narrow_input_angle_are_exempt() {
         let (input, mesh) = wedge();
         assert_eq!(mesh.triangles.len(), 3);
-        let bounds = AngleBounds {
-            min_deg: 20.0,
-            max_deg: 140.0,
-        };
-        assert_eq!(validate_pslg(&mesh, &input, bounds), Ok(()));
+        assert_eq!(validate_pslg(&mesh, &input, WEDGE_BOUNDS), Ok(()));
         let graph = Graph::new(&input.points, &input.segments, false).unwrap();
         let at = vertex_of_point(&mesh, 3);
         let narrow = NarrowAngles::new(&graph, &at, 20.0);
@@ -1946,29 +1938,17 @@ mod tests {
 
     #[test]
     fn a_segment_and_a_hull_side_make_a_narrow_angle() {
-        let (mut input, mesh) = wedge();
-        input.segments.pop();
-        let mesh = assemble(mesh.vertices, mesh.triangles, &input);
-        let bounds = AngleBounds {
-            min_deg: 20.0,
-            max_deg: 140.0,
-        };
-        assert_eq!(validate_pslg_with(&mesh, &input, bounds, true), Ok(()));
+        // The first two sides stay segments: the third is a hull side.
+        assert_wedge_hull_passes(|segments| segments.truncate(2));
     }
 
     #[test]
     fn a_small_angle_away_from_narrow_input_angles_fails() {
         // The halves are 0.5 by 1 rectangles: their triangles have angles of 26.6°.
         let input = halves();
-        let mesh = with_regions(mesh_of(&cdt(&input, &[]), &input, |_| true), &input, |c| {
-            u32::from(c.x > 0.5)
-        });
-        let bounds = AngleBounds {
-            min_deg: 30.0,
-            max_deg: 120.0,
-        };
+        let mesh = with_regions(meshed(&input, |_| true), &input, left_or_right);
         fails(
-            validate_pslg(&mesh, &input, bounds),
+            validate_pslg(&mesh, &input, bounds(30.0, 120.0)),
             MeshCheck::Angles,
             &["not at an input angle narrower than 30"],
         );
@@ -1976,20 +1956,13 @@ mod tests {
 
     #[test]
     fn hull_corners_narrower_than_the_bound_are_exempt() {
-        let (mut input, mesh) = wedge();
-        input.segments.clear();
-        let mesh = assemble(mesh.vertices, mesh.triangles, &input);
-        let bounds = AngleBounds {
-            min_deg: 20.0,
-            max_deg: 140.0,
-        };
-        assert_eq!(validate_pslg_with(&mesh, &input, bounds, true), Ok(()));
+        assert_wedge_hull_passes(Vec::clear);
     }
 
     #[test]
     fn sizes_of_the_pslg_fields() {
         let input = halves();
-        let mesh = mesh_of(&cdt(&input, &[]), &input, |_| true);
+        let mesh = meshed(&input, |_| true);
         fails(
             validate_pslg(&mesh, &input, LOOSE),
             MeshCheck::Sizes,
