@@ -1,0 +1,263 @@
+"""Parallel quality triangle meshes of point sets and planar straight-line graphs.
+
+Two ways in:
+
+- ``triangulate(tri, opts)``: the ``triangle`` package's interface, a dict of numpy arrays and
+  Triangle's option string, for the switches this mesher supports;
+- ``mesh(points, segments=None, ...)``: keyword arguments, returning a :class:`Mesh`.
+
+Meshing runs with the GIL released, on all cores or on ``threads`` threads, and gives the
+same arrays on any thread count. Bad input raises :class:`QuadmeshError` (a ``ValueError``)
+with the library's message; it never crashes the interpreter.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from typing import Any, Dict, Optional
+
+import numpy as np
+
+from ._quadmesh import NONE, QuadmeshError, _mesh
+
+__all__ = ["Mesh", "QuadmeshError", "mesh", "triangulate"]
+
+
+@dataclass
+class Mesh:
+    """A triangle mesh: numpy arrays, indices from 0.
+
+    ``vertices`` (n × 2 float64) and ``triangles`` (m × 3 uint32, counter-clockwise) own the
+    mesher's buffers; ``neighbors`` (m × 3 int64) has -1 on the boundary, opposite each
+    corner. ``vertex_input`` gives each vertex's input index (-1 for one the mesher added);
+    every input point is a vertex with bit-identical coordinates. For a planar straight-line
+    graph, ``segments`` lists every mesh edge on an input segment (``segment_index`` names
+    it) with ``segment_markers``, and with regions ``triangle_attributes`` and
+    ``triangle_regions`` (-1 outside every region) are set.
+    """
+
+    vertices: np.ndarray
+    triangles: np.ndarray
+    neighbors: np.ndarray
+    vertex_input: np.ndarray
+    vertex_markers: np.ndarray
+    edges: np.ndarray
+    edge_markers: np.ndarray
+    segments: np.ndarray
+    segment_markers: np.ndarray
+    segment_index: np.ndarray
+    triangle_attributes: Optional[np.ndarray] = None
+    triangle_regions: Optional[np.ndarray] = None
+    report: Dict[str, Any] = field(default_factory=dict)
+
+    def to_meshio(self):
+        """The mesh as a ``meshio.Mesh`` (meshio must be installed): triangles as cells, the
+        vertex markers as point data, attributes and regions as cell data."""
+        import meshio
+
+        points = np.column_stack([self.vertices, np.zeros(len(self.vertices))])
+        cell_data = {}
+        if self.triangle_attributes is not None:
+            cell_data["attribute"] = [self.triangle_attributes]
+            cell_data["region"] = [self.triangle_regions]
+        return meshio.Mesh(
+            points,
+            [("triangle", self.triangles.astype(np.int64))],
+            point_data={"marker": self.vertex_markers},
+            cell_data=cell_data,
+        )
+
+
+def _as_points(array, name: str, required: bool = True):
+    if array is None:
+        if required:
+            raise QuadmeshError(f"{name} are required")
+        return None
+    a = np.ascontiguousarray(array, dtype=np.float64)
+    if a.ndim != 2 or (a.size and a.shape[1] != 2):
+        raise QuadmeshError(f"{name} must be an n × 2 array, not of shape {a.shape}")
+    return a.reshape(-1, 2)
+
+
+def _as_indices(array, name: str, width: int):
+    if array is None:
+        return None
+    a = np.asarray(array)
+    if a.size and not np.issubdtype(a.dtype, np.integer):
+        raise QuadmeshError(f"{name} must hold integers, not {a.dtype}")
+    a = np.ascontiguousarray(a, dtype=np.int64)
+    if width == 1:
+        return a.reshape(-1)
+    if a.ndim != 2 or (a.size and a.shape[1] != width):
+        raise QuadmeshError(f"{name} must be an n × {width} array, not of shape {a.shape}")
+    return a.reshape(-1, width)
+
+
+def _regions(regions):
+    if regions is None:
+        return None
+    a = np.ascontiguousarray(regions, dtype=np.float64)
+    if a.ndim != 2 or (a.size and a.shape[1] != 4):
+        raise QuadmeshError(
+            f"regions must be an n × 4 array (x, y, attribute, max area), not of shape {a.shape}"
+        )
+    return a.reshape(-1, 4)
+
+
+def mesh(
+    points,
+    segments=None,
+    segment_markers=None,
+    holes=None,
+    regions=None,
+    *,
+    min_angle: float = 20.0,
+    max_area: Optional[float] = None,
+    max_vertices: Optional[int] = None,
+    mode: str = "delaunay",
+    convex_hull: bool = False,
+    no_boundary_steiner: bool = False,
+    split_crossings: bool = False,
+    threads: Optional[int] = None,
+) -> Mesh:
+    """Meshes ``points`` (n × 2), or the planar straight-line graph they make with
+    ``segments`` (m × 2 point indices, with ``segment_markers``), ``holes`` (seeds) and
+    ``regions`` (rows of x, y, attribute, max area; a max area ≤ 0 bounds nothing).
+
+    ``mode="delaunay"`` (the default) gives a Delaunay mesh with every angle at least
+    ``min_angle`` (0 to 45; input angles smaller than it are kept) and every area at most
+    ``max_area``; a point set's domain is its convex hull, a graph's what its segments enclose
+    (``convex_hull=True``: the hull minus the holes). ``mode="warp"`` gives the warped quadtree
+    mesh of a point set, every angle in [22.5°, 112.5°]. ``threads`` sets the number of threads
+    for this call (by default, all cores).
+    """
+    raw = _mesh(
+        _as_points(points, "points"),
+        _as_indices(segments, "segments", 2),
+        _as_indices(segment_markers, "segment_markers", 1),
+        _as_points(holes, "holes", required=False),
+        _regions(regions),
+        min_angle=float(min_angle),
+        max_area=None if max_area is None else float(max_area),
+        max_vertices=max_vertices,
+        mode=mode,
+        convex_hull=convex_hull,
+        no_boundary_steiner=no_boundary_steiner,
+        split_crossings=split_crossings,
+        threads=threads,
+    )
+    neighbors = raw.pop("neighbors_raw").astype(np.int64)
+    neighbors[neighbors == NONE] = -1
+    return Mesh(neighbors=neighbors, **raw)
+
+
+# Switches of Triangle's option string this mesher supports, and those it refuses by name.
+_FLAGS = set("pqacenAYQzjV")
+_REFUSED = {
+    "r": "refinement of an existing mesh",
+    "D": "conforming Delaunay meshes",
+    "u": "a user-defined triangle test",
+    "o": "second-order triangles",
+    "v": "Voronoi diagrams",
+    "S": "a Steiner point count",
+    "i": "the incremental algorithm",
+    "F": "Fortune's sweepline",
+    "l": "vertical cuts only",
+    "s": "segment splitting off",
+    "C": "consistency checks",
+    "P": "no output segments",
+    "N": "no output vertices",
+    "E": "no output triangles",
+    "I": "no iteration numbers",
+    "O": "no holes",
+    "X": "exact arithmetic off",
+    "B": "no boundary markers",
+    "k": "keeping only mesh boundary",
+}
+
+
+def _parse_switches(opts: str) -> Dict[str, Any]:
+    """Triangle's switches, with their numbers (``q30``, ``a0.1``, ``q`` alone is 20°); as in
+    Triangle, a number is digits and points only."""
+    found: Dict[str, Any] = {}
+    for letter, number in re.findall(r"([A-Za-z])([0-9.]*)", opts):
+        if letter in _REFUSED:
+            raise QuadmeshError(f"switch -{letter} ({_REFUSED[letter]}) is not supported")
+        if letter not in _FLAGS:
+            raise QuadmeshError(f"switch -{letter} is not a switch this mesher knows")
+        if letter in "qa" and number:
+            try:
+                found[letter] = float(number)
+            except ValueError:
+                raise QuadmeshError(f"switch -{letter}{number}: {number!r} is not a number") from None
+        else:
+            if number:
+                raise QuadmeshError(f"switch -{letter} takes no number, got {number!r}")
+            found.setdefault(letter, True)
+    if re.sub(r"[A-Za-z][0-9.]*", "", opts).strip():
+        raise QuadmeshError(f"cannot read the option string {opts!r}")
+    return found
+
+
+def triangulate(tri: Dict[str, Any], opts: str = "") -> Dict[str, np.ndarray]:
+    """The ``triangle`` package's ``triangulate``: ``tri`` holds ``vertices`` and, for ``-p``,
+    ``segments``, ``segment_markers``, ``holes`` and ``regions``; ``opts`` is Triangle's
+    option string. Supported: ``p`` (a planar straight-line graph), ``q[angle]`` (default 20),
+    ``a[area]`` (a number: every triangle; alone: the regions' bounds), ``c`` (convex hull),
+    ``Y`` (no boundary Steiner points), ``e`` (edges), ``n`` (neighbors), ``A`` (regional
+    attributes), ``Q``, ``z``, ``j`` and ``V`` (accepted, no effect). Other switches raise
+    :class:`QuadmeshError`. The output dict has Triangle's keys: ``vertices``,
+    ``vertex_markers``, ``triangles``, and as asked ``segments``/``segment_markers``,
+    ``edges``/``edge_markers``, ``neighbors``, ``triangle_attributes``, ``holes``,
+    ``regions``. Indices are 0-based int32, -1 for none.
+    """
+    s = _parse_switches(opts)
+    vertices = tri.get("vertices")
+    graph = "p" in s
+    angle = s.get("q")
+    min_angle = 0.0 if angle is None else (20.0 if angle is True else angle)
+    area = s.get("a")
+    regions = tri.get("regions") if graph else None
+    if regions is not None:
+        regions = np.array(regions, dtype=np.float64).reshape(-1, 4)
+        if area is not True:
+            # Triangle applies the regions' bounds only with a bare -a.
+            regions[:, 3] = -1.0
+    m = mesh(
+        vertices,
+        segments=tri.get("segments") if graph else None,
+        segment_markers=_markers(tri.get("segment_markers")) if graph else None,
+        holes=tri.get("holes") if graph else None,
+        regions=regions,
+        min_angle=min_angle,
+        max_area=area if isinstance(area, float) else None,
+        convex_hull="c" in s,
+        no_boundary_steiner="Y" in s,
+    )
+    out: Dict[str, np.ndarray] = {
+        "vertices": m.vertices,
+        "vertex_markers": m.vertex_markers.astype(np.int32).reshape(-1, 1),
+        "triangles": m.triangles.astype(np.int32),
+    }
+    if graph:
+        out["segments"] = m.segments.astype(np.int32)
+        out["segment_markers"] = m.segment_markers.astype(np.int32).reshape(-1, 1)
+        if tri.get("holes") is not None:
+            out["holes"] = np.asarray(tri["holes"], dtype=np.float64)
+        if tri.get("regions") is not None:
+            out["regions"] = np.asarray(tri["regions"], dtype=np.float64)
+    if "e" in s:
+        out["edges"] = m.edges.astype(np.int32)
+        out["edge_markers"] = m.edge_markers.astype(np.int32).reshape(-1, 1)
+    if "n" in s:
+        out["neighbors"] = m.neighbors.astype(np.int32)
+    if "A" in s and m.triangle_attributes is not None:
+        out["triangle_attributes"] = m.triangle_attributes.reshape(-1, 1)
+    return out
+
+
+def _markers(markers):
+    if markers is None:
+        return None
+    return np.asarray(markers).reshape(-1)

@@ -1,0 +1,361 @@
+//! The extension module behind the `quadmesh` Python package: one call that takes numpy arrays,
+//! meshes with the GIL released on a pool of the threads asked for, and returns numpy arrays
+//! that own the mesh's buffers (no copy of vertices, triangles or neighbours).
+
+use numpy::{IntoPyArray, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::create_exception;
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+use quadmesh::{DVec2, Error, Input, Mesh, MeshReport, Options, Region, RegionSeed, Segment};
+
+create_exception!(
+    _quadmesh,
+    QuadmeshError,
+    PyValueError,
+    "Bad input or options, or a refinement that could not finish; the message says which."
+);
+
+/// What `_mesh` asks of the library, apart from the geometry.
+struct Asked {
+    min_angle: f64,
+    max_area: Option<f64>,
+    max_vertices: Option<usize>,
+    warp: bool,
+    convex_hull: bool,
+    no_boundary_steiner: bool,
+    split_crossings: bool,
+}
+
+impl Asked {
+    fn options(&self) -> Options {
+        let mut options = Options::default().min_angle(self.min_angle);
+        if self.warp {
+            options = options.warp();
+        }
+        if let Some(a) = self.max_area {
+            options = options.max_area(a);
+        }
+        if let Some(n) = self.max_vertices {
+            options = options.max_vertices(n);
+        }
+        if self.convex_hull {
+            options = options.region(Region::ConvexHull);
+        }
+        if self.no_boundary_steiner {
+            options = options.no_boundary_steiner();
+        }
+        if self.split_crossings {
+            options = options.split_crossings();
+        }
+        options
+    }
+}
+
+/// The rows of an `n × width` array, or an error naming `what`.
+fn rows<T: numpy::Element + Copy>(
+    array: &PyReadonlyArray2<'_, T>,
+    width: usize,
+    what: &str,
+) -> PyResult<Vec<Vec<T>>> {
+    let view = array.as_array();
+    if view.ncols() != width {
+        return Err(QuadmeshError::new_err(format!(
+            "{what} must have {width} columns, not {}",
+            view.ncols()
+        )));
+    }
+    Ok(view.rows().into_iter().map(|r| r.to_vec()).collect())
+}
+
+/// The geometry as the library's input.
+fn input_of(
+    points: &PyReadonlyArray2<'_, f64>,
+    segments: Option<&PyReadonlyArray2<'_, i64>>,
+    segment_markers: Option<&PyReadonlyArray1<'_, i64>>,
+    holes: Option<&PyReadonlyArray2<'_, f64>>,
+    regions: Option<&PyReadonlyArray2<'_, f64>>,
+) -> PyResult<Input> {
+    let points: Vec<DVec2> = rows(points, 2, "points")?
+        .into_iter()
+        .map(|r| DVec2::new(r[0], r[1]))
+        .collect();
+    let mut input = Input::points(points);
+    if let Some(segments) = segments {
+        let ends = rows(segments, 2, "segments")?;
+        let markers: Vec<i64> = match segment_markers {
+            Some(m) => m.as_array().to_vec(),
+            None => vec![0; ends.len()],
+        };
+        if markers.len() != ends.len() {
+            return Err(QuadmeshError::new_err(format!(
+                "{} segment markers for {} segments",
+                markers.len(),
+                ends.len()
+            )));
+        }
+        for (k, (e, &marker)) in ends.iter().zip(&markers).enumerate() {
+            let index = |i: i64| {
+                u32::try_from(i)
+                    .ok()
+                    .filter(|&i| i != u32::MAX)
+                    .ok_or_else(|| {
+                        QuadmeshError::new_err(format!(
+                            "segment {k} names point {i}, which is not an index"
+                        ))
+                    })
+            };
+            let marker = i32::try_from(marker).map_err(|_| {
+                QuadmeshError::new_err(format!("segment {k}'s marker {marker} is not an i32"))
+            })?;
+            input.segments.push(Segment {
+                ends: [index(e[0])?, index(e[1])?],
+                marker,
+            });
+        }
+    }
+    if let Some(holes) = holes {
+        input.holes = rows(holes, 2, "holes")?
+            .into_iter()
+            .map(|r| DVec2::new(r[0], r[1]))
+            .collect();
+    }
+    if let Some(regions) = regions {
+        // Triangle's layout: x, y, attribute, area bound (none when not positive).
+        input.regions = rows(regions, 4, "regions")?
+            .into_iter()
+            .map(|r| RegionSeed {
+                seed: DVec2::new(r[0], r[1]),
+                attribute: r[2],
+                max_area: Some(r[3]).filter(|&a| a > 0.0),
+            })
+            .collect();
+    }
+    Ok(input)
+}
+
+/// Meshes on a pool of `threads` threads, or on the global pool.
+fn run(
+    input: &Input,
+    options: &Options,
+    threads: Option<usize>,
+) -> Result<(Mesh, MeshReport), String> {
+    match threads {
+        None => quadmesh::mesh(input, options).map_err(|e| message(&e)),
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .map_err(|e| e.to_string())?
+            .install(|| quadmesh::mesh(input, options))
+            .map_err(|e| message(&e)),
+    }
+}
+
+/// The library's message for an error, in the Python call's terms.
+fn message(e: &Error) -> String {
+    match e {
+        Error::InvalidOption { option, message } => format!("{option}: {message}"),
+        other => other.to_string(),
+    }
+}
+
+/// A flat vector of `width`-element rows as an `n × width` numpy array that owns its buffer.
+fn matrix<'py, T: numpy::Element>(
+    py: Python<'py>,
+    flat: Vec<T>,
+    width: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    let rows = flat.len() / width;
+    Ok(flat.into_pyarray(py).reshape([rows, width])?.into_any())
+}
+
+/// Rows of three `u32` as one flat vector, without a copy.
+fn flatten_triples(v: Vec<[u32; 3]>) -> Vec<u32> {
+    let mut v = std::mem::ManuallyDrop::new(v);
+    let (ptr, len, capacity) = (v.as_mut_ptr(), v.len(), v.capacity());
+    // SAFETY: `[u32; 3]` is three `u32` with no padding and the alignment of `u32`, so the
+    // allocation of `capacity` triples is one of `3 * capacity` `u32`, with the same size and
+    // alignment, and the first `3 * len` of them are initialised. The original vector is not
+    // dropped (`ManuallyDrop`), so the buffer has one owner.
+    #[allow(unsafe_code)]
+    unsafe {
+        Vec::from_raw_parts(ptr.cast::<u32>(), 3 * len, 3 * capacity)
+    }
+}
+
+/// Points as one flat vector of coordinates, without a copy.
+fn flatten_points(v: Vec<DVec2>) -> Vec<f64> {
+    let mut v = std::mem::ManuallyDrop::new(v);
+    let (ptr, len, capacity) = (v.as_mut_ptr(), v.len(), v.capacity());
+    // SAFETY: glam's `DVec2` is `#[repr(C)]` with fields `x, y: f64`: two `f64` with no padding
+    // and the alignment of `f64`, so the allocation of `capacity` points is one of
+    // `2 * capacity` `f64` of the same size and alignment, the first `2 * len` initialised. The
+    // original vector is not dropped, so the buffer has one owner.
+    #[allow(unsafe_code)]
+    unsafe {
+        Vec::from_raw_parts(ptr.cast::<f64>(), 2 * len, 2 * capacity)
+    }
+}
+
+/// `u32` indices with `NONE` as `i64` with -1.
+fn signed(v: impl IntoIterator<Item = u32>) -> Vec<i64> {
+    v.into_iter()
+        .map(|i| {
+            if i == quadmesh::NONE {
+                -1
+            } else {
+                i64::from(i)
+            }
+        })
+        .collect()
+}
+
+/// The mesh and its report as a dict of numpy arrays and numbers.
+fn mesh_dict<'py>(
+    py: Python<'py>,
+    mesh: Mesh,
+    report: &MeshReport,
+) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    let edges = mesh.edges();
+    let vertex_markers = mesh.vertex_markers();
+    let attributes: Vec<f64> = (0..mesh.triangles.len())
+        .map(|t| mesh.triangle_attribute(t))
+        .collect();
+    let has_regions = !mesh.region_attributes.is_empty();
+    out.set_item("vertex_markers", vertex_markers.into_pyarray(py))?;
+    out.set_item(
+        "edges",
+        matrix(
+            py,
+            edges.iter().flat_map(|e| e.vertices).collect::<Vec<u32>>(),
+            2,
+        )?,
+    )?;
+    out.set_item(
+        "edge_markers",
+        edges
+            .iter()
+            .map(|e| e.marker)
+            .collect::<Vec<i32>>()
+            .into_pyarray(py),
+    )?;
+    out.set_item(
+        "segments",
+        matrix(
+            py,
+            mesh.segments
+                .iter()
+                .flat_map(|s| s.vertices)
+                .collect::<Vec<u32>>(),
+            2,
+        )?,
+    )?;
+    out.set_item("segment_markers", mesh.segment_markers().into_pyarray(py))?;
+    out.set_item(
+        "segment_index",
+        mesh.segments
+            .iter()
+            .map(|s| s.segment)
+            .collect::<Vec<u32>>()
+            .into_pyarray(py),
+    )?;
+    if has_regions {
+        out.set_item("triangle_attributes", attributes.into_pyarray(py))?;
+        out.set_item(
+            "triangle_regions",
+            signed(mesh.triangle_regions.iter().copied()).into_pyarray(py),
+        )?;
+    }
+    out.set_item(
+        "vertex_input",
+        signed(mesh.vertex_input.iter().copied()).into_pyarray(py),
+    )?;
+    out.set_item(
+        "neighbors_raw",
+        matrix(py, flatten_triples(mesh.neighbours), 3)?,
+    )?;
+    out.set_item("triangles", matrix(py, flatten_triples(mesh.triangles), 3)?)?;
+    out.set_item("vertices", matrix(py, flatten_points(mesh.vertices), 2)?)?;
+    let r = PyDict::new(py);
+    r.set_item("points", report.points)?;
+    r.set_item("duplicates", report.duplicates)?;
+    r.set_item("vertices", report.vertices)?;
+    r.set_item("triangles", report.triangles)?;
+    r.set_item("min_angle", report.min_angle)?;
+    r.set_item("max_angle", report.max_angle)?;
+    let stages = PyDict::new(py);
+    for (stage, d) in &report.stages {
+        stages.set_item(*stage, d.as_secs_f64())?;
+    }
+    r.set_item("stages", stages)?;
+    out.set_item("report", r)?;
+    Ok(out)
+}
+
+/// Meshes a point set or a planar straight-line graph; see the package's `mesh`.
+#[pyfunction]
+#[pyo3(signature = (
+    points, segments=None, segment_markers=None, holes=None, regions=None, *,
+    min_angle=20.0, max_area=None, max_vertices=None, mode="delaunay", convex_hull=false,
+    no_boundary_steiner=false, split_crossings=false, threads=None
+))]
+#[allow(clippy::too_many_arguments)]
+fn _mesh<'py>(
+    py: Python<'py>,
+    points: PyReadonlyArray2<'py, f64>,
+    segments: Option<PyReadonlyArray2<'py, i64>>,
+    segment_markers: Option<PyReadonlyArray1<'py, i64>>,
+    holes: Option<PyReadonlyArray2<'py, f64>>,
+    regions: Option<PyReadonlyArray2<'py, f64>>,
+    min_angle: f64,
+    max_area: Option<f64>,
+    max_vertices: Option<usize>,
+    mode: &str,
+    convex_hull: bool,
+    no_boundary_steiner: bool,
+    split_crossings: bool,
+    threads: Option<usize>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let warp = match mode {
+        "delaunay" => false,
+        "warp" => true,
+        other => {
+            return Err(QuadmeshError::new_err(format!(
+                "mode must be \"delaunay\" or \"warp\", not {other:?}"
+            )));
+        }
+    };
+    if threads == Some(0) {
+        return Err(QuadmeshError::new_err("threads must be at least 1"));
+    }
+    let input = input_of(
+        &points,
+        segments.as_ref(),
+        segment_markers.as_ref(),
+        holes.as_ref(),
+        regions.as_ref(),
+    )?;
+    let asked = Asked {
+        min_angle,
+        max_area,
+        max_vertices,
+        warp,
+        convex_hull,
+        no_boundary_steiner,
+        split_crossings,
+    };
+    let options = asked.options();
+    let (mesh, report) = py
+        .detach(|| run(&input, &options, threads))
+        .map_err(QuadmeshError::new_err)?;
+    mesh_dict(py, mesh, &report)
+}
+
+#[pymodule]
+fn _quadmesh(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(_mesh, m)?)?;
+    m.add("QuadmeshError", m.py().get_type::<QuadmeshError>())?;
+    m.add("NONE", quadmesh::NONE)?;
+    Ok(())
+}

@@ -1,0 +1,134 @@
+"""The Python package: Triangle's dict interface on Triangle's own examples (read from the
+installed ``triangle`` package, never copied), the keyword interface, bad input as exceptions,
+the same arrays on any thread count, and meshio."""
+
+import os
+
+import numpy as np
+import pytest
+
+import quadmesh
+
+triangle = pytest.importorskip("triangle")
+DATA = os.path.join(os.path.dirname(triangle.__file__), "data")
+
+
+def area(vertices, triangles):
+    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+
+
+def min_angles(vertices, triangles):
+    p = vertices[triangles]
+    angles = []
+    for k in range(3):
+        u = p[:, (k + 1) % 3] - p[:, k]
+        v = p[:, (k + 2) % 3] - p[:, k]
+        cos = (u * v).sum(1) / np.linalg.norm(u, axis=1) / np.linalg.norm(v, axis=1)
+        angles.append(np.degrees(np.arccos(np.clip(cos, -1, 1))))
+    return np.min(angles, axis=0)
+
+
+def same_vertices(out, vertices):
+    """Every input vertex is an output vertex, bit for bit."""
+    have = {tuple(v) for v in np.asarray(out["vertices"]).view(np.int64)}
+    return all(tuple(v) in have for v in np.asarray(vertices, dtype=np.float64).view(np.int64))
+
+
+@pytest.mark.parametrize("name", ["A", "face", "la", "double_hex", "square_circle_hole"])
+@pytest.mark.parametrize("opts", ["pq20", "pq30", "pq30a", "pq30ena", "pcq25"])
+def test_triangle_examples_have_triangles_semantics(name, opts):
+    tri = triangle.load(DATA, name)
+    ours = quadmesh.triangulate(tri, opts + "Q")
+    theirs = triangle.triangulate(tri, opts + "Q")
+    v, t = ours["vertices"], ours["triangles"]
+    # The same domain: holes eaten alike, the same area (counter-clockwise triangles).
+    assert (area(v, t) > 0).all()
+    assert np.isclose(area(v, t).sum(), area(theirs["vertices"], theirs["triangles"]).sum(), rtol=1e-9)
+    assert same_vertices(ours, tri["vertices"])
+    # Markers: every segment piece keeps its input segment's marker (1 for 0 on the boundary),
+    # as Triangle's output segments do.
+    assert set(np.unique(ours["segment_markers"])) <= set(np.unique(theirs["segment_markers"])) | {0, 1}
+    # The quality asked for, away from input angles smaller than it.
+    angle = float(opts.split("q")[1][:2])
+    small = min_angles(v, t) < angle - 1e-9
+    assert small.sum() <= (min_angles(theirs["vertices"], theirs["triangles"]) < angle - 1e-9).sum() + 8
+    if "e" in opts:
+        assert len(ours["edges"]) == len(ours["edge_markers"])
+    if "n" in opts:
+        n = ours["neighbors"]
+        assert n.shape == t.shape and (n >= -1).all()
+
+
+def test_regional_attributes_and_area_bounds():
+    tri = triangle.load(DATA, "la")
+    ours = quadmesh.triangulate(tri, "pq30aAQ")
+    attributes = ours["triangle_attributes"][:, 0]
+    assert set(np.unique(attributes)) <= set(tri["regions"][:, 2]) | {0.0}
+    # Without a bare -a, the regions' bounds do not apply (Triangle's rule): fewer triangles.
+    plain = quadmesh.triangulate(tri, "pq30AQ")
+    assert len(plain["triangles"]) < len(ours["triangles"])
+
+
+def test_point_sets_and_keyword_interface():
+    rng = np.random.default_rng(3)
+    points = rng.random((5000, 2))
+    m = quadmesh.mesh(points, min_angle=30, max_area=1e-3)
+    assert m.triangles.dtype == np.uint32 and m.vertices.dtype == np.float64
+    assert (area(m.vertices, m.triangles) > 0).all()
+    assert (area(m.vertices, m.triangles) <= 1e-3 + 1e-15).all()
+    assert min_angles(m.vertices, m.triangles).min() >= 30 - 1e-9
+    inputs = m.vertex_input[m.vertex_input >= 0]
+    assert (m.vertices[m.vertex_input >= 0] == points[inputs]).all()
+    assert m.report["triangles"] == len(m.triangles)
+    warped = quadmesh.mesh(points[:200], mode="warp")
+    angles = min_angles(warped.vertices, warped.triangles)
+    assert angles.min() >= 22.5 - 1e-6
+
+
+def test_the_same_arrays_on_any_thread_count():
+    rng = np.random.default_rng(5)
+    points = rng.random((40000, 2))
+    one = quadmesh.mesh(points, min_angle=28, threads=1)
+    two = quadmesh.mesh(points, min_angle=28, threads=2)
+    for key in ["vertices", "triangles", "neighbors", "vertex_input"]:
+        assert np.array_equal(getattr(one, key), getattr(two, key)), key
+
+
+def test_bad_input_raises_and_never_crashes():
+    square = {"vertices": [[0, 0], [1, 0], [1, 1], [0, 1]], "segments": [[0, 1], [1, 2], [2, 3], [3, 0]]}
+    cases = [
+        (dict(square, segments=[[0, 9]]), "p", "names point 9"),
+        (dict(square, segments=[[0, 2], [1, 3]]), "p", "cross"),
+        (dict(square, segments=[[0, 0]]), "p", "no length"),
+        (dict(square, segments=[[0, -1]]), "p", "not an index"),
+        ({"vertices": [[0, 0], [np.nan, 1], [1, 1]]}, "", "NaN"),
+        ({"vertices": np.zeros((0, 2))}, "", "no points"),
+        ({"vertices": [[0, 0], [1, 1], [2, 2]]}, "", "collinear"),
+        (square, "pq50", "min_angle"),
+        (square, "pr", "-r"),
+        (square, "pw", "-w"),
+        (square, "pqx", "-x"),
+        ({"vertices": [[0, 0, 0]]}, "", "n × 2 array"),
+    ]
+    for tri, opts, words in cases:
+        with pytest.raises(quadmesh.QuadmeshError, match=words):
+            quadmesh.triangulate(tri, opts)
+    with pytest.raises(ValueError):
+        quadmesh.mesh([[0, 0], [1, 0], [0, 1]], mode="nonsense")
+    with pytest.raises(ValueError, match="vertex budget|vertices"):
+        quadmesh.mesh(np.random.default_rng(1).random((100, 2)), max_area=1e-6, max_vertices=500)
+
+
+def test_meshio_round_trip(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    tri = triangle.load(DATA, "la")
+    m = quadmesh.mesh(
+        tri["vertices"], tri["segments"], tri.get("segment_markers"), regions=tri["regions"], min_angle=25
+    )
+    path = tmp_path / "la.vtu"
+    m.to_meshio().write(path)
+    back = meshio.read(path)
+    assert np.array_equal(back.points[:, :2], m.vertices)
+    assert np.array_equal(back.cells_dict["triangle"], m.triangles)
+    assert np.array_equal(back.cell_data["attribute"][0], m.triangle_attributes)
