@@ -52,12 +52,14 @@ impl Asked {
     }
 }
 
-/// The rows of an `n × width` array, or an error naming `what`.
-fn rows<T: numpy::Element + Copy>(
+/// The rows of an `n × width` array, read straight from its buffer when it is contiguous, or an
+/// error naming `what`.
+fn rows<T: numpy::Element + Copy, R>(
     array: &PyReadonlyArray2<'_, T>,
     width: usize,
     what: &str,
-) -> PyResult<Vec<Vec<T>>> {
+    row: impl Fn(&[T]) -> R,
+) -> PyResult<Vec<R>> {
     let view = array.as_array();
     if view.ncols() != width {
         return Err(QuadmeshError::new_err(format!(
@@ -65,7 +67,10 @@ fn rows<T: numpy::Element + Copy>(
             view.ncols()
         )));
     }
-    Ok(view.rows().into_iter().map(|r| r.to_vec()).collect())
+    Ok(match array.as_slice() {
+        Ok(flat) => flat.chunks_exact(width).map(row).collect(),
+        Err(_) => view.rows().into_iter().map(|r| row(&r.to_vec())).collect(),
+    })
 }
 
 /// The geometry as the library's input.
@@ -76,13 +81,10 @@ fn input_of(
     holes: Option<&PyReadonlyArray2<'_, f64>>,
     regions: Option<&PyReadonlyArray2<'_, f64>>,
 ) -> PyResult<Input> {
-    let points: Vec<DVec2> = rows(points, 2, "points")?
-        .into_iter()
-        .map(|r| DVec2::new(r[0], r[1]))
-        .collect();
+    let points: Vec<DVec2> = rows(points, 2, "points", |r| DVec2::new(r[0], r[1]))?;
     let mut input = Input::points(points);
     if let Some(segments) = segments {
-        let ends = rows(segments, 2, "segments")?;
+        let ends = rows(segments, 2, "segments", |r| [r[0], r[1]])?;
         let markers: Vec<i64> = match segment_markers {
             Some(m) => m.as_array().to_vec(),
             None => vec![0; ends.len()],
@@ -115,21 +117,15 @@ fn input_of(
         }
     }
     if let Some(holes) = holes {
-        input.holes = rows(holes, 2, "holes")?
-            .into_iter()
-            .map(|r| DVec2::new(r[0], r[1]))
-            .collect();
+        input.holes = rows(holes, 2, "holes", |r| DVec2::new(r[0], r[1]))?;
     }
     if let Some(regions) = regions {
         // Triangle's layout: x, y, attribute, area bound (none when not positive).
-        input.regions = rows(regions, 4, "regions")?
-            .into_iter()
-            .map(|r| RegionSeed {
-                seed: DVec2::new(r[0], r[1]),
-                attribute: r[2],
-                max_area: Some(r[3]).filter(|&a| a > 0.0),
-            })
-            .collect();
+        input.regions = rows(regions, 4, "regions", |r| RegionSeed {
+            seed: DVec2::new(r[0], r[1]),
+            attribute: r[2],
+            max_area: Some(r[3]).filter(|&a| a > 0.0),
+        })?;
     }
     Ok(input)
 }
@@ -210,36 +206,40 @@ fn signed(v: impl IntoIterator<Item = u32>) -> Vec<i64> {
         .collect()
 }
 
-/// The mesh and its report as a dict of numpy arrays and numbers.
+/// The mesh and its report as a dict of numpy arrays and numbers; its edges only if asked
+/// (listing them costs about a tenth of the meshing).
 fn mesh_dict<'py>(
     py: Python<'py>,
     mesh: Mesh,
     report: &MeshReport,
+    with_edges: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let out = PyDict::new(py);
-    let edges = mesh.edges();
+    let edges = if with_edges { mesh.edges() } else { Vec::new() };
     let vertex_markers = mesh.vertex_markers();
     let attributes: Vec<f64> = (0..mesh.triangles.len())
         .map(|t| mesh.triangle_attribute(t))
         .collect();
     let has_regions = !mesh.region_attributes.is_empty();
     out.set_item("vertex_markers", vertex_markers.into_pyarray(py))?;
-    out.set_item(
-        "edges",
-        matrix(
-            py,
-            edges.iter().flat_map(|e| e.vertices).collect::<Vec<u32>>(),
-            2,
-        )?,
-    )?;
-    out.set_item(
-        "edge_markers",
-        edges
-            .iter()
-            .map(|e| e.marker)
-            .collect::<Vec<i32>>()
-            .into_pyarray(py),
-    )?;
+    if with_edges {
+        out.set_item(
+            "edges",
+            matrix(
+                py,
+                edges.iter().flat_map(|e| e.vertices).collect::<Vec<u32>>(),
+                2,
+            )?,
+        )?;
+        out.set_item(
+            "edge_markers",
+            edges
+                .iter()
+                .map(|e| e.marker)
+                .collect::<Vec<i32>>()
+                .into_pyarray(py),
+        )?;
+    }
     out.set_item(
         "segments",
         matrix(
@@ -298,7 +298,7 @@ fn mesh_dict<'py>(
 #[pyo3(signature = (
     points, segments=None, segment_markers=None, holes=None, regions=None, *,
     min_angle=20.0, max_area=None, max_vertices=None, mode="delaunay", convex_hull=false,
-    no_boundary_steiner=false, split_crossings=false, threads=None
+    no_boundary_steiner=false, split_crossings=false, threads=None, edges=false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn _mesh<'py>(
@@ -316,6 +316,7 @@ fn _mesh<'py>(
     no_boundary_steiner: bool,
     split_crossings: bool,
     threads: Option<usize>,
+    edges: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     let warp = match mode {
         "delaunay" => false,
@@ -349,7 +350,7 @@ fn _mesh<'py>(
     let (mesh, report) = py
         .detach(|| run(&input, &options, threads))
         .map_err(QuadmeshError::new_err)?;
-    mesh_dict(py, mesh, &report)
+    mesh_dict(py, mesh, &report, edges)
 }
 
 #[pymodule]

@@ -81,6 +81,11 @@ def test_point_sets_and_keyword_interface():
     inputs = m.vertex_input[m.vertex_input >= 0]
     assert (m.vertices[m.vertex_input >= 0] == points[inputs]).all()
     assert m.report["triangles"] == len(m.triangles)
+    # Edges are listed only when asked for: each once, Euler's count on a disk.
+    assert m.edges is None
+    e = quadmesh.mesh(points[:300], edges=True)
+    assert len(e.edges) == len(e.vertices) + len(e.triangles) - 1
+    assert len(e.edge_markers) == len(e.edges)
     warped = quadmesh.mesh(points[:200], mode="warp")
     angles = min_angles(warped.vertices, warped.triangles)
     assert angles.min() >= 22.5 - 1e-6

@@ -34,7 +34,8 @@ class Mesh:
     every input point is a vertex with bit-identical coordinates. For a planar straight-line
     graph, ``segments`` lists every mesh edge on an input segment (``segment_index`` names
     it) with ``segment_markers``, and with regions ``triangle_attributes`` and
-    ``triangle_regions`` (-1 outside every region) are set.
+    ``triangle_regions`` (-1 outside every region) are set. ``edges`` (every edge once) and
+    ``edge_markers`` are listed when asked for (``edges=True``).
     """
 
     vertices: np.ndarray
@@ -42,13 +43,13 @@ class Mesh:
     neighbors: np.ndarray
     vertex_input: np.ndarray
     vertex_markers: np.ndarray
-    edges: np.ndarray
-    edge_markers: np.ndarray
     segments: np.ndarray
     segment_markers: np.ndarray
     segment_index: np.ndarray
     triangle_attributes: Optional[np.ndarray] = None
     triangle_regions: Optional[np.ndarray] = None
+    edges: Optional[np.ndarray] = None
+    edge_markers: Optional[np.ndarray] = None
     report: Dict[str, Any] = field(default_factory=dict)
 
     def to_meshio(self):
@@ -120,6 +121,7 @@ def mesh(
     no_boundary_steiner: bool = False,
     split_crossings: bool = False,
     threads: Optional[int] = None,
+    edges: bool = False,
 ) -> Mesh:
     """Meshes ``points`` (n × 2), or the planar straight-line graph they make with
     ``segments`` (m × 2 point indices, with ``segment_markers``), ``holes`` (seeds) and
@@ -130,7 +132,8 @@ def mesh(
     ``max_area``; a point set's domain is its convex hull, a graph's what its segments enclose
     (``convex_hull=True``: the hull minus the holes). ``mode="warp"`` gives the warped quadtree
     mesh of a point set, every angle in [22.5°, 112.5°]. ``threads`` sets the number of threads
-    for this call (by default, all cores).
+    for this call (by default, all cores). ``edges=True`` also lists every edge with its
+    marker.
     """
     raw = _mesh(
         _as_points(points, "points"),
@@ -146,6 +149,7 @@ def mesh(
         no_boundary_steiner=no_boundary_steiner,
         split_crossings=split_crossings,
         threads=threads,
+        edges=edges,
     )
     neighbors = raw.pop("neighbors_raw").astype(np.int64)
     neighbors[neighbors == NONE] = -1
@@ -234,6 +238,7 @@ def triangulate(tri: Dict[str, Any], opts: str = "") -> Dict[str, np.ndarray]:
         max_area=area if isinstance(area, float) else None,
         convex_hull="c" in s,
         no_boundary_steiner="Y" in s,
+        edges="e" in s,
     )
     out: Dict[str, np.ndarray] = {
         "vertices": m.vertices,

@@ -21,4 +21,5 @@ def _mesh(
     no_boundary_steiner: bool = ...,
     split_crossings: bool = ...,
     threads: Optional[int] = ...,
+    edges: bool = ...,
 ) -> Dict[str, Any]: ...
