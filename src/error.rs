@@ -37,6 +37,18 @@ pub enum Error {
         /// Upper-right corner of the bounding box.
         hi: [f64; 2],
     },
+    /// Coordinates at a scale where the exact predicates of the Delaunay mode would overflow or
+    /// underflow f64: an extent above 1e70 or below 1e-70, or a coordinate above 1e70.
+    #[error(
+        "coordinates span [{lo:?}, {hi:?}]; the Delaunay mode computes exactly only with an extent \
+         between 1e-70 and 1e70 and coordinates below 1e70 in magnitude; rescale the input"
+    )]
+    ScaleRange {
+        /// Lower-left corner of the bounding box.
+        lo: [f64; 2],
+        /// Upper-right corner of the bounding box.
+        hi: [f64; 2],
+    },
     /// Two distinct points that even the 64-bit-per-axis grid puts in one cell.
     #[error(
         "points {a} ({:?}) and {b} ({:?}) are distinct but too close to separate on a 64-bit grid \

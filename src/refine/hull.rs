@@ -291,7 +291,11 @@ impl Stars {
         t: &'t Triangulation,
         a: u32,
     ) -> impl Iterator<Item = (u32, usize)> + 't {
-        let corner = move |id: u32| (0..3).find(|&i| t.corners[id as usize][i] == a);
+        let corner = move |id: u32| {
+            let c = t.corners.get(id as usize)?;
+            (0..3).find(|&i| c[i] == a)
+        };
+        // A vertex in no triangle (which a broken triangulation would show) has an empty star.
         let mut first = self.triangle_of[a as usize];
         // Turn the other way to the end of the fan, if it has one.
         let mut back = first;
@@ -303,7 +307,7 @@ impl Stars {
             }
             first = back;
         }
-        let mut next = Some(first);
+        let mut next = (first != NONE).then_some(first);
         std::iter::from_fn(move || {
             let id = next?;
             let i = corner(id)?;

@@ -166,6 +166,7 @@ pub fn refine_points(
     options.check()?;
     let mut times = StageTimes::default();
     let order = times.time("morton", || float_morton_order(points))?;
+    check_scale(points)?;
     if let RefineDomain::Rectangle(domain) = options.domain {
         domain.check_holds(points)?;
     }
@@ -213,6 +214,7 @@ pub fn refine_pslg(
     let (clean, cleaning) = times.time("clean", || crate::pslg::clean(input, clean_options))?;
     let points = &clean.points[..];
     let morton = times.time("morton", || float_morton_order(points))?;
+    check_scale(points)?;
     let square = square_around(points);
     let distinct = morton.order.len();
     let capacity = 2 * options.expected_vertices(distinct);
@@ -310,6 +312,30 @@ fn delaunay_of(
     t.reserve(capacity, order.len() + 4);
     let vertex_input = insert_in_order(&mut t, points, order)?;
     Ok((t, vertex_input))
+}
+
+/// The largest extent and coordinate, and the smallest extent, the Delaunay mode accepts: its
+/// in-circle test multiplies four coordinate differences, which must neither overflow nor
+/// underflow f64 (1e70^4 and 1e-70^4 stay within 1e±308 with room for the square around the
+/// points and for refinement's small edges).
+const MAX_SCALE: f64 = 1e70;
+const MIN_EXTENT: f64 = 1e-70;
+
+/// Refuses points at a scale where exact arithmetic breaks down.
+///
+/// # Errors
+/// [`Error::ScaleRange`] naming the bounding box.
+fn check_scale(points: &[DVec2]) -> Result<(), Error> {
+    let (lo, hi) = bounding_box(points);
+    let extent = (hi - lo).max_element();
+    let largest = lo.abs().max(hi.abs()).max_element();
+    if extent > MAX_SCALE || largest > MAX_SCALE || (extent > 0.0 && extent < MIN_EXTENT) {
+        return Err(Error::ScaleRange {
+            lo: lo.to_array(),
+            hi: hi.to_array(),
+        });
+    }
+    Ok(())
 }
 
 /// The square centred on the points' bounding box, twice its larger side (or of side 2 around

@@ -20,6 +20,7 @@ use super::segments::Walls;
 use crate::error::Error;
 use crate::mesh::NONE;
 use crate::morton::interleave::interleave32;
+use crate::predicates::{Orientation, orientation};
 
 /// An encroached boundary edge as it was when queued: the edge opposite `corner` of `triangle`,
 /// live while that slot still has these ends there.
@@ -350,6 +351,11 @@ impl<'w, S: Store> Refiner<'w, S> {
         };
         debug_assert_eq!(class, SizeQueue::class_of(shortest2));
         let p = self.steiner_point(q.triangle, corner);
+        if !p.is_finite() {
+            let c = self.s.corners(q.triangle).map(|v| self.s.point(v));
+            let at = (c[0] + c[1] + c[2]) / 3.0;
+            return Err(Error::RefinementResolution { x: at.x, y: at.y });
+        }
         // The triangle waits for the boundary edges it encroaches on to be split. A tile may
         // have to set those splits aside; the triangle then waits for a later pass too, rather
         // than find them unsplit again and again.
@@ -501,6 +507,12 @@ impl<'w, S: Store> Refiner<'w, S> {
             self.work.deferred_edges.push(e);
             return Ok(());
         }
+        if !self.sees_whole_rim(m, e.ends) {
+            // Rounding put the split point off its segment far enough that some new triangle
+            // would be flat or inverted: f64 cannot split this segment here.
+            self.work.cavity.abandon(&mut self.s);
+            return Err(Error::RefinementResolution { x: m.x, y: m.y });
+        }
         let segment = self.segment_between(e.ends);
         let split = Split {
             ends: e.ends,
@@ -510,6 +522,17 @@ impl<'w, S: Store> Refiner<'w, S> {
         self.s.set_segment_of(v, segment);
         self.inspect_created();
         Ok(())
+    }
+
+    /// Whether `m`, splitting the wall `ends`, lies strictly left of every edge of the cavity's
+    /// rim that stays (all but the boundary edges it lies on or splits): the fan from it is then
+    /// a triangulation of the cavity.
+    fn sees_whole_rim(&self, m: DVec2, ends: (u32, u32)) -> bool {
+        self.work.cavity.rim().iter().all(|e| {
+            let side = orientation(self.s.point(e.a), self.s.point(e.b), m);
+            side == Orientation::Left
+                || (e.outer == NONE && ((e.a, e.b) == ends || side == Orientation::On))
+        })
     }
 
     /// The input segment the wall between `a` and `b` lies on ([`NONE`] for a hull side).

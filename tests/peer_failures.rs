@@ -1,0 +1,314 @@
+//! The inputs on which peer meshers run out of memory, assert, or refine without end, as
+//! planar straight-line graphs: each must end within seconds in a mesh that passes the
+//! independent check, or in a typed error naming the offending input; never a panic or a hang.
+
+mod common;
+
+use std::sync::mpsc;
+use std::time::Duration;
+
+use quadmesh::mesh::{AngleBounds, validate_pslg_with};
+use quadmesh::{DVec2, Error, Input, Mesh, Options, Region, Segment};
+
+/// How long one case may take, its checks included.
+const LIMIT: Duration = Duration::from_secs(60);
+
+/// Meshes `input` on another thread, failing the test if it takes longer than [`LIMIT`].
+fn within_limit(input: &Input, options: Options) -> Result<Mesh, Error> {
+    let (send, receive) = mpsc::channel();
+    let input = input.clone();
+    std::thread::spawn(move || {
+        let _ = send.send(quadmesh::mesh(&input, &options).map(|(m, _)| m));
+    });
+    receive
+        .recv_timeout(LIMIT)
+        .expect("meshing ended within the limit")
+}
+
+/// Meshes `input` at 20° and 30° (and the hull variant when `hull`), checking each mesh.
+fn meshes_and_checks(input: &Input, hull: bool) {
+    for angle in [20.0, 30.0] {
+        let mut options = Options::default().min_angle(angle);
+        if hull {
+            options = options.region(Region::ConvexHull);
+        }
+        match within_limit(input, options) {
+            Ok(mesh) => validate_pslg_with(&mesh, input, options.angle_bounds(), hull)
+                .unwrap_or_else(|e| panic!("{angle}°: invalid mesh: {e}")),
+            Err(Error::VertexBudget(partial)) => {
+                panic!(
+                    "{angle}°: stopped at the budget near {:?}",
+                    partial.unmet.first()
+                )
+            }
+            Err(e) => panic!("{angle}°: {e}"),
+        }
+    }
+}
+
+/// Meshes `input` at 20° and 30°: a checked mesh, or the vertex budget's error, whose partial
+/// mesh is checked without the angle bound and whose unmet triangles say where it stopped.
+fn meshes_or_stops_at_the_budget(input: &Input) {
+    for angle in [20.0, 30.0] {
+        let options = Options::default().min_angle(angle);
+        match within_limit(input, options) {
+            Ok(mesh) => validate_pslg_with(&mesh, input, options.angle_bounds(), false)
+                .unwrap_or_else(|e| panic!("{angle}°: invalid mesh: {e}")),
+            Err(Error::VertexBudget(partial)) => {
+                assert!(!partial.unmet.is_empty());
+                let loose = AngleBounds {
+                    min_deg: 0.0,
+                    max_deg: 180.0,
+                };
+                validate_pslg_with(&partial.mesh, input, loose, false)
+                    .unwrap_or_else(|e| panic!("{angle}°: invalid partial mesh: {e}"));
+            }
+            Err(e) => panic!("{angle}°: {e}"),
+        }
+    }
+}
+
+fn polygon(corners: &[(f64, f64)], marker: i32) -> Input {
+    let points: Vec<DVec2> = corners.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
+    let n = points.len() as u32;
+    let segments = (0..n)
+        .map(|k| Segment {
+            ends: [k, (k + 1) % n],
+            marker,
+        })
+        .collect();
+    Input {
+        points,
+        segments,
+        ..Input::default()
+    }
+}
+
+fn push_segment(input: &mut Input, a: DVec2, b: DVec2) {
+    let first = input.points.len() as u32;
+    input.points.extend([a, b]);
+    input.segments.push(Segment {
+        ends: [first, first + 1],
+        marker: 7,
+    });
+}
+
+#[test]
+fn two_segments_2e_13_apart() {
+    // Triangle at -pq20 allocates until killed on this: the strip between the segments needs
+    // about 1e12 triangles. Here the vertex budget stops it and says where.
+    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], 1);
+    push_segment(&mut input, DVec2::new(0.2, 0.5), DVec2::new(0.8, 0.5));
+    push_segment(
+        &mut input,
+        DVec2::new(0.2, 0.5 + 2e-13),
+        DVec2::new(0.8, 0.5 + 2e-13),
+    );
+    meshes_or_stops_at_the_budget(&input);
+}
+
+#[test]
+fn a_polygon_with_a_spike_of_a_thousandth_of_a_degree() {
+    let spike = 0.001f64.to_radians();
+    let tip = DVec2::new(3.0, 1.0);
+    let back = tip + 2.0 * DVec2::new(-spike.cos(), -spike.sin());
+    let input = polygon(
+        &[
+            (0.0, 0.0),
+            (4.0, 0.0),
+            (4.0, 1.0),
+            (tip.x, tip.y),
+            (back.x, back.y),
+            (0.0, 3.0),
+        ],
+        1,
+    );
+    meshes_and_checks(&input, false);
+}
+
+#[test]
+fn a_crack_into_the_domain() {
+    let mut input = polygon(&[(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)], 1);
+    // A dangling segment from the boundary into the middle.
+    input.points.push(DVec2::new(1.0, 1.0));
+    input.segments.push(Segment {
+        ends: [0, 4],
+        marker: 9,
+    });
+    meshes_and_checks(&input, false);
+}
+
+#[test]
+fn six_near_collinear_points_joined_by_segments() {
+    let ys = [0.0, 1e-12, -1e-12, 2e-12, 0.0, -3e-12];
+    let mut input = polygon(&[(-1.0, -1.0), (6.0, -1.0), (6.0, 1.0), (-1.0, 1.0)], 1);
+    for (k, &y) in ys.iter().enumerate() {
+        input.points.push(DVec2::new(k as f64, y));
+    }
+    for k in 0..5u32 {
+        input.segments.push(Segment {
+            ends: [4 + k, 5 + k],
+            marker: 2,
+        });
+    }
+    meshes_and_checks(&input, false);
+}
+
+#[test]
+fn a_duplicated_vertex_used_by_segments() {
+    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], 1);
+    input.points.push(DVec2::new(1.0, 1.0));
+    input.points.push(DVec2::new(0.25, 0.5));
+    input.segments.push(Segment {
+        ends: [4, 5],
+        marker: 3,
+    });
+    let (mesh, report) = quadmesh::mesh(&input, &Options::default()).unwrap();
+    assert_eq!(report.cleaning.unwrap().merged_points, 1);
+    assert!(mesh.segments.iter().any(|s| s.segment == 4));
+}
+
+#[test]
+fn segments_crossing_where_no_float_lies_and_a_third_through_it() {
+    let mut input = polygon(&[(0.0, 0.0), (3.0, 0.0), (3.0, 3.0), (0.0, 3.0)], 1);
+    // Two crossing segments whose intersection has no exact f64, and a third through it.
+    push_segment(&mut input, DVec2::new(0.1, 0.3), DVec2::new(2.9, 2.7));
+    push_segment(&mut input, DVec2::new(0.3, 2.9), DVec2::new(2.7, 0.1));
+    push_segment(&mut input, DVec2::new(1.5, 0.2), DVec2::new(1.5, 2.8));
+    assert!(matches!(
+        quadmesh::mesh(&input, &Options::default()),
+        Err(Error::CrossingSegments { .. })
+    ));
+    // The three split points lie within a few ulps of each other: a mesh between them needs
+    // splits closer than f64 places them, so refinement ends at the budget or with a resolution
+    // error, naming the spot; a partial mesh still covers the square exactly.
+    for angle in [20.0, 30.0] {
+        let options = Options::default().min_angle(angle).split_crossings();
+        let mesh = match within_limit(&input, options) {
+            Ok(mesh) => mesh,
+            Err(Error::VertexBudget(partial)) => {
+                assert!(
+                    partial
+                        .unmet
+                        .iter()
+                        .any(|u| u.at.distance(DVec2::splat(1.5)) < 1e-6)
+                );
+                partial.mesh
+            }
+            // Or f64 cannot place a split there: refused, naming the point.
+            Err(Error::RefinementResolution { x, y }) => {
+                assert!(DVec2::new(x, y).distance(DVec2::splat(1.5)) < 1e-6);
+                continue;
+            }
+            Err(e) => panic!("{angle}°: {e}"),
+        };
+        assert!(
+            (common::mesh_area(&mesh) - 9.0).abs() < 1e-9,
+            "{angle}°: area {}",
+            common::mesh_area(&mesh)
+        );
+        mesh.check_delaunay().unwrap();
+    }
+}
+
+#[test]
+fn a_polygon_of_side_1e_300_and_one_of_side_1e_minus_300() {
+    for side in [1e300, 1e-300] {
+        let input = polygon(
+            &[(0.0, 0.0), (side, 0.0), (side, side / 2.0), (0.0, side)],
+            1,
+        );
+        // The exact predicates would overflow or underflow: refused by name, at the door.
+        assert!(matches!(
+            within_limit(&input, Options::default()),
+            Err(Error::ScaleRange { .. })
+        ));
+    }
+}
+
+#[test]
+fn hole_seeds_outside_the_domain_and_on_a_segment() {
+    let mut input = polygon(&[(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)], 1);
+    input.holes.push(DVec2::new(5.0, 5.0));
+    let mesh = within_limit(&input, Options::default()).unwrap();
+    assert!((common::mesh_area(&mesh) - 4.0).abs() < 1e-12);
+    // A seed on the boundary segment eats from one of its sides: the inside, or nothing.
+    input.holes = vec![DVec2::new(1.0, 0.0)];
+    match within_limit(&input, Options::default()) {
+        Ok(mesh) => assert!((common::mesh_area(&mesh) - 4.0).abs() < 1e-12),
+        Err(e) => assert_eq!(e, Error::NothingEnclosed),
+    }
+}
+
+#[test]
+fn a_bow_tie_and_an_open_graph() {
+    // The bow tie's sides cross at its waist: refused by name, or split and meshed.
+    let bow = polygon(&[(0.0, 0.0), (2.0, 2.0), (2.0, 0.0), (0.0, 2.0)], 1);
+    assert!(matches!(
+        quadmesh::mesh(&bow, &Options::default()),
+        Err(Error::CrossingSegments { a: 0, b: 2, .. })
+    ));
+    let mesh = within_limit(&bow, Options::default().split_crossings()).unwrap();
+    assert!((common::mesh_area(&mesh) - 2.0).abs() < 1e-12);
+    let mut open = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)], 1);
+    open.segments.pop();
+    assert_eq!(
+        quadmesh::mesh(&open, &Options::default()).unwrap_err(),
+        Error::NothingEnclosed
+    );
+}
+
+#[test]
+fn all_vertices_collinear_with_segments() {
+    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (2.0, 0.0)], 1);
+    input.segments.pop();
+    assert_eq!(
+        quadmesh::mesh(&input, &Options::default()).unwrap_err(),
+        Error::NothingEnclosed
+    );
+    assert!(matches!(
+        quadmesh::mesh(&input, &Options::default().region(Region::ConvexHull)),
+        Err(Error::Degenerate { .. })
+    ));
+}
+
+#[test]
+fn nested_holes_numbered_from_zero() {
+    // Three nested squares in a zero-based .poly: the outer annulus meshed, the middle one a
+    // hole, the inner square meshed again.
+    let text = "\
+12 2 0 0
+0 0 0
+1 6 0
+2 6 6
+3 0 6
+4 1 1
+5 5 1
+6 5 5
+7 1 5
+8 2 2
+9 4 2
+10 4 4
+11 2 4
+12 0
+0 0 1
+1 1 2
+2 2 3
+3 3 0
+4 4 5
+5 5 6
+6 6 7
+7 7 4
+8 8 9
+9 9 10
+10 10 11
+11 11 8
+1
+0 1.5 3
+";
+    let input = quadmesh::io::parse_poly_input(text, "nested.poly").unwrap();
+    assert_eq!(input.segments[0].ends, [0, 1]);
+    meshes_and_checks(&input, false);
+    let mesh = within_limit(&input, Options::default()).unwrap();
+    assert!((common::mesh_area(&mesh) - (36.0 - 16.0 + 4.0)).abs() < 1e-9);
+}
