@@ -217,6 +217,22 @@ pub enum Error {
         /// Where they meet (rounded to f64).
         at: [f64; 2],
     },
+    /// A hole or region seed lies exactly on a segment or on a segment's end: which region it
+    /// names is ambiguous.
+    #[error(
+        "{kind} seed {index} at ({x}, {y}) lies on a segment or a segment's end, so the region \
+         it names is ambiguous; move it inside that region"
+    )]
+    SeedOnSegment {
+        /// `"hole"` or `"region"`.
+        kind: &'static str,
+        /// Its index among the input's holes or regions.
+        index: usize,
+        /// Its x coordinate.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+    },
     /// The segments enclose no area once the outside and the holes are taken away (an open
     /// polyline, or a hole seed inside the only enclosed region).
     #[error(

@@ -232,11 +232,22 @@ fn hole_seeds_outside_the_domain_and_on_a_segment() {
     input.holes.push(DVec2::new(5.0, 5.0));
     let mesh = within_limit(&input, Options::default()).unwrap();
     assert!((common::mesh_area(&mesh) - 4.0).abs() < 1e-12);
-    // A seed on the boundary segment eats from one of its sides: the inside, or nothing.
-    input.holes = vec![DVec2::new(1.0, 0.0)];
-    match within_limit(&input, Options::default()) {
-        Ok(mesh) => assert!((common::mesh_area(&mesh) - 4.0).abs() < 1e-12),
-        Err(e) => assert_eq!(e, Error::NothingEnclosed),
+    // A seed on a segment, or on a segment's end, could name either side: refused by name.
+    for (k, seed) in [DVec2::new(1.0, 0.0), DVec2::new(2.0, 2.0)]
+        .into_iter()
+        .enumerate()
+    {
+        input.holes = vec![DVec2::splat(9.0), seed];
+        assert_eq!(
+            within_limit(&input, Options::default()).unwrap_err(),
+            Error::SeedOnSegment {
+                kind: "hole",
+                index: 1,
+                x: seed.x,
+                y: seed.y
+            },
+            "case {k}"
+        );
     }
 }
 

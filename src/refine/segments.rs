@@ -151,6 +151,7 @@ pub(super) fn constrain(
         .flat_map(|&id| (0..3).map(move |i| (id, i)))
         .collect();
     t.flip_to_delaunay(edges);
+    check_seeds(t, input, &vertex_of)?;
 
     let outside = eat_outside(t, vertex_input, &input.holes, hull);
     if outside.iter().all(|&gone| gone) {
@@ -216,6 +217,62 @@ fn eat_outside(t: &Triangulation, vertex_input: &[u32], holes: &[DVec2], hull: b
         fresh
     });
     outside
+}
+
+/// Refuses a hole or region seed on a segment or on a segment's end, where it would name
+/// either of the regions beside it.
+///
+/// # Errors
+/// [`Error::SeedOnSegment`] naming the first such seed, holes first.
+fn check_seeds(t: &Triangulation, input: &Input, vertex_of: &[u32]) -> Result<(), Error> {
+    let mut ends = vec![false; t.vertices.len()];
+    for s in &input.segments {
+        for i in s.ends {
+            ends[vertex_of[i as usize] as usize] = true;
+        }
+    }
+    let on_segment = |p: DVec2| {
+        if !p.is_finite() || t.len() == 0 {
+            return false;
+        }
+        match locate_across_segments(t, p, 0) {
+            Location::Vertex(v) => ends[v as usize],
+            Location::Inside(id) => {
+                let (c, n) = (t.corners[id as usize], t.across[id as usize]);
+                (0..3).any(|i| {
+                    let (a, b) = (c[NEXT[i]], c[PREV[i]]);
+                    n[i] != NONE
+                        && is_wall(n[i])
+                        && orientation(t.vertices[a as usize], t.vertices[b as usize], p)
+                            == Orientation::On
+                })
+            }
+            Location::Outside { .. } | Location::Foreign => false,
+        }
+    };
+    let seeds = input
+        .holes
+        .iter()
+        .enumerate()
+        .map(|(k, &p)| ("hole", k, p))
+        .chain(
+            input
+                .regions
+                .iter()
+                .enumerate()
+                .map(|(k, r)| ("region", k, r.seed)),
+        );
+    for (kind, index, p) in seeds {
+        if on_segment(p) {
+            return Err(Error::SeedOnSegment {
+                kind,
+                index,
+                x: p.x,
+                y: p.y,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The triangle holding `p`, if any (a point on an edge or vertex gets one of its triangles).
