@@ -323,3 +323,35 @@ fn nested_holes_numbered_from_zero() {
     let mesh = within_limit(&input, Options::default()).unwrap();
     assert!((common::mesh_area(&mesh) - (36.0 - 16.0 + 4.0)).abs() < 1e-9);
 }
+
+#[test]
+#[ignore = "open finding of the poly_file fuzz target: the Delaunay triangulation of these \
+            points comes out with neighbour links that do not match, and cutting it to the \
+            hull panics; not yet root-caused"]
+fn points_spanning_fifty_five_orders_of_magnitude_end_without_a_panic() {
+    // Found by the `poly_file` fuzz target: putting in the hull's sides panicked on these.
+    let points = [
+        (0.0, 0.0),
+        (3.0, 0.0),
+        (3.0, 3.0),
+        (0.0, 3.0),
+        (0.1, 3.2),
+        (4.0, 1.0),
+        (5.0, 4.0),
+        (7.0, 8.0),
+        (8.0, 10.0),
+        (5.555_555_555_555_556e55, 10.0),
+    ];
+    let input = Input::points(
+        points
+            .iter()
+            .map(|&(x, y)| DVec2::new(x, y))
+            .collect::<Vec<_>>(),
+    );
+    match within_limit(&input, Options::default()) {
+        Ok(mesh) => mesh
+            .validate(&input.points, Options::default().angle_bounds())
+            .unwrap_or_else(|e| panic!("invalid mesh: {e}")),
+        Err(e) => assert!(!e.to_string().is_empty()),
+    }
+}

@@ -348,8 +348,14 @@ pub(super) fn recover_edge(
     let mut stalls = 0;
     while let Some((a, b)) = crossing.pop_front() {
         let (id, i) = stars.edge(t, a, b).ok_or_else(stuck)?;
-        let other = t.across[id as usize][i];
-        let j = facing(t, other, id);
+        let other = beyond(t.across[id as usize][i]);
+        // An edge the segment crosses always has a triangle beyond it; if rounding-free
+        // predicates ever say otherwise (points spanning dozens of orders of magnitude), the
+        // edge cannot be put in, which is an error, not a panic.
+        if other == NONE {
+            return Err(stuck());
+        }
+        let j = linked_corner(t, other, id).ok_or_else(stuck)?;
         let (c, w) = (t.corners[id as usize][i], t.corners[other as usize][j]);
         let [pa, pb, pc, pw] = [a, b, c, w].map(|x| t.vertices[x as usize]);
         // The quadrilateral is strictly convex when c → w separates a from b.
@@ -384,9 +390,12 @@ fn separates((a, b): (DVec2, DVec2), p: DVec2, q: DVec2) -> bool {
 
 /// The corner of triangle `u` opposite its edge shared with triangle `t`.
 fn facing(t: &Triangulation, u: u32, from: u32) -> usize {
-    (0..3)
-        .find(|&j| beyond(t.across[u as usize][j]) == from)
-        .expect("neighbours link each other")
+    linked_corner(t, u, from).expect("neighbours link each other")
+}
+
+/// The corner of triangle `u` opposite its edge shared with triangle `from`, if `u` links back.
+fn linked_corner(t: &Triangulation, u: u32, from: u32) -> Option<usize> {
+    (0..3).find(|&j| beyond(t.across[u as usize][j]) == from)
 }
 
 /// The edges the segment `u → v` crosses, in order from `u`, each in the direction of the
@@ -414,7 +423,7 @@ fn crossing_edges(
         if next == NONE {
             return None;
         }
-        let j = facing(t, next, id);
+        let j = linked_corner(t, next, id)?;
         let far = t.corners[next as usize][j];
         if far == v {
             return Some(out);
