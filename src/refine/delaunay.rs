@@ -108,6 +108,11 @@ pub(crate) trait Store {
     fn vertex_count(&self) -> usize;
     /// Whether one more insertion fits in the room this store was given.
     fn room(&self) -> bool;
+    /// Whether this store keeps each triangle's region.
+    #[inline]
+    fn keeps_regions(&self) -> bool {
+        false
+    }
     /// The region of triangle `t` ([`NONE`] where regions are not kept).
     #[inline]
     fn region(&self, _t: u32) -> u32 {
@@ -203,9 +208,14 @@ impl Triangulation {
 
     /// The corner of triangle `u` opposite its edge shared with triangle `t`.
     pub(super) fn corner_facing(&self, u: u32, t: u32) -> usize {
-        (0..3)
-            .find(|&j| beyond(self.across[u as usize][j]) == t)
+        self.linked_corner(u, t)
             .expect("neighbours link each other")
+    }
+
+    /// The corner of triangle `u` opposite its edge shared with triangle `t`, if `u` links back
+    /// to `t`.
+    pub(super) fn linked_corner(&self, u: u32, t: u32) -> Option<usize> {
+        (0..3).find(|&j| beyond(self.across[u as usize][j]) == t)
     }
 
     /// Replaces the edge between triangle `t` (corners `a b c`, the edge opposite corner `i`,
@@ -295,6 +305,10 @@ impl Store for Triangulation {
         true
     }
     #[inline]
+    fn keeps_regions(&self) -> bool {
+        !self.regions.is_empty()
+    }
+    #[inline]
     fn region(&self, t: u32) -> u32 {
         self.regions.get(t as usize).copied().unwrap_or(NONE)
     }
@@ -360,6 +374,10 @@ impl<S: Store> Store for &mut S {
     }
     fn room(&self) -> bool {
         (**self).room()
+    }
+    #[inline]
+    fn keeps_regions(&self) -> bool {
+        (**self).keeps_regions()
     }
     #[inline]
     fn region(&self, t: u32) -> u32 {
@@ -640,9 +658,13 @@ impl Cavity {
                 || (Some((e.a, e.b)) != boundary_split
                     && orientation(s.point(e.a), s.point(e.b), p) != Orientation::On)
         });
+        // Each fan triangle takes the region of the cavity triangle on its rim edge, read
+        // before the slots are reused; a point set's stores keep no regions.
+        let regions = s.keeps_regions();
         self.rim_regions.clear();
-        for e in &self.rim {
-            self.rim_regions.push(s.region(e.inner));
+        if regions {
+            self.rim_regions
+                .extend(self.rim.iter().map(|e| s.region(e.inner)));
         }
         // A fan has one triangle more than an interior cavity (one less for a boundary edge
         // split), so every cavity slot is reused, which also clears its mark.
@@ -668,7 +690,9 @@ impl Cavity {
             // the one ending at a, linked below from that one's side.
             *s.corners_mut(id) = [e.a, e.b, v];
             *s.across_mut(id) = [fan(self.after[k]), NONE, e.outer];
-            s.set_region(id, self.rim_regions[k]);
+            if regions {
+                s.set_region(id, self.rim_regions[k]);
+            }
             if e.outer != NONE {
                 let outer = beyond(e.outer);
                 let tri = s.triangle(outer);

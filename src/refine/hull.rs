@@ -208,7 +208,7 @@ fn peel_slivers(t: &mut Triangulation, hull: &[u32]) -> Vec<u32> {
         for k in [NEXT[i], PREV[i]] {
             let n = t.across[id as usize][k];
             if n != NONE {
-                let j = facing(t, n, id);
+                let j = t.corner_facing(n, id);
                 t.across[n as usize][j] = NONE;
                 let c = t.corners[n as usize];
                 inner.insert((c[NEXT[j]], c[PREV[j]]), (n, j));
@@ -355,7 +355,7 @@ pub(super) fn recover_edge(
         if other == NONE {
             return Err(stuck());
         }
-        let j = linked_corner(t, other, id).ok_or_else(stuck)?;
+        let j = t.linked_corner(other, id).ok_or_else(stuck)?;
         let (c, w) = (t.corners[id as usize][i], t.corners[other as usize][j]);
         let [pa, pb, pc, pw] = [a, b, c, w].map(|x| t.vertices[x as usize]);
         // The quadrilateral is strictly convex when c → w separates a from b.
@@ -388,16 +388,6 @@ fn separates((a, b): (DVec2, DVec2), p: DVec2, q: DVec2) -> bool {
     )
 }
 
-/// The corner of triangle `u` opposite its edge shared with triangle `t`.
-fn facing(t: &Triangulation, u: u32, from: u32) -> usize {
-    linked_corner(t, u, from).expect("neighbours link each other")
-}
-
-/// The corner of triangle `u` opposite its edge shared with triangle `from`, if `u` links back.
-fn linked_corner(t: &Triangulation, u: u32, from: u32) -> Option<usize> {
-    (0..3).find(|&j| beyond(t.across[u as usize][j]) == from)
-}
-
 /// The edges the segment `u → v` crosses, in order from `u`, each in the direction of the
 /// triangle on `u`'s side; `None` if the walk finds no way through.
 fn crossing_edges(
@@ -423,7 +413,7 @@ fn crossing_edges(
         if next == NONE {
             return None;
         }
-        let j = linked_corner(t, next, id)?;
+        let j = t.linked_corner(next, id)?;
         let far = t.corners[next as usize][j];
         if far == v {
             return Some(out);

@@ -258,8 +258,7 @@ pub fn refine_pslg(
             }
         }
         let regions = std::mem::take(&mut t.regions);
-        let mut mesh = into_mesh(t, vertex_input, domain, true);
-        mesh.boundary = boundary;
+        let mut mesh = into_mesh(t, vertex_input, domain, Boundary::Graph(boundary));
         mesh.segments = pieces;
         if constrained.regions {
             mesh.triangle_regions = regions;
@@ -408,9 +407,13 @@ fn refine_order(
     let unmet = times.time("refine", || {
         refine_to_budget(&mut triangulation, &bounds, domain, distinct, budget)
     })?;
-    let hull = outline.is_some();
+    let boundary = if outline.is_some() {
+        Boundary::Hull
+    } else {
+        Boundary::Rectangle
+    };
     let mut mesh = times.time("mesh", || {
-        into_mesh(triangulation, vertex_input, domain, hull)
+        into_mesh(triangulation, vertex_input, domain, boundary)
     });
     mesh.outline = outline.map(|_| corners);
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
@@ -563,18 +566,30 @@ fn mix(x: u32) -> u64 {
 /// The mesh of a finished triangulation: vertex `k` of the triangulation is vertex `k` of the
 /// mesh (the domain's corners, the points in Morton order, then the Steiner points in order of
 /// insertion), and triangles keep their numbers. `vertex_input` covers the corners and points.
-fn into_mesh(t: Triangulation, mut vertex_input: Vec<u32>, domain: Domain, hull: bool) -> Mesh {
+fn into_mesh(
+    t: Triangulation,
+    mut vertex_input: Vec<u32>,
+    domain: Domain,
+    boundary: Boundary,
+) -> Mesh {
     let Triangulation {
         vertices,
         corners,
         mut across,
         ..
     } = t;
-    across
-        .par_iter_mut()
-        .for_each(|n| *n = n.map(delaunay::beyond));
     vertex_input.resize(vertices.len(), NONE);
-    let boundary = boundary_edges(&corners, &across, &vertices, (!hull).then_some(domain));
+    let boundary = match boundary {
+        Boundary::Graph(edges) => {
+            // Only a graph's links carry segment marks.
+            across
+                .par_iter_mut()
+                .for_each(|n| *n = n.map(delaunay::beyond));
+            edges
+        }
+        Boundary::Hull => boundary_edges(&corners, &across, &vertices, None),
+        Boundary::Rectangle => boundary_edges(&corners, &across, &vertices, Some(domain)),
+    };
     Mesh {
         outline: None,
         vertices,
@@ -585,6 +600,17 @@ fn into_mesh(t: Triangulation, mut vertex_input: Vec<u32>, domain: Domain, hull:
         domain,
         ..Mesh::default()
     }
+}
+
+/// What bounds a finished triangulation, for its boundary edges' markers.
+enum Boundary {
+    /// The rectangle `domain`: markers by side.
+    Rectangle,
+    /// The points' convex hull: [`HULL_MARKER`].
+    Hull,
+    /// A graph's segments and hull sides, whose boundary edges and markers
+    /// [`segments::segment_pieces`] found.
+    Graph(Vec<BoundaryEdge>),
 }
 
 /// The marker of the edges on the points' convex hull (Triangle's).

@@ -537,18 +537,10 @@ impl<'w, S: Store> Refiner<'w, S> {
 
     /// The input segment the wall between `a` and `b` lies on ([`NONE`] for a hull side).
     fn segment_between(&self, (a, b): (u32, u32)) -> u32 {
-        let on = self.s.segment_of(a);
-        if on != NONE {
-            return on;
-        }
-        let on = self.s.segment_of(b);
-        if on != NONE {
-            return on;
-        }
         self.bounds
             .walls
             .as_ref()
-            .map_or(NONE, |w| w.segment_between(a, b))
+            .map_or(NONE, |w| w.segment_of_edge(|v| self.s.segment_of(v), a, b))
     }
 }
 

@@ -17,7 +17,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::delaunay::{
-    Location, NEXT, PREV, SEGMENT, Triangulation, beyond, is_wall, locate_across_segments,
+    Location, NEXT, PREV, SEGMENT, Store, Triangulation, beyond, is_wall, locate_across_segments,
 };
 use super::hull::{
     ACUTE_CORNER_DEG, Stars, compact_keeping, recover_edge, touches_no_added_vertex,
@@ -60,6 +60,16 @@ impl Walls {
     #[inline]
     pub fn is_acute(&self, v: u32) -> bool {
         self.acute.get(v as usize).copied().unwrap_or(false)
+    }
+
+    /// The input segment the wall between vertices `a` and `b` lies on, given the segment each
+    /// split vertex was put on (`segment_of`): a split end's, else the input segment joining
+    /// them, or [`NONE`] (a hull side).
+    pub fn segment_of_edge(&self, segment_of: impl Fn(u32) -> u32, a: u32, b: u32) -> u32 {
+        [segment_of(a), segment_of(b)]
+            .into_iter()
+            .find(|&s| s != NONE)
+            .unwrap_or_else(|| self.segment_between(a, b))
     }
 
     /// The input segment joining vertices `a` and `b`, or [`NONE`].
@@ -412,15 +422,7 @@ pub(super) fn segment_pieces(
     walls: &Walls,
     input: &Input,
 ) -> (Vec<SubSegment>, Vec<BoundaryEdge>) {
-    let segment_of = |a: u32, b: u32| {
-        for x in [a, b] {
-            let s = t.segment_of.get(x as usize).copied().unwrap_or(NONE);
-            if s != NONE {
-                return s;
-            }
-        }
-        walls.segment_between(a, b)
-    };
+    let segment_of = |a: u32, b: u32| walls.segment_of_edge(|v| t.segment_of(v), a, b);
     let found: Vec<(SubSegment, bool)> = (0..t.len() as u32)
         .into_par_iter()
         .flat_map_iter(|id| {

@@ -295,7 +295,7 @@ mod tests {
         let others = t.vertices.len() - inputs;
         assert!((2 * seams..=2 * seams + 4).contains(&others));
         (
-            super::super::into_mesh(t, vertex_input, domain, false),
+            super::super::into_mesh(t, vertex_input, domain, super::super::Boundary::Rectangle),
             seams + 1,
         )
     }

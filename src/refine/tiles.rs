@@ -698,6 +698,10 @@ impl Store for TileStore<'_> {
         self.allowance > 0
     }
     #[inline]
+    fn keeps_regions(&self) -> bool {
+        !self.arrays.regions.is_null()
+    }
+    #[inline]
     fn region(&self, t: u32) -> u32 {
         if self.arrays.regions.is_null() {
             return NONE;
