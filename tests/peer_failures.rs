@@ -325,11 +325,11 @@ fn nested_holes_numbered_from_zero() {
 }
 
 #[test]
-#[ignore = "open finding of the poly_file fuzz target: the Delaunay triangulation of these \
-            points comes out with neighbour links that do not match, and cutting it to the \
-            hull panics; not yet root-caused"]
 fn points_spanning_fifty_five_orders_of_magnitude_end_without_a_panic() {
-    // Found by the `poly_file` fuzz target: putting in the hull's sides panicked on these.
+    // Found by the `poly_file` fuzz target. The corner at the far point is some 1e-55 radians
+    // wide, and the narrow-corner rule took every short edge near the origin for one spanning
+    // it (both its ends within 1e-9 radians of both sides), so refinement left a 15° triangle
+    // there and called the mesh done.
     let points = [
         (0.0, 0.0),
         (3.0, 0.0),
@@ -353,5 +353,34 @@ fn points_spanning_fifty_five_orders_of_magnitude_end_without_a_panic() {
             .validate(&input.points, Options::default().angle_bounds())
             .unwrap_or_else(|e| panic!("invalid mesh: {e}")),
         Err(e) => assert!(!e.to_string().is_empty()),
+    }
+}
+
+#[test]
+fn a_hull_spike_to_a_far_point_is_not_peeled_away() {
+    // Found by the `poly_file` fuzz target: the hull side to the far point passes within its
+    // 1e-11 of the points near the origin, and the sliver peeled off that side was the whole
+    // spike, whose other side was a hull side too: its removal was undone twice and panicked.
+    let points = [
+        (0.0, 0.0),
+        (3.0, 0.0),
+        (3.0, 3.0),
+        (0.0, 3.0),
+        (0.1, 22_222_222_222_222.0),
+    ];
+    let input = Input::points(
+        points
+            .iter()
+            .map(|&(x, y)| DVec2::new(x, y))
+            .collect::<Vec<_>>(),
+    );
+    for angle in [0.0, 22.0, 30.0] {
+        let options = Options::default().min_angle(angle);
+        match within_limit(&input, options.clone()) {
+            Ok(mesh) => mesh
+                .validate(&input.points, options.angle_bounds())
+                .unwrap_or_else(|e| panic!("invalid mesh at {angle}°: {e}")),
+            Err(e) => assert!(!e.to_string().is_empty()),
+        }
     }
 }

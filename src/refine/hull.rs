@@ -9,7 +9,7 @@
 //! made restore the Delaunay property inside, where the hull edges bound the flips. What stays
 //! is the Delaunay triangulation of the points, whose boundary is their hull.
 
-use std::collections::{HashMap, VecDeque};
+use std::collections::{HashMap, HashSet, VecDeque};
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -185,6 +185,9 @@ fn peel_slivers(t: &mut Triangulation, hull: &[u32]) -> Vec<u32> {
         })
         .collect();
     let mut removed = Vec::new();
+    // A vertex already on the outline stays off any other side: peeling to it would pinch the
+    // domain there, or drop the corner between two sides of a spike.
+    let mut on_outline: HashSet<u32> = hull.iter().copied().collect();
     let mut outline = Vec::with_capacity(hull.len());
     let mut sides: Vec<(u32, u32)> = (0..hull.len())
         .rev()
@@ -196,11 +199,13 @@ fn peel_slivers(t: &mut Triangulation, hull: &[u32]) -> Vec<u32> {
             continue;
         };
         let x = t.corners[id as usize][i];
-        if !near_side(
-            t.vertices[a as usize],
-            t.vertices[b as usize],
-            t.vertices[x as usize],
-        ) {
+        if on_outline.contains(&x)
+            || !near_side(
+                t.vertices[a as usize],
+                t.vertices[b as usize],
+                t.vertices[x as usize],
+            )
+        {
             outline.push(a);
             continue;
         }
@@ -215,19 +220,23 @@ fn peel_slivers(t: &mut Triangulation, hull: &[u32]) -> Vec<u32> {
             }
         }
         removed.push(id);
+        on_outline.insert(x);
         sides.extend([(x, b), (a, x)]);
     }
     drop_triangles(t, &removed);
     outline
 }
 
-/// Whether `x` lies left of `a → b`, between its ends, within [`NEAR_SIDE`] of its length.
+/// Whether `x` lies left of `a → b`, between its ends, within [`NEAR_SIDE`] of its length or
+/// of `x`'s own magnitude, whichever is less: f64 resolves splits of the side near `x` to that
+/// magnitude, however long the side (a side from a point near the origin to one 1e55 away
+/// passes points at distance 2 that need no bend).
 fn near_side(a: DVec2, b: DVec2, x: DVec2) -> bool {
     let d = b - a;
     let along = (x - a).dot(d) / d.length_squared();
     orientation(a, b, x) == Orientation::Left
         && (0.0..=1.0).contains(&along)
-        && d.perp_dot(x - a) <= NEAR_SIDE * d.length_squared()
+        && d.perp_dot(x - a) <= NEAR_SIDE * d.length() * d.length().min(x.abs().max_element())
 }
 
 /// Removes the triangles `removed` (already unlinked from their neighbours), keeping the

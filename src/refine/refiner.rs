@@ -200,9 +200,14 @@ impl Bounds {
                 return false;
             }
             let (c, [a, b]) = (corner.at, corner.sides);
+            // On a side: within 1e-9 radians of it, and within a thousandth of the corner's
+            // own angle, so that a corner far narrower than 1e-9 (a point 1e55 away) does not
+            // take every point far from it for one on both its sides.
+            let sin_corner = a.perp_dot(b).abs() / (a.length() * b.length());
+            let tolerance = 1e-9f64.min(1e-3 * sin_corner);
             let on = |x: DVec2, d: DVec2| {
                 let r = x - c;
-                r.perp_dot(d).abs() <= 1e-9 * r.length() * d.length() && r.dot(d) > 0.0
+                r.perp_dot(d).abs() <= tolerance * r.length() * d.length() && r.dot(d) > 0.0
             };
             let spans = (on(p, a) && on(q, b)) || (on(p, b) && on(q, a));
             spans && apex.distance(c) <= 1.001 * p.distance(c).max(q.distance(c))
