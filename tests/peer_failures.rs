@@ -376,7 +376,7 @@ fn a_hull_spike_to_a_far_point_is_not_peeled_away() {
     );
     for angle in [0.0, 22.0, 30.0] {
         let options = Options::default().min_angle(angle);
-        match within_limit(&input, options.clone()) {
+        match within_limit(&input, options) {
             Ok(mesh) => mesh
                 .validate(&input.points, options.angle_bounds())
                 .unwrap_or_else(|e| panic!("invalid mesh at {angle}°: {e}")),

@@ -4,6 +4,7 @@
 //! is the minimal one: exactly the tree the sequential ripple algorithm gives.
 
 mod closure;
+mod incremental;
 mod links;
 pub mod reference;
 mod separate;
@@ -12,6 +13,7 @@ mod split_set;
 use std::collections::HashSet;
 
 pub use closure::{balance_closure, balance_closure_with_points, forced_by};
+pub use incremental::SeparatedPoints;
 use links::cross_links_by;
 pub use links::{Links, across, cross_links, point_leaves};
 pub use separate::{

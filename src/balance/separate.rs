@@ -426,14 +426,14 @@ fn finest_meeting<K: MortonKey>(cell: Cell<K>, top: InnerTop, from: u8) -> Optio
 }
 
 /// The block rules R3a, c, d as a domain shapes them.
-struct Rules<'a> {
+pub(super) struct Rules<'a> {
     sides: Option<&'a DomainSides>,
     top: Option<InnerTop>,
     right: Option<u128>,
 }
 
 impl<'a> Rules<'a> {
-    fn new(sides: Option<&'a DomainSides>) -> Self {
+    pub(super) fn new(sides: Option<&'a DomainSides>) -> Self {
         let top = sides.and_then(|s| s.inner_top).map(InnerTop::new);
         let right = sides.and_then(|s| s.inner_right);
         Rules { sides, top, right }
@@ -487,11 +487,11 @@ const MOVES_PER_TASK: usize = 256;
 /// A point whose leaf went down from level `from` to level `to`; the squares of its path
 /// above level `split` were split already.
 #[derive(Clone, Copy)]
-struct Move {
-    point: u32,
-    from: u8,
-    split: u8,
-    to: u8,
+pub(super) struct Move {
+    pub(super) point: u32,
+    pub(super) from: u8,
+    pub(super) split: u8,
+    pub(super) to: u8,
 }
 
 /// The first moves: each point from the root down past its leaf in the unbalanced tree (split
@@ -521,7 +521,7 @@ fn first_moves<K: MortonKey>(
 }
 
 /// Settles each candidate point against the current split squares; returns those that moved.
-fn settle_all<K: MortonKey>(
+pub(super) fn settle_all<K: MortonKey>(
     set: &SplitSet<K>,
     rules: &Rules,
     keys: &[K],
@@ -547,7 +547,13 @@ fn settle_all<K: MortonKey>(
 
 /// The level of the leaf of `key`, from its unsplit square at level `from` on, once the rules
 /// are applied to it alone: below every square whose block holds a split square (R3a).
-fn descend<K: MortonKey>(set: &SplitSet<K>, rules: &Rules, keys: &[K], i: usize, from: u8) -> u8 {
+pub(super) fn descend<K: MortonKey>(
+    set: &SplitSet<K>,
+    rules: &Rules,
+    keys: &[K],
+    i: usize,
+    from: u8,
+) -> u8 {
     let mut level = from;
     // Squares below an unsplit one are unsplit, so the path need not be walked again.
     while (level as u32) < K::AXIS_BITS
@@ -559,7 +565,7 @@ fn descend<K: MortonKey>(set: &SplitSet<K>, rules: &Rules, keys: &[K], i: usize,
 }
 
 /// The first level from `from` on where the square holding `key` is not split.
-fn walk<K: MortonKey>(set: &SplitSet<K>, key: K, from: u8) -> u8 {
+pub(super) fn walk<K: MortonKey>(set: &SplitSet<K>, key: K, from: u8) -> u8 {
     let mut level = from;
     while (level as u32) < K::AXIS_BITS && set.contains(Cell::containing(key, level)) {
         level += 1;
@@ -583,7 +589,12 @@ fn crowded_by_splits<K: MortonKey>(
 /// Appends the squares a move demands that are not split yet: the path it passed (R3a, c, d),
 /// and the rings of the path's squares (R3b). Each ring is demanded by the first point of its
 /// square only, as every point of a split square passes it.
-fn demands_of<K: MortonKey>(set: &SplitSet<K>, keys: &[K], m: Move, out: &mut Vec<Squares<K>>) {
+pub(super) fn demands_of<K: MortonKey>(
+    set: &SplitSet<K>,
+    keys: &[K],
+    m: Move,
+    out: &mut Vec<Squares<K>>,
+) {
     let i = m.point as usize;
     for level in m.from..m.to {
         let square = Cell::containing(keys[i], level);
@@ -671,7 +682,7 @@ impl<K: MortonKey> PointLeaves<K> {
 
 /// The first level from `from` on where the 5×5 block around point `i`'s square lies in the
 /// root and holds no other point (R3c, d), or the finest level.
-fn clear_of_points<K: MortonKey>(rules: &Rules, keys: &[K], i: usize, from: u8) -> u8 {
+pub(super) fn clear_of_points<K: MortonKey>(rules: &Rules, keys: &[K], i: usize, from: u8) -> u8 {
     let mut level = from;
     while (level as u32) < K::AXIS_BITS && crowded_by_points(rules, keys, i, level) {
         level += 1;
@@ -744,7 +755,7 @@ fn holds_point<K: MortonKey>(cell: Cell<K>, keys: &[K]) -> bool {
     keys.get(first).is_some_and(|k| cell.contains(*k))
 }
 
-fn chebyshev((ax, ay): (u64, u64), (bx, by): (u64, u64)) -> u64 {
+pub(super) fn chebyshev((ax, ay): (u64, u64), (bx, by): (u64, u64)) -> u64 {
     ax.abs_diff(bx).max(ay.abs_diff(by))
 }
 
@@ -771,7 +782,10 @@ pub fn block<K: MortonKey>(cell: Cell<K>) -> impl Iterator<Item = Option<Cell<K>
 
 /// The same-size squares within `radius` of `cell`, column by column (`None` outside the root);
 /// as [`Cell::offset`] but decoding the anchor once.
-fn around<K: MortonKey>(cell: Cell<K>, radius: i64) -> impl Iterator<Item = Option<Cell<K>>> {
+pub(super) fn around<K: MortonKey>(
+    cell: Cell<K>,
+    radius: i64,
+) -> impl Iterator<Item = Option<Cell<K>>> {
     let (x, y) = grid_position(cell);
     let side = 1i128 << cell.level;
     square_offsets(radius).map(move |(dx, dy)| {

@@ -192,6 +192,11 @@ impl<K: MortonKey> Squares<K> {
         self.mask
     }
 
+    /// The squares, in Morton order.
+    pub(super) fn cells(self) -> impl Iterator<Item = Cell<K>> {
+        BitIndices(self.mask).map(move |i| self.square(i))
+    }
+
     /// The square of bit `index`.
     fn square(&self, index: u32) -> Cell<K> {
         let position = self.tile.to_u128() << 6 | u128::from(index);
@@ -243,6 +248,7 @@ fn forced_anew<K: MortonKey>(cell: Cell<K>, siblings: u8) -> [Option<Cell<K>>; 3
 /// Split squares closed under parents and balance, as bit masks over tiles: a tile is the 8×8
 /// squares of one level inside a square three levels up (the root for levels 0 to 2), so
 /// neighbouring squares mostly share one hash entry and one cache line.
+#[derive(Clone)]
 pub(super) struct SplitSet<K> {
     levels: Vec<KeyMap<K, u64>>,
 }
@@ -267,6 +273,18 @@ impl<K: MortonKey> SplitSet<K> {
         self.levels[cell.level as usize]
             .get(&tile)
             .is_some_and(|mask| mask & bit != 0)
+    }
+
+    /// Takes `cell` out; keeping the set closed under balance is the caller's part.
+    pub(super) fn remove(&mut self, cell: Cell<K>) {
+        let (tile, bit) = tile_bit(cell);
+        let tiles = &mut self.levels[cell.level as usize];
+        if let Some(mask) = tiles.get_mut(&tile) {
+            *mask &= !bit;
+            if *mask == 0 {
+                tiles.remove(&tile);
+            }
+        }
     }
 
     /// Whether a split square of `level` lies in `rect`.

@@ -1,0 +1,514 @@
+//! The well-separated tree of [`super::separate()`] kept current as points come and go: each
+//! edit runs the static rules' rounds on the points it can reach, and the tree is always the
+//! one `separate` builds for the current points, whatever edits came before.
+//!
+//! The rules' least fixed point only grows with the points, so an insertion resumes the rounds
+//! from the state before it: the new point's first move, then the points its squares crowd,
+//! and so on. A deletion cannot be undone that way (two points can hold each other's leaves
+//! down once nothing else does), so it first finds every point whose level may have rested on
+//! the removed one. A point whose leaf lies below its points-only level `l` (the first level
+//! where its 5×5 block holds no other point) went down there because split squares crowded its
+//! block at levels `l` and below; every square a point `r` demands at a level `m < level(r)`
+//! lies within two squares of `r`'s square of that level (its path, the path's rings, and
+//! their balance closure), so only points `r` finer than `l` and within four squares of the
+//! point at level `l` can have crowded it. Those points, taken transitively from the removed
+//! one, start again from their points-only levels; the squares that only they and the removed
+//! point demanded go, finest level first; and the rounds run on them with every other point
+//! held where it was, which is where the least fixed point keeps it.
+
+use std::collections::HashSet;
+
+use super::separate::{
+    DomainSides, Move, Rules, around, chebyshev, clear_of_points, demands_of, descend, settle_all,
+    walk,
+};
+use super::split_set::{SplitSet, Squares, grid_position};
+use super::{BalancedTree, forced_by, linked_tree, separate_in};
+use crate::framework::build_framework;
+use crate::morton::{Cell, MortonKey, Side};
+use crate::quadtree::expand;
+
+/// Distinct points' Morton keys with the well-separated tree of them, kept current under
+/// insertions and deletions.
+#[derive(Clone)]
+pub struct SeparatedPoints<K: MortonKey> {
+    /// Sorted, distinct.
+    keys: Vec<K>,
+    /// The level of each point's leaf, by Morton position.
+    levels: Vec<u8>,
+    /// The domain sides each point lies on; no side inside the root.
+    sides: DomainSides,
+    /// The split squares, closed under balance.
+    set: SplitSet<K>,
+}
+
+impl<K: MortonKey> SeparatedPoints<K> {
+    /// The tree of `keys` (sorted and distinct) with `on[i]` the domain sides the `i`-th lies
+    /// on ([`super::ON_LEFT`] and the others), on a grid whose root is the domain.
+    pub fn new(keys: Vec<K>, on: Vec<u8>) -> Self {
+        assert_eq!(keys.len(), on.len(), "a side mask per key");
+        let sides = DomainSides {
+            on,
+            ..DomainSides::default()
+        };
+        let mut set = SplitSet::new();
+        let mut levels = Vec::new();
+        if !keys.is_empty() {
+            let quadtree = expand(&build_framework(&keys), &keys);
+            let (tree, _) = separate_in(&quadtree, &keys, Some(&sides), u8::MAX)
+                .expect("no band without a side inside the root");
+            levels = tree
+                .point_leaf
+                .iter()
+                .map(|&leaf| tree.tree.leaves[leaf as usize].cell.level)
+                .collect();
+            set.insert_closed(tree.tree.internal.iter().map(|s| Squares::one(s.cell)));
+        }
+        SeparatedPoints {
+            keys,
+            levels,
+            sides,
+            set,
+        }
+    }
+
+    /// The points' keys in Morton order.
+    pub fn keys(&self) -> &[K] {
+        &self.keys
+    }
+
+    /// The level of each point's leaf, by Morton position.
+    pub fn levels(&self) -> &[u8] {
+        &self.levels
+    }
+
+    /// The domain sides each point lies on, by Morton position.
+    pub fn sides_on(&self) -> &[u8] {
+        &self.sides.on
+    }
+
+    /// Whether `key` is one of the points.
+    pub fn contains(&self, key: K) -> bool {
+        self.keys.binary_search(&key).is_ok()
+    }
+
+    /// The tree, with links and point location: the one [`super::separate_in`] gives for the
+    /// current keys.
+    pub fn tree(&self) -> BalancedTree<K> {
+        linked_tree(&self.set.preorder(), &self.keys)
+    }
+
+    /// Adds a point with key `key`, not one of the points yet, lying on the domain sides `on`;
+    /// returns its Morton position.
+    pub fn insert(&mut self, key: K, on: u8) -> usize {
+        let i = self.keys.partition_point(|k| *k < key);
+        assert!(self.keys.get(i) != Some(&key), "a new key");
+        self.keys.insert(i, key);
+        self.levels.insert(i, 0);
+        self.sides.on.insert(i, on);
+        let first = self.first_move(i);
+        self.run_rounds(vec![first]);
+        i
+    }
+
+    /// Removes the point with key `key`, one of the points; returns its Morton position.
+    pub fn remove(&mut self, key: K) -> usize {
+        let i = self.keys.binary_search(&key).expect("a present key");
+        let resting = self.resting_on(i);
+        let demanded = self.demands_of_points(resting.iter().copied().chain([i]));
+        self.keys.remove(i);
+        self.levels.remove(i);
+        self.sides.on.remove(i);
+        // Positions past the removed point move down one.
+        let restart: Vec<usize> = resting
+            .into_iter()
+            .map(|q| if q > i { q - 1 } else { q })
+            .collect();
+        let held_back: HashSet<usize> = restart.iter().copied().collect();
+        self.drop_unsupported(&demanded, &held_back);
+        let moves = restart.iter().map(|&q| self.first_move(q)).collect();
+        self.run_rounds(moves);
+        i
+    }
+
+    /// The move of point `i` from the root: past split squares and squares whose block holds
+    /// another point or leaves the root, then past squares whose block holds a split square.
+    fn first_move(&self, i: usize) -> Move {
+        let rules = Rules::new(Some(&self.sides));
+        let split = walk(&self.set, self.keys[i], self.lone_level(i));
+        let level = clear_of_points(&rules, &self.keys, i, split);
+        Move {
+            point: i as u32,
+            from: 0,
+            split: 0,
+            to: descend(&self.set, &rules, &self.keys, i, level),
+        }
+    }
+
+    /// The first level where point `i`'s square holds no other point: its leaf's level in the
+    /// unbalanced tree, below the squares that hold it and its Morton neighbours.
+    fn lone_level(&self, i: usize) -> u8 {
+        let key = self.keys[i];
+        let shared = |j: Option<usize>| {
+            j.and_then(|j| self.keys.get(j))
+                .map_or(0, |&other| key.common_level(other) + 1)
+        };
+        shared(i.checked_sub(1)).max(shared(Some(i + 1)))
+    }
+
+    /// The rounds of [`super::separate_in`] from `moves` on: the squares the moves demand,
+    /// then the moves of the points those crowd, until none moves.
+    fn run_rounds(&mut self, mut moves: Vec<Move>) {
+        while !moves.is_empty() {
+            let mut demanded = Vec::new();
+            for &m in &moves {
+                demands_of(&self.set, &self.keys, m, &mut demanded);
+            }
+            let added = self.set.insert_closed(demanded);
+            for m in &moves {
+                self.levels[m.point as usize] = m.to;
+            }
+            let candidates = self.near(&added);
+            let rules = Rules::new(Some(&self.sides));
+            moves = settle_all(&self.set, &rules, &self.keys, &self.levels, &candidates);
+        }
+    }
+
+    /// The points whose leaf is one of the `added` squares or has one in its 5×5 block, sorted.
+    fn near(&self, added: &[Squares<K>]) -> Vec<u32> {
+        let mut points: Vec<u32> = added
+            .iter()
+            .flat_map(|squares| squares.cells())
+            .flat_map(|square| around_and(square, 2))
+            .flat_map(|cell| {
+                // A leaf held one point, and may hold the one just inserted too; a square
+                // holding more is no leaf.
+                let points = self.points_in(cell);
+                let few = if points.len() <= 2 { points } else { 0..0 };
+                few.filter(move |&i| self.levels[i] == cell.level)
+                    .map(|i| i as u32)
+            })
+            .collect();
+        points.sort_unstable();
+        points.dedup();
+        points
+    }
+
+    /// The Morton position of the one point in `cell`, if it holds exactly one.
+    fn only_point_in(&self, cell: Cell<K>) -> Option<usize> {
+        let anchor = cell.anchor;
+        let first = self.keys.partition_point(|k| *k < anchor);
+        let inside = |j: usize| self.keys.get(j).is_some_and(|&k| cell.contains(k));
+        (inside(first) && !inside(first + 1)).then_some(first)
+    }
+
+    /// The points of `cell` by Morton position.
+    fn points_in(&self, cell: Cell<K>) -> std::ops::Range<usize> {
+        let anchor = cell.anchor;
+        let first = self.keys.partition_point(|k| *k < anchor);
+        let end = first + self.keys[first..].partition_point(|&k| cell.contains(k));
+        first..end
+    }
+
+    /// The points whose level may have rested on point `i` (see the module's account), found
+    /// from it transitively; Morton positions before its removal.
+    fn resting_on(&self, i: usize) -> Vec<usize> {
+        let rules = Rules::new(Some(&self.sides));
+        let mut points_only = std::collections::HashMap::new();
+        let mut points_only_level = |q: usize| {
+            *points_only
+                .entry(q)
+                .or_insert_with(|| clear_of_points(&rules, &self.keys, q, self.lone_level(q)))
+        };
+        let mut found: Vec<usize> = Vec::new();
+        let mut seen: HashSet<usize> = HashSet::from([i]);
+        let mut queue = vec![i];
+        while let Some(r) = queue.pop() {
+            let removed = r == i;
+            // The removed point also frees the points its own presence crowded, one level
+            // above their points-only level: within two squares there, five at that level.
+            let (radius, deepest) = if removed {
+                (5, self.levels[r])
+            } else {
+                (4, self.levels[r].saturating_sub(1))
+            };
+            for m in 0..=deepest {
+                let centre = Cell::containing(self.keys[r], m);
+                for cell in around_and(centre, radius) {
+                    let Some(q) = self.only_point_in(cell) else {
+                        continue;
+                    };
+                    if seen.contains(&q) || points_only_level(q) != m {
+                        continue;
+                    }
+                    let distance = chebyshev(grid_position(cell), grid_position(centre));
+                    let rested = self.levels[q] > m && self.levels[r] > m && distance <= 4;
+                    let crowded = removed && m > 0 && {
+                        let above = |k: K| grid_position(Cell::containing(k, m - 1));
+                        chebyshev(above(self.keys[q]), above(self.keys[r])) <= 2
+                    };
+                    if rested || crowded {
+                        seen.insert(q);
+                        found.push(q);
+                        queue.push(q);
+                    }
+                }
+            }
+        }
+        found.sort_unstable();
+        found
+    }
+
+    /// Every square that `points` demand at their present levels: their paths, the paths'
+    /// rings, and what balance then forces.
+    fn demands_of_points(&self, points: impl Iterator<Item = usize>) -> SplitSet<K> {
+        let mut demanded = SplitSet::new();
+        for p in points {
+            let mut wanted = Vec::new();
+            for level in 0..self.levels[p] {
+                let square = Cell::containing(self.keys[p], level);
+                demanded.missing_near(square, 1, &mut wanted);
+            }
+            demanded.insert_closed(wanted);
+        }
+        demanded
+    }
+
+    /// Takes out of the split squares those of `demanded` that no point outside `held_back`
+    /// demands at its present level, finest level first, so that the squares balance forces
+    /// are judged on what stays at the level below.
+    fn drop_unsupported(&mut self, demanded: &SplitSet<K>, held_back: &HashSet<usize>) {
+        for level in (0..=K::AXIS_BITS as u8).rev() {
+            let squares: Vec<Cell<K>> = {
+                use rayon::prelude::*;
+                demanded.squares_at(level).collect()
+            };
+            for square in squares {
+                if !self.demanded_by_others(square, held_back) {
+                    self.set.remove(square);
+                }
+            }
+        }
+    }
+
+    /// Whether a point outside `held_back` demands `square`: it is on the path of such a point
+    /// or of its ring (the point's square of that level within one of it, the point's leaf
+    /// finer), or balance forces it from a split square of the level below.
+    fn demanded_by_others(&self, square: Cell<K>, held_back: &HashSet<usize>) -> bool {
+        let level = square.level;
+        let on_a_path = around_and(square, 1).any(|cell| {
+            let mut others = 0;
+            for j in self.points_in(cell) {
+                if held_back.contains(&j) {
+                    continue;
+                }
+                // Two points in a square split it, whatever their levels.
+                others += 1;
+                if self.levels[j] > level || others > 1 {
+                    return true;
+                }
+            }
+            false
+        });
+        on_a_path
+            || forcing_candidates(square)
+                .any(|finer| self.set.contains(finer) && forced_by(finer).contains(&Some(square)))
+    }
+}
+
+/// `cell` and the same-size squares within `radius` of it inside the root.
+fn around_and<K: MortonKey>(cell: Cell<K>, radius: i64) -> impl Iterator<Item = Cell<K>> {
+    std::iter::once(cell).chain(around(cell, radius).flatten())
+}
+
+/// The squares of the level below whose split may force `square`: its children and those of
+/// its four side neighbours.
+fn forcing_candidates<K: MortonKey>(square: Cell<K>) -> impl Iterator<Item = Cell<K>> {
+    let finest = square.level as u32 >= K::AXIS_BITS;
+    let neighbours = [Side::West, Side::East, Side::South, Side::North]
+        .into_iter()
+        .filter_map(move |side| square.neighbour(side));
+    std::iter::once(square)
+        .chain(neighbours)
+        .filter(move |_| !finest)
+        .flat_map(|parent| (0..4).map(move |q| parent.child(q)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::balance::{ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP};
+    use crate::morton::{Grid, MortonKey};
+    use glam::DVec2;
+
+    /// What `separate_in` builds for these keys from scratch.
+    fn static_tree<K: MortonKey>(keys: &[K], on: &[u8]) -> Option<BalancedTree<K>> {
+        if keys.is_empty() {
+            return None;
+        }
+        let sides = DomainSides {
+            on: on.to_vec(),
+            ..DomainSides::default()
+        };
+        let quadtree = expand(&build_framework(keys), keys);
+        Some(
+            separate_in(&quadtree, keys, Some(&sides), u8::MAX)
+                .unwrap()
+                .0,
+        )
+    }
+
+    fn check_against_static<K: MortonKey>(points: &SeparatedPoints<K>) {
+        let Some(expected) = static_tree(&points.keys, &points.sides.on) else {
+            return;
+        };
+        let tree = points.tree();
+        if tree != expected {
+            let cells = |t: &BalancedTree<K>| -> HashSet<(K, u8)> {
+                t.tree
+                    .internal
+                    .iter()
+                    .map(|s| (s.cell.anchor, s.cell.level))
+                    .collect()
+            };
+            let (have, want) = (cells(&tree), cells(&expected));
+            let extra: Vec<_> = have.difference(&want).collect();
+            let missing: Vec<_> = want.difference(&have).collect();
+            let levels = |t: &BalancedTree<K>| -> Vec<u8> {
+                t.point_leaf
+                    .iter()
+                    .map(|&l| {
+                        t.tree
+                            .leaves
+                            .get(l as usize)
+                            .map_or(255, |leaf| leaf.cell.level)
+                    })
+                    .collect()
+            };
+            panic!(
+                "the tree of {} points differs: extra {extra:?}, missing {missing:?}, levels {:?} vs {:?}",
+                points.keys.len(),
+                levels(&tree),
+                levels(&expected)
+            );
+        }
+    }
+
+    /// A tiny xorshift generator: tests need no seeds from outside.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            self.0
+        }
+
+        fn unit(&mut self) -> f64 {
+            (self.next() >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    fn on_sides(p: DVec2) -> u8 {
+        [
+            (p.x == 0.0, ON_LEFT),
+            (p.y == 0.0, ON_BOTTOM),
+            (p.x == 1.0, ON_RIGHT),
+            (p.y == 1.0, ON_TOP),
+        ]
+        .into_iter()
+        .filter(|&(on, _)| on)
+        .fold(0, |bits, (_, side)| bits | side)
+    }
+
+    /// A random point of the unit square: uniform, in a tight cluster, on a side or a
+    /// corner, or on a row of points three squares apart at one level (a row whose leaves
+    /// each rest on the next one's).
+    fn point(rng: &mut Rng) -> DVec2 {
+        match rng.next() % 10 {
+            0 | 1 => DVec2::new(0.3 + rng.unit() * 1e-3, 0.6 + rng.unit() * 1e-3),
+            2 => DVec2::new(rng.unit(), 0.0),
+            3 => DVec2::new(1.0, rng.unit()),
+            4 => DVec2::new(rng.unit(), 1.0),
+            5 => [DVec2::ZERO, DVec2::ONE, DVec2::X][(rng.next() % 3) as usize],
+            6 | 7 => {
+                let k = (rng.next() % 40) as f64;
+                DVec2::new(0.1 + k * 3.0 / 256.0 + rng.unit() * 1e-4, 0.25)
+            }
+            _ => DVec2::new(rng.unit(), rng.unit()),
+        }
+    }
+
+    fn key_of(grid: &Grid, p: DVec2) -> u64 {
+        let (x, y) = grid.quantize(p);
+        u64::encode(x, y)
+    }
+
+    fn key_of_wide(grid: &Grid, p: DVec2) -> u128 {
+        let (x, y) = grid.quantize(p);
+        u128::encode(x, y)
+    }
+
+    /// Random insertions and deletions, down to no point and back, each followed by a check
+    /// against the static build.
+    fn random_edits<K: MortonKey>(seeds: std::ops::RangeInclusive<u64>, key: impl Fn(DVec2) -> K) {
+        for seed in seeds {
+            let mut rng = Rng(seed * 0x9E37_79B9_7F4A_7C15);
+            let mut points = SeparatedPoints::<K>::new(Vec::new(), Vec::new());
+            let mut live: Vec<K> = Vec::new();
+            for step in 0..400 {
+                let delete = !live.is_empty() && (rng.next() % 5 < 2 || (150..220).contains(&step));
+                if delete {
+                    let key = live.swap_remove((rng.next() % live.len() as u64) as usize);
+                    points.remove(key);
+                } else {
+                    let p = point(&mut rng);
+                    let key = key(p);
+                    if points.contains(key) {
+                        continue;
+                    }
+                    points.insert(key, on_sides(p));
+                    live.push(key);
+                }
+                check_against_static(&points);
+            }
+        }
+    }
+
+    #[test]
+    fn random_edits_give_the_static_tree_after_every_step() {
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
+        random_edits(1..=12, |p| key_of(&grid, p));
+    }
+
+    #[test]
+    fn random_edits_on_the_wide_grid_give_the_static_tree() {
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u128::AXIS_BITS).unwrap();
+        random_edits(20..=23, |p| key_of_wide(&grid, p));
+    }
+
+    #[test]
+    fn a_built_tree_edits_like_one_grown_point_by_point() {
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
+        let mut rng = Rng(77);
+        let mut pairs: Vec<(u64, u8)> = (0..400)
+            .map(|_| {
+                let p = point(&mut rng);
+                (key_of(&grid, p), on_sides(p))
+            })
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup_by_key(|p| p.0);
+        let (keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
+        let mut points = SeparatedPoints::new(keys, on);
+        check_against_static(&points);
+        for (k, &(key, _)) in pairs.iter().enumerate().step_by(3) {
+            points.remove(key);
+            if k % 2 == 0 {
+                check_against_static(&points);
+            }
+        }
+        check_against_static(&points);
+    }
+}
