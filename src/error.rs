@@ -66,6 +66,25 @@ pub enum Error {
         /// Its coordinates.
         pb: [f64; 2],
     },
+    /// A point given twice: an edit of a dynamic mesh that puts a point where a live one is, or
+    /// a dynamic mesh's initial points with one repeated.
+    #[error("point {id} ({x}, {y}) is already point {existing}")]
+    DuplicatePoint {
+        /// The id the new point would have had, or the point moved.
+        id: usize,
+        /// The live point at the same place.
+        existing: usize,
+        /// Its x coordinate.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+    },
+    /// An edit names a point id that was never given out or whose point was deleted.
+    #[error("no live point has id {id}")]
+    UnknownPoint {
+        /// The id.
+        id: usize,
+    },
     /// Points so close, relative to the input's extent, that the mesh between them needs
     /// vertices f64 cannot place apart.
     #[error(

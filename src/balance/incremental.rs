@@ -40,6 +40,10 @@ pub struct SeparatedPoints<K: MortonKey> {
     sides: DomainSides,
     /// The split squares, closed under balance.
     set: SplitSet<K>,
+    /// How many points have their leaf at each level.
+    at_level: Vec<usize>,
+    /// Split squares added and taken out by the last edit.
+    touched: usize,
 }
 
 impl<K: MortonKey> SeparatedPoints<K> {
@@ -64,12 +68,36 @@ impl<K: MortonKey> SeparatedPoints<K> {
                 .collect();
             set.insert_closed(tree.tree.internal.iter().map(|s| Squares::one(s.cell)));
         }
+        let mut at_level = vec![0; K::AXIS_BITS as usize + 1];
+        for &level in &levels {
+            at_level[level as usize] += 1;
+        }
         SeparatedPoints {
             keys,
             levels,
             sides,
             set,
+            at_level,
+            touched: 0,
         }
+    }
+
+    /// The level of the finest point leaf, 0 with no points.
+    pub fn deepest(&self) -> u8 {
+        self.at_level.iter().rposition(|&n| n > 0).unwrap_or(0) as u8
+    }
+
+    /// How many split squares the last insertion or removal added or took out (a square taken
+    /// out and put back counts twice).
+    pub fn touched(&self) -> usize {
+        self.touched
+    }
+
+    /// Sets point `i`'s leaf level, keeping the count per level.
+    fn set_level(&mut self, i: usize, level: u8) {
+        self.at_level[self.levels[i] as usize] -= 1;
+        self.at_level[level as usize] += 1;
+        self.levels[i] = level;
     }
 
     /// The points' keys in Morton order.
@@ -105,7 +133,9 @@ impl<K: MortonKey> SeparatedPoints<K> {
         assert!(self.keys.get(i) != Some(&key), "a new key");
         self.keys.insert(i, key);
         self.levels.insert(i, 0);
+        self.at_level[0] += 1;
         self.sides.on.insert(i, on);
+        self.touched = 0;
         let first = self.first_move(i);
         self.run_rounds(vec![first]);
         i
@@ -117,8 +147,9 @@ impl<K: MortonKey> SeparatedPoints<K> {
         let resting = self.resting_on(i);
         let demanded = self.demands_of_points(resting.iter().copied().chain([i]));
         self.keys.remove(i);
-        self.levels.remove(i);
+        self.at_level[self.levels.remove(i) as usize] -= 1;
         self.sides.on.remove(i);
+        self.touched = 0;
         // Positions past the removed point move down one.
         let restart: Vec<usize> = resting
             .into_iter()
@@ -165,8 +196,12 @@ impl<K: MortonKey> SeparatedPoints<K> {
                 demands_of(&self.set, &self.keys, m, &mut demanded);
             }
             let added = self.set.insert_closed(demanded);
+            self.touched += added
+                .iter()
+                .map(|s| s.mask().count_ones() as usize)
+                .sum::<usize>();
             for m in &moves {
-                self.levels[m.point as usize] = m.to;
+                self.set_level(m.point as usize, m.to);
             }
             let candidates = self.near(&added);
             let rules = Rules::new(Some(&self.sides));
@@ -286,6 +321,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
             for square in squares {
                 if !self.demanded_by_others(square, held_back) {
                     self.set.remove(square);
+                    self.touched += 1;
                 }
             }
         }

@@ -1,4 +1,551 @@
-//! Keeping the quadtree and mesh current under point insertions and deletions by re-running the
-//! stages on the Morton intervals an edit touches.
+//! Warped meshes kept current under point insertions, deletions and moves.
 //!
-//! Planned.
+//! A [`DynamicMesh`] lives on a square domain fixed when it is made, so that the grid, and with
+//! it every point's Morton key, stays put while points come and go. Its well-separated quadtree
+//! is kept by [`SeparatedPoints`], which re-runs the static separation rules only on the points
+//! an edit can reach; after any sequence of edits the tree, and the mesh [`DynamicMesh::mesh`]
+//! warps from it, are byte for byte what [`crate::mesh`] builds for the live points in id order
+//! on the same domain.
+//!
+//! Points keep their ids across edits: the initial points are `0..n` in the order given, and
+//! each insertion takes the next id; a deleted id is never given out again.
+
+use glam::DVec2;
+
+use crate::balance::{ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, SeparatedPoints};
+use crate::error::Error;
+use crate::mesh::{Domain, Mesh, StageTimes};
+use crate::morton::{GUARD_LEVELS, Grid, MortonKey};
+use crate::warp::{unresolvable, warp};
+
+/// One edit of a dynamic mesh.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Edit {
+    /// Adds a point; it takes the next id.
+    Insert(DVec2),
+    /// Deletes the live point with this id.
+    Delete(u32),
+    /// Moves the live point with this id to a new place.
+    Move(u32, DVec2),
+}
+
+/// What an edit did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EditReport {
+    /// The id of the point inserted, deleted or moved.
+    pub id: u32,
+    /// Split squares of the quadtree the edit added or took out.
+    pub cells: usize,
+    /// Whether the edit moved the tree to the other grid width, rebuilding it.
+    pub rebuilt: bool,
+}
+
+/// A warped quality mesh of points on a fixed square domain, kept current under edits.
+#[derive(Clone)]
+pub struct DynamicMesh {
+    domain: Domain,
+    /// Every point ever given an id, live or not.
+    points: Vec<DVec2>,
+    live: Vec<bool>,
+    live_count: usize,
+    tree: Tracked,
+}
+
+/// The tree on the grid width the live points need: the narrow grid unless two of them share
+/// a narrow key or a leaf is finer than it resolves, as [`crate::mesh`] chooses.
+#[derive(Clone)]
+enum Tracked {
+    Narrow(Keyed<u64>),
+    Wide(Keyed<u128>),
+}
+
+/// A separated tree with the id of each point by Morton position.
+#[derive(Clone)]
+struct Keyed<K: MortonKey> {
+    grid: Grid,
+    separated: SeparatedPoints<K>,
+    ids: Vec<u32>,
+}
+
+impl DynamicMesh {
+    /// The dynamic mesh of `points` on the square `domain`, which holds them all (on its sides
+    /// too); the points get ids `0..points.len()`.
+    ///
+    /// # Errors
+    /// [`Error::InvalidOption`] for a domain that is not a square of positive area,
+    /// [`Error::NonFinite`], [`Error::OutsideDomain`], [`Error::DuplicatePoint`] for a point
+    /// given twice, and [`Error::Unresolvable`] for points too close together for the wide
+    /// grid.
+    pub fn new(points: &[DVec2], domain: Domain) -> Result<Self, Error> {
+        domain.check()?;
+        let extent = domain.hi - domain.lo;
+        if extent.x != extent.y {
+            return Err(Error::InvalidOption {
+                option: "domain",
+                message: format!(
+                    "a dynamic mesh needs a square domain, not {} x {}",
+                    extent.x, extent.y
+                ),
+            });
+        }
+        for (index, &p) in points.iter().enumerate() {
+            check_place(p, index, &domain)?;
+        }
+        if let Some((id, existing)) = first_repeat(points) {
+            return Err(duplicate(id, existing, points[id]));
+        }
+        let mut mesh = DynamicMesh {
+            domain,
+            points: points.to_vec(),
+            live: vec![true; points.len()],
+            live_count: points.len(),
+            tree: Tracked::Narrow(Keyed::empty(&domain, u64::AXIS_BITS)?),
+        };
+        mesh.rebuild()?;
+        Ok(mesh)
+    }
+
+    /// The domain.
+    pub fn domain(&self) -> Domain {
+        self.domain
+    }
+
+    /// How many points are live.
+    pub fn len(&self) -> usize {
+        self.live_count
+    }
+
+    /// Whether no point is live.
+    pub fn is_empty(&self) -> bool {
+        self.live_count == 0
+    }
+
+    /// The live point with id `id`, if there is one.
+    pub fn point(&self, id: u32) -> Option<DVec2> {
+        let id = id as usize;
+        self.live
+            .get(id)
+            .is_some_and(|&live| live)
+            .then(|| self.points[id])
+    }
+
+    /// The live points in id order, with their ids.
+    pub fn live_points(&self) -> (Vec<u32>, Vec<DVec2>) {
+        (0..self.points.len() as u32)
+            .filter(|&id| self.live[id as usize])
+            .map(|id| (id, self.points[id as usize]))
+            .unzip()
+    }
+
+    /// Whether the tree is on the wide grid.
+    pub fn is_wide(&self) -> bool {
+        matches!(self.tree, Tracked::Wide(_))
+    }
+
+    /// Adds a point at `p`; returns what changed, with the point's id.
+    ///
+    /// # Errors
+    /// [`Error::NonFinite`], [`Error::OutsideDomain`], [`Error::DuplicatePoint`] for a place a
+    /// live point holds, [`Error::Unresolvable`] for a point too close to another for the wide
+    /// grid; the mesh is then unchanged.
+    pub fn insert(&mut self, p: DVec2) -> Result<EditReport, Error> {
+        let id = self.points.len();
+        check_place(p, id, &self.domain)?;
+        if let Some(existing) = self.live_at(p) {
+            return Err(duplicate(id, existing, p));
+        }
+        self.points.push(p);
+        self.live.push(true);
+        self.live_count += 1;
+        match self.place(id as u32) {
+            Ok(report) => Ok(report),
+            Err(e) => {
+                self.points.pop();
+                self.live.pop();
+                self.live_count -= 1;
+                Err(e)
+            }
+        }
+    }
+
+    /// Deletes the live point with id `id`.
+    ///
+    /// # Errors
+    /// [`Error::UnknownPoint`] for an id not live; the mesh is then unchanged.
+    pub fn delete(&mut self, id: u32) -> Result<EditReport, Error> {
+        let p = self
+            .point(id)
+            .ok_or(Error::UnknownPoint { id: id as usize })?;
+        let cells = self.tree.remove(p);
+        self.live[id as usize] = false;
+        self.live_count -= 1;
+        let rebuilt = self.narrow_if_enough()?;
+        Ok(EditReport { id, cells, rebuilt })
+    }
+
+    /// Moves the live point with id `id` to `p`.
+    ///
+    /// # Errors
+    /// [`Error::UnknownPoint`], and what [`Self::insert`] refuses at `p`; the mesh is then
+    /// unchanged.
+    pub fn move_to(&mut self, id: u32, p: DVec2) -> Result<EditReport, Error> {
+        let old = self
+            .point(id)
+            .ok_or(Error::UnknownPoint { id: id as usize })?;
+        check_place(p, id as usize, &self.domain)?;
+        if p == old {
+            return Ok(EditReport {
+                id,
+                ..EditReport::default()
+            });
+        }
+        if let Some(existing) = self.live_at(p) {
+            return Err(duplicate(id as usize, existing, p));
+        }
+        let gone = self.delete(id)?;
+        self.points[id as usize] = p;
+        self.live[id as usize] = true;
+        self.live_count += 1;
+        match self.place(id) {
+            Ok(placed) => Ok(EditReport {
+                id,
+                cells: gone.cells + placed.cells,
+                rebuilt: gone.rebuilt || placed.rebuilt,
+            }),
+            Err(e) => {
+                // The tree depends on the live points alone: putting the point back where it
+                // was gives back the tree it had.
+                self.points[id as usize] = old;
+                self.place(id)
+                    .expect("the point fitted where it was before the move");
+                Err(e)
+            }
+        }
+    }
+
+    /// Applies `edits` in order, all or none: on a bad edit the mesh goes back to what it was
+    /// and the error names the edit's position.
+    ///
+    /// # Errors
+    /// The first edit refused, by position, with why.
+    pub fn apply(&mut self, edits: &[Edit]) -> Result<Vec<EditReport>, (usize, Error)> {
+        let before = self.clone();
+        let mut reports = Vec::with_capacity(edits.len());
+        for (k, &edit) in edits.iter().enumerate() {
+            let done = match edit {
+                Edit::Insert(p) => self.insert(p),
+                Edit::Delete(id) => self.delete(id),
+                Edit::Move(id, p) => self.move_to(id, p),
+            };
+            match done {
+                Ok(report) => reports.push(report),
+                Err(e) => {
+                    *self = before;
+                    return Err((k, e));
+                }
+            }
+        }
+        Ok(reports)
+    }
+
+    /// Moves every point `ids[k]` by `displacements[k]`: a time step of moving points, all or
+    /// none.
+    ///
+    /// # Errors
+    /// As [`Self::apply`]; [`Error::InvalidOption`] when the two lists differ in length.
+    pub fn move_all(
+        &mut self,
+        ids: &[u32],
+        displacements: &[DVec2],
+    ) -> Result<Vec<EditReport>, (usize, Error)> {
+        if ids.len() != displacements.len() {
+            let message = format!(
+                "{} ids and {} displacements",
+                ids.len(),
+                displacements.len()
+            );
+            return Err((
+                0,
+                Error::InvalidOption {
+                    option: "displacements",
+                    message,
+                },
+            ));
+        }
+        let mut edits = Vec::with_capacity(ids.len());
+        for (k, (&id, &d)) in ids.iter().zip(displacements).enumerate() {
+            let p = self
+                .point(id)
+                .ok_or((k, Error::UnknownPoint { id: id as usize }))?;
+            edits.push(Edit::Move(id, p + d));
+        }
+        self.apply(&edits)
+    }
+
+    /// The warped mesh of the live points: what [`crate::mesh`] gives for them in id order on
+    /// this domain, its `vertex_input` numbering them in that order.
+    ///
+    /// # Errors
+    /// [`Error::Empty`] with no live point, and what the warp refuses ([`Error::Unresolvable`]
+    /// where f64 cannot place the vertices around a point apart).
+    pub fn mesh(&self) -> Result<Mesh, Error> {
+        if self.live_count == 0 {
+            return Err(Error::Empty);
+        }
+        // Ids to positions among the live points.
+        let mut rank = vec![u32::MAX; self.points.len()];
+        let mut live_points = Vec::with_capacity(self.live_count);
+        for (id, &p) in self.points.iter().enumerate() {
+            if self.live[id] {
+                rank[id] = live_points.len() as u32;
+                live_points.push(p);
+            }
+        }
+        match &self.tree {
+            Tracked::Narrow(k) => k.mesh(&live_points, &rank),
+            Tracked::Wide(k) => k.mesh(&live_points, &rank),
+        }
+    }
+
+    /// The id of the live point at exactly `p`, if any.
+    fn live_at(&self, p: DVec2) -> Option<usize> {
+        let id = match &self.tree {
+            Tracked::Narrow(k) => k.id_of(p),
+            Tracked::Wide(k) => k.id_of(p),
+        }?;
+        (self.points[id as usize] == p).then_some(id as usize)
+    }
+
+    /// Puts the live point `id` into the tree, moving to the wide grid if it needs it there.
+    fn place(&mut self, id: u32) -> Result<EditReport, Error> {
+        let p = self.points[id as usize];
+        let on = sides_on(p, &self.domain);
+        let fits = match &mut self.tree {
+            Tracked::Narrow(k) => k.insert(id, p, on),
+            Tracked::Wide(k) => k.insert(id, p, on),
+        };
+        match fits {
+            Some(cells) => Ok(EditReport {
+                id,
+                cells,
+                rebuilt: false,
+            }),
+            None => {
+                // Too close to another point for this grid: the tree of all live points is
+                // built anew, on the wide grid if need be, as a build from scratch would be.
+                if let Err(e) = self.rebuild() {
+                    self.live[id as usize] = false;
+                    self.live_count -= 1;
+                    self.rebuild().expect("the live points fitted before");
+                    self.live[id as usize] = true;
+                    self.live_count += 1;
+                    return Err(e);
+                }
+                Ok(EditReport {
+                    id,
+                    cells: 0,
+                    rebuilt: true,
+                })
+            }
+        }
+    }
+
+    /// Back to the narrow grid once the wide one is no longer needed.
+    fn narrow_if_enough(&mut self) -> Result<bool, Error> {
+        let Tracked::Wide(k) = &self.tree else {
+            return Ok(false);
+        };
+        let narrow_finest = u64::AXIS_BITS - GUARD_LEVELS;
+        if u32::from(k.separated.deepest()) > narrow_finest {
+            return Ok(false);
+        }
+        self.rebuild()?;
+        Ok(true)
+    }
+
+    /// Builds the tree of the live points from scratch, on the narrow grid if that resolves
+    /// them, on the wide one otherwise.
+    fn rebuild(&mut self) -> Result<(), Error> {
+        let ids: Vec<u32> = (0..self.points.len() as u32)
+            .filter(|&id| self.live[id as usize])
+            .collect();
+        if let Some(narrow) = Keyed::<u64>::build(&self.points, &ids, &self.domain)? {
+            self.tree = Tracked::Narrow(narrow);
+            return Ok(());
+        }
+        match Keyed::<u128>::build(&self.points, &ids, &self.domain)? {
+            Some(wide) => {
+                self.tree = Tracked::Wide(wide);
+                Ok(())
+            }
+            None => {
+                let wide = Keyed::<u128>::build_unchecked(&self.points, &ids, &self.domain)?;
+                let id = wide.too_deep_point();
+                let p = self.points[id as usize];
+                Err(unresolvable(p, id))
+            }
+        }
+    }
+}
+
+impl Tracked {
+    /// Takes the point at `p` out; returns the split squares touched.
+    fn remove(&mut self, p: DVec2) -> usize {
+        match self {
+            Tracked::Narrow(k) => k.remove(p),
+            Tracked::Wide(k) => k.remove(p),
+        }
+    }
+}
+
+impl<K: MortonKey> Keyed<K> {
+    fn empty(domain: &Domain, axis_bits: u32) -> Result<Self, Error> {
+        Ok(Keyed {
+            grid: Grid::on_domain(domain.lo, domain.hi, axis_bits)?,
+            separated: SeparatedPoints::new(Vec::new(), Vec::new()),
+            ids: Vec::new(),
+        })
+    }
+
+    /// The tree of the points `ids`, or `None` if two of them share a key or a leaf is finer
+    /// than this grid resolves the points.
+    fn build(points: &[DVec2], ids: &[u32], domain: &Domain) -> Result<Option<Self>, Error> {
+        let keyed = Self::build_unchecked(points, ids, domain)?;
+        let distinct = keyed.ids.len() == ids.len();
+        Ok((distinct && !keyed.too_deep()).then_some(keyed))
+    }
+
+    /// The tree of the points `ids`, the first of each key only.
+    fn build_unchecked(points: &[DVec2], ids: &[u32], domain: &Domain) -> Result<Self, Error> {
+        let mut keyed = Self::empty(domain, K::AXIS_BITS)?;
+        let mut pairs: Vec<(K, u32)> = ids
+            .iter()
+            .map(|&id| (keyed.key(points[id as usize]), id))
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup_by_key(|pair| pair.0);
+        let on = pairs
+            .iter()
+            .map(|&(_, id)| sides_on(points[id as usize], domain))
+            .collect();
+        let (keys, ids) = pairs.into_iter().unzip();
+        keyed.separated = SeparatedPoints::new(keys, on);
+        keyed.ids = ids;
+        Ok(keyed)
+    }
+
+    fn key(&self, p: DVec2) -> K {
+        let (x, y) = self.grid.quantize(p);
+        K::encode(x, y)
+    }
+
+    /// The id of the point whose key `p` has, if any.
+    fn id_of(&self, p: DVec2) -> Option<u32> {
+        let keys = self.separated.keys();
+        let i = keys.binary_search(&self.key(p)).ok()?;
+        Some(self.ids[i])
+    }
+
+    /// Puts point `id` at `p` in; `None`, with the tree as it was, if its key is taken or its
+    /// leaf would be finer than this grid resolves.
+    fn insert(&mut self, id: u32, p: DVec2, on: u8) -> Option<usize> {
+        let key = self.key(p);
+        if self.separated.contains(key) {
+            return None;
+        }
+        let i = self.separated.insert(key, on);
+        self.ids.insert(i, id);
+        if self.too_deep() {
+            self.separated.remove(key);
+            self.ids.remove(i);
+            return None;
+        }
+        Some(self.separated.touched())
+    }
+
+    /// Takes the point at `p` out; returns the split squares touched.
+    fn remove(&mut self, p: DVec2) -> usize {
+        let i = self.separated.remove(self.key(p));
+        self.ids.remove(i);
+        self.separated.touched()
+    }
+
+    /// Whether a point's leaf is finer than the grid resolves the points.
+    fn too_deep(&self) -> bool {
+        u32::from(self.separated.deepest()) > K::AXIS_BITS - GUARD_LEVELS
+    }
+
+    /// The id of a point whose leaf is finer than the grid resolves.
+    fn too_deep_point(&self) -> u32 {
+        let finest = K::AXIS_BITS - GUARD_LEVELS;
+        let i = self
+            .separated
+            .levels()
+            .iter()
+            .position(|&l| u32::from(l) > finest)
+            .unwrap_or(0);
+        self.ids[i]
+    }
+
+    fn mesh(&self, live_points: &[DVec2], rank: &[u32]) -> Result<Mesh, Error> {
+        let tree = self.separated.tree();
+        let order: Vec<u32> = self.ids.iter().map(|&id| rank[id as usize]).collect();
+        let mut times = StageTimes::default();
+        warp(&tree, &order, &self.grid, live_points, &mut times).map(|(mesh, _)| mesh)
+    }
+}
+
+/// Refuses a point that is not finite or lies outside the domain.
+fn check_place(p: DVec2, index: usize, domain: &Domain) -> Result<(), Error> {
+    if !p.is_finite() {
+        return Err(Error::NonFinite {
+            index,
+            x: p.x,
+            y: p.y,
+        });
+    }
+    if !domain.contains(p) {
+        return Err(Error::OutsideDomain {
+            index,
+            x: p.x,
+            y: p.y,
+        });
+    }
+    Ok(())
+}
+
+/// A point given twice, as its later index and the earlier one: the pair with the smallest
+/// later index.
+fn first_repeat(points: &[DVec2]) -> Option<(usize, usize)> {
+    let mut order: Vec<usize> = (0..points.len()).collect();
+    let place = |i: usize| (points[i].x.to_bits(), points[i].y.to_bits());
+    order.sort_unstable_by_key(|&i| (place(i), i));
+    order
+        .windows(2)
+        .filter(|pair| points[pair[0]] == points[pair[1]])
+        .map(|pair| (pair[1], pair[0]))
+        .min()
+}
+
+fn duplicate(id: usize, existing: usize, p: DVec2) -> Error {
+    Error::DuplicatePoint {
+        id,
+        existing,
+        x: p.x,
+        y: p.y,
+    }
+}
+
+/// The domain sides `p` lies on, as [`crate::balance::DomainSides::of`] marks them.
+fn sides_on(p: DVec2, domain: &Domain) -> u8 {
+    let (lo, hi) = (domain.lo, domain.hi);
+    [
+        (p.x == lo.x, ON_LEFT),
+        (p.y == lo.y, ON_BOTTOM),
+        (p.x == hi.x, ON_RIGHT),
+        (p.y == hi.y, ON_TOP),
+    ]
+    .into_iter()
+    .filter(|&(on, _)| on)
+    .fold(0, |bits, (_, side)| bits | side)
+}

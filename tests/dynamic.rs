@@ -1,0 +1,268 @@
+//! Dynamic warped meshes: after any sequence of edits, the same mesh as a build from scratch of
+//! the live points in id order; bad edits change nothing.
+
+use glam::DVec2;
+use quadmesh::dynamic::{DynamicMesh, Edit};
+use quadmesh::mesh::Domain;
+use quadmesh::{Error, Input, Mesh, Options, Region};
+
+fn unit() -> Domain {
+    Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::ONE,
+    }
+}
+
+/// What a build from scratch gives for the live points in id order.
+fn rebuilt(dynamic: &DynamicMesh) -> Mesh {
+    let (_, points) = dynamic.live_points();
+    let options = Options::default()
+        .warp()
+        .region(Region::Rectangle(dynamic.domain()));
+    quadmesh::mesh(&Input::points(points), &options)
+        .expect("the live points mesh from scratch")
+        .0
+}
+
+/// The dynamic mesh equals the rebuild, and passes the crate's check.
+fn check(dynamic: &DynamicMesh, what: &str) {
+    let mesh = dynamic.mesh().expect("the dynamic mesh warps");
+    let expected = rebuilt(dynamic);
+    assert!(
+        mesh == expected,
+        "{what}: the dynamic mesh differs from a rebuild"
+    );
+    let (_, points) = dynamic.live_points();
+    mesh.validate(&points, Options::default().warp().angle_bounds())
+        .unwrap_or_else(|e| panic!("{what}: {e}"));
+}
+
+/// A small xorshift generator: the tests carry their own seeds.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        self.0
+    }
+
+    fn unit(&mut self) -> f64 {
+        (self.next() >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn below(&mut self, n: usize) -> usize {
+        (self.next() % n as u64) as usize
+    }
+}
+
+/// A point of the unit square from one of the families: uniform, a tight cluster, a
+/// Kuzmin-like spread around a centre, on a side or a corner, or on a grid line.
+fn point(rng: &mut Rng) -> DVec2 {
+    match rng.below(10) {
+        0 | 1 => DVec2::new(0.3 + rng.unit() * 1e-3, 0.6 + rng.unit() * 1e-3),
+        2 => {
+            let r = 0.4 * rng.unit().powi(3);
+            let a = rng.unit() * std::f64::consts::TAU;
+            DVec2::new(0.5 + r * a.cos(), 0.5 + r * a.sin())
+        }
+        3 => DVec2::new(rng.unit(), 0.0),
+        4 => DVec2::new(1.0, rng.unit()),
+        5 => [DVec2::ZERO, DVec2::ONE, DVec2::new(0.0, 1.0)][rng.below(3)],
+        6 => DVec2::new(0.5, rng.unit()),
+        _ => DVec2::new(rng.unit(), rng.unit()),
+    }
+}
+
+/// A random live id.
+fn some_id(dynamic: &DynamicMesh, rng: &mut Rng) -> u32 {
+    let (ids, _) = dynamic.live_points();
+    ids[rng.below(ids.len())]
+}
+
+#[test]
+fn random_edits_give_the_rebuilt_mesh_after_every_step() {
+    for seed in 1..=4u64 {
+        let mut rng = Rng(seed * 0x2545_F491_4F6C_DD1D);
+        let initial: Vec<DVec2> = (0..30).map(|_| point(&mut rng)).collect();
+        let mut initial = initial;
+        initial.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+        initial.dedup();
+        let mut dynamic = DynamicMesh::new(&initial, unit()).unwrap();
+        check(&dynamic, "the initial build");
+        for step in 0..120 {
+            let edit = match rng.below(if dynamic.len() > 1 { 3 } else { 1 }) {
+                0 => Edit::Insert(point(&mut rng)),
+                1 => Edit::Delete(some_id(&dynamic, &mut rng)),
+                _ => Edit::Move(some_id(&dynamic, &mut rng), point(&mut rng)),
+            };
+            match dynamic.apply(&[edit]) {
+                Ok(_) => check(&dynamic, &format!("seed {seed} step {step}: {edit:?}")),
+                // A random place can repeat a live point's; nothing else may fail here.
+                Err((_, e)) => assert!(matches!(e, Error::DuplicatePoint { .. }), "{e}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn deleting_down_to_one_point_and_back() {
+    let mut rng = Rng(99);
+    let points: Vec<DVec2> = (0..25)
+        .map(|_| DVec2::new(rng.unit(), rng.unit()))
+        .collect();
+    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    for id in 0..24 {
+        dynamic.delete(id).unwrap();
+        check(&dynamic, &format!("after deleting {id}"));
+    }
+    assert_eq!(dynamic.len(), 1);
+    for k in 0..10 {
+        let id = dynamic
+            .insert(DVec2::new(rng.unit(), rng.unit()))
+            .unwrap()
+            .id;
+        assert_eq!(id, 25 + k, "new points take the next ids");
+        check(&dynamic, &format!("after inserting {id}"));
+    }
+}
+
+#[test]
+fn points_closer_than_the_narrow_grid_move_the_tree_to_the_wide_one_and_back() {
+    let points = [DVec2::new(0.25, 0.25), DVec2::new(0.75, 0.6)];
+    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    assert!(!dynamic.is_wide());
+    let close = dynamic
+        .insert(DVec2::new(0.25 + 1e-11, 0.25))
+        .expect("a close point goes on the wide grid");
+    assert!(close.rebuilt && dynamic.is_wide());
+    check(&dynamic, "with a point 1e-11 from another");
+    let back = dynamic.delete(close.id).unwrap();
+    assert!(back.rebuilt && !dynamic.is_wide());
+    check(&dynamic, "after deleting it");
+}
+
+#[test]
+fn bad_edits_are_refused_and_change_nothing() {
+    let points = [
+        DVec2::new(0.2, 0.3),
+        DVec2::new(0.7, 0.8),
+        DVec2::new(0.5, 0.1),
+    ];
+    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    let before = dynamic.mesh().unwrap();
+    let refused = [
+        (Edit::Insert(DVec2::new(f64::NAN, 0.5)), "NonFinite"),
+        (Edit::Insert(DVec2::new(1.5, 0.5)), "OutsideDomain"),
+        (Edit::Insert(DVec2::new(0.7, 0.8)), "DuplicatePoint"),
+        (Edit::Delete(7), "UnknownPoint"),
+        (Edit::Move(1, DVec2::new(0.2, 0.3)), "DuplicatePoint"),
+        (Edit::Move(2, DVec2::new(0.5, -0.1)), "OutsideDomain"),
+    ];
+    for (edit, kind) in refused {
+        let Err((at, e)) = dynamic.apply(&[edit]) else {
+            panic!("{edit:?} was accepted");
+        };
+        assert_eq!(at, 0);
+        assert!(format!("{e:?}").starts_with(kind), "{edit:?}: {e:?}");
+        assert_eq!(dynamic.mesh().unwrap(), before, "{edit:?} changed the mesh");
+        assert_eq!(dynamic.len(), 3);
+    }
+    // A deleted id is unknown from then on, and the next insertion still takes id 3.
+    dynamic.delete(0).unwrap();
+    assert!(matches!(
+        dynamic.delete(0),
+        Err(Error::UnknownPoint { id: 0 })
+    ));
+    assert_eq!(dynamic.insert(DVec2::new(0.4, 0.4)).unwrap().id, 3);
+    check(&dynamic, "after the refused edits");
+}
+
+#[test]
+fn a_batch_equals_its_edits_one_by_one_and_a_bad_batch_changes_nothing() {
+    let mut rng = Rng(5);
+    let points: Vec<DVec2> = (0..40)
+        .map(|_| DVec2::new(rng.unit(), rng.unit()))
+        .collect();
+    let mut batched = DynamicMesh::new(&points, unit()).unwrap();
+    let mut single = batched.clone();
+    let edits: Vec<Edit> = (0..30)
+        .map(|k| match k % 3 {
+            0 => Edit::Insert(DVec2::new(rng.unit(), rng.unit())),
+            1 => Edit::Delete(k as u32),
+            _ => Edit::Move(k as u32, DVec2::new(rng.unit(), rng.unit())),
+        })
+        .collect();
+    batched.apply(&edits).unwrap();
+    for &edit in &edits {
+        single.apply(&[edit]).unwrap();
+    }
+    assert_eq!(batched.mesh().unwrap(), single.mesh().unwrap());
+    check(&batched, "after the batch");
+    let before = batched.mesh().unwrap();
+    let bad = [Edit::Insert(DVec2::new(0.123, 0.456)), Edit::Delete(1)];
+    assert_eq!(batched.apply(&bad).unwrap_err().0, 1);
+    assert_eq!(batched.mesh().unwrap(), before);
+}
+
+#[test]
+fn a_time_step_of_moving_points_equals_a_rebuild() {
+    let mut rng = Rng(11);
+    let points: Vec<DVec2> = (0..200)
+        .map(|_| DVec2::new(0.1 + 0.8 * rng.unit(), 0.1 + 0.8 * rng.unit()))
+        .collect();
+    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    for step in 0..3 {
+        let (ids, _) = dynamic.live_points();
+        let shifts: Vec<DVec2> = ids
+            .iter()
+            .map(|_| DVec2::new(rng.unit() - 0.5, rng.unit() - 0.5) * 1e-3)
+            .collect();
+        dynamic.move_all(&ids, &shifts).unwrap();
+        check(&dynamic, &format!("time step {step}"));
+    }
+}
+
+#[test]
+fn one_and_several_threads_give_the_same_mesh() {
+    let mut rng = Rng(21);
+    let points: Vec<DVec2> = (0..300).map(|_| point(&mut rng)).collect();
+    let mut points = points;
+    points.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+    points.dedup();
+    let edits: Vec<Edit> = (0..60)
+        .map(|k| match k % 2 {
+            0 => Edit::Insert(DVec2::new(rng.unit(), rng.unit())),
+            _ => Edit::Delete(k as u32),
+        })
+        .collect();
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+            dynamic.apply(&edits).unwrap();
+            dynamic.mesh().unwrap()
+        })
+    };
+    assert_eq!(run(1), run(3));
+}
+
+#[test]
+fn a_domain_that_is_not_square_is_refused() {
+    let domain = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::new(2.0, 1.0),
+    };
+    assert!(matches!(
+        DynamicMesh::new(&[DVec2::new(0.5, 0.5)], domain),
+        Err(Error::InvalidOption { .. })
+    ));
+    assert!(matches!(
+        DynamicMesh::new(&[DVec2::new(0.5, 0.5), DVec2::new(0.5, 0.5)], unit()),
+        Err(Error::DuplicatePoint { .. })
+    ));
+}
