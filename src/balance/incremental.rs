@@ -115,6 +115,12 @@ impl<K: MortonKey> SeparatedPoints<K> {
         &self.sides.on
     }
 
+    /// The domain sides the point with key `key` lies on, if it is one of the points.
+    pub fn sides_on_of(&self, key: K) -> Option<u8> {
+        let i = self.keys.binary_search(&key).ok()?;
+        Some(self.sides.on[i])
+    }
+
     /// Whether `key` is one of the points.
     pub fn contains(&self, key: K) -> bool {
         self.keys.binary_search(&key).is_ok()
@@ -139,6 +145,23 @@ impl<K: MortonKey> SeparatedPoints<K> {
         let first = self.first_move(i);
         self.run_rounds(vec![first]);
         i
+    }
+
+    /// Moves the point with key `from` to key `to` if that keeps it in its leaf, on the same
+    /// domain sides: the tree is then the same (every rule reads a point's squares no finer
+    /// than its leaf, and a square finer than another point's leaf holding it would have
+    /// crowded that point's block), so only the key changes. Returns whether it did.
+    pub fn move_within_leaf(&mut self, from: K, to: K, on: u8) -> bool {
+        let Ok(i) = self.keys.binary_search(&from) else {
+            return false;
+        };
+        let leaf = Cell::containing(from, self.levels[i]);
+        if !leaf.contains(to) || self.sides.on[i] != on {
+            return false;
+        }
+        self.keys[i] = to;
+        self.touched = 0;
+        true
     }
 
     /// Removes the point with key `key`, one of the points; returns its Morton position.
@@ -510,6 +533,38 @@ mod tests {
                 check_against_static(&points);
             }
         }
+    }
+
+    #[test]
+    fn moves_within_a_leaf_keep_the_static_tree() {
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
+        let mut rng = Rng(31);
+        let mut pairs: Vec<(u64, u8)> = (0..300)
+            .map(|_| {
+                let p = point(&mut rng);
+                (key_of(&grid, p), on_sides(p))
+            })
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup_by_key(|p| p.0);
+        let (mut keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
+        let mut points = SeparatedPoints::new(keys.clone(), on.clone());
+        let mut moved = 0;
+        for _ in 0..2000 {
+            let i = (rng.next() % keys.len() as u64) as usize;
+            // A small step in grid units, often within the leaf, sometimes out of it.
+            let (x, y) = keys[i].decode();
+            let step = |c: u64, r: u64| c.wrapping_add(r % (1 << 22)).wrapping_sub(1 << 21);
+            let to = u64::encode(step(x, rng.next()), step(y, rng.next()));
+            if points.contains(to) || !points.move_within_leaf(keys[i], to, on[i]) {
+                continue;
+            }
+            moved += 1;
+            keys[i] = to;
+            assert_eq!(points.keys(), &keys[..]);
+            check_against_static(&points);
+        }
+        assert!(moved > 100, "only {moved} moves stayed in their leaves");
     }
 
     #[test]

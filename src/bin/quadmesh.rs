@@ -17,6 +17,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use quadmesh::dynamic::DynamicMesh;
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{
     read_input, read_points, with_extension_appended, write_input_poly, write_leaves_csv,
@@ -107,6 +108,39 @@ enum Command {
         #[command(flatten)]
         quality: QualityArgs,
     },
+    /// Build the warped mesh of a point file on a fixed square domain, apply a file of edits
+    /// to it one by one, and write the final mesh: the same files `mesh --warp --domain` writes
+    /// for the live points in id order. The input points have ids 0..n-1 in file order.
+    Replay {
+        /// The initial points: Triangle `.node`, or text with one `x y` or `x,y` per line.
+        points: PathBuf,
+        /// The edits, one a line: `i X Y` inserts a point (it takes the next id), `d ID`
+        /// deletes one, `m ID X Y` moves one; `#` starts a comment line.
+        edits: PathBuf,
+        /// Output prefix, as for `mesh`.
+        #[arg(short, long, value_name = "PREFIX")]
+        output: PathBuf,
+        /// The square domain `X0,Y0,X1,Y1`, holding every point at every step.
+        #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_square, allow_hyphen_values = true)]
+        domain: Domain,
+        /// The warped mesh (the only mode dynamic meshes have yet; accepted for clarity).
+        #[arg(long)]
+        warp: bool,
+        /// Output formats, comma-separated, as for `mesh`.
+        #[arg(long, value_delimiter = ',', default_value = "node")]
+        format: Vec<Format>,
+        /// Worker threads [default: all cores].
+        #[arg(long, value_name = "N")]
+        threads: Option<NonZeroUsize>,
+        /// Print a JSON line per edit (`edit`, `seconds`, `cells`, `rebuilt`) and one at the end
+        /// (`build_seconds`, `mesh_seconds`, and with `--verify` `rebuild_seconds` and
+        /// `identical`).
+        #[arg(long)]
+        json: bool,
+        /// Build the final mesh from scratch too and compare the two.
+        #[arg(long)]
+        verify: bool,
+    },
     /// Write seeded random points as `x y` lines, or a seeded planar straight-line graph as a
     /// Triangle `.poly` file (`--pslg`), that read back exactly.
     #[command(mut_arg("points", |a| a.required_unless_present("pslg")))]
@@ -182,6 +216,18 @@ fn parse_domain(text: &str) -> Result<Region, String> {
         lo: DVec2::new(x0, y0),
         hi: DVec2::new(x1, y1),
     }))
+}
+
+/// `x0,y0,x1,y1`, a square.
+fn parse_square(text: &str) -> Result<Domain, String> {
+    let [x0, y0, x1, y1] = parse_rectangle(text)?;
+    if x1 - x0 != y1 - y0 {
+        return Err(format!("{text:?}: a square expected (x1 - x0 = y1 - y0)"));
+    }
+    Ok(Domain {
+        lo: DVec2::new(x0, y0),
+        hi: DVec2::new(x1, y1),
+    })
 }
 
 /// `x0,y0,x1,y1` as four numbers.
@@ -328,6 +374,24 @@ fn main() -> ExitCode {
             json,
             quality,
         } => bench(points, input, threads, json, quality),
+        Command::Replay {
+            points,
+            edits,
+            output,
+            domain,
+            warp: _,
+            format,
+            threads,
+            json,
+            verify,
+        } => replay(
+            (&points, &edits),
+            &output,
+            domain,
+            &format,
+            threads,
+            (json, verify),
+        ),
         Command::Generate {
             points,
             pslg,
@@ -456,6 +520,94 @@ fn mesh(
             Some(message) => Err(anyhow::anyhow!("{}: {message}", input.display())),
         }
     })
+}
+
+/// `quadmesh replay`: build, apply the edits one by one (timing each), write the final mesh,
+/// and with `verify` compare it with a build from scratch.
+fn replay(
+    (points_path, edits_path): (&Path, &Path),
+    prefix: &Path,
+    domain: Domain,
+    formats: &[Format],
+    threads: Option<NonZeroUsize>,
+    (json, verify): (bool, bool),
+) -> Result<()> {
+    refuse_overwriting(points_path, prefix)?;
+    let points = read_points(points_path)?;
+    let text = std::fs::read_to_string(edits_path)
+        .with_context(|| format!("cannot read {}", edits_path.display()))?;
+    let edits = quadmesh::io::parse_edits(&text, &edits_path.display().to_string())?;
+    pool(threads)?.install(|| {
+        let (built, build_time) = timed(|| DynamicMesh::new(&points, domain));
+        let mut dynamic = built.map_err(|e| anyhow::anyhow!("{}: {e}", points_path.display()))?;
+        let mut out = io::stdout().lock();
+        let mut seconds = Vec::with_capacity(edits.len());
+        for (k, &edit) in edits.iter().enumerate() {
+            let (done, time) = timed(|| dynamic.apply(&[edit]));
+            let report = done.map_err(|(_, e)| {
+                anyhow::anyhow!("{}: edit {} ({edit:?}): {e}", edits_path.display(), k + 1)
+            })?[0];
+            seconds.push(time.as_secs_f64());
+            if json {
+                writeln!(
+                    out,
+                    "{{\"edit\":{},\"seconds\":{},\"cells\":{},\"rebuilt\":{}}}",
+                    k + 1,
+                    time.as_secs_f64(),
+                    report.cells,
+                    report.rebuilt
+                )?;
+            }
+        }
+        let (meshed, mesh_time) = timed(|| dynamic.mesh());
+        let mesh = meshed.map_err(|e| anyhow::anyhow!("the final mesh: {e}"))?;
+        let mut summary = format!(
+            "{{\"points\":{},\"edits\":{},\"build_seconds\":{},\"mesh_seconds\":{},\"edit_seconds_median\":{}",
+            dynamic.len(),
+            edits.len(),
+            build_time.as_secs_f64(),
+            mesh_time.as_secs_f64(),
+            median(&mut seconds)
+        );
+        if verify {
+            let (_, live) = dynamic.live_points();
+            let options = Options::default().warp().region(Region::Rectangle(domain));
+            let (rebuilt, rebuild_time) = timed(|| quadmesh::mesh(&Input::points(live), &options));
+            let (rebuilt, _) = rebuilt.map_err(|e| anyhow::anyhow!("the rebuild: {e}"))?;
+            let identical = rebuilt == mesh;
+            summary += &format!(
+                ",\"rebuild_seconds\":{},\"identical\":{identical}",
+                rebuild_time.as_secs_f64()
+            );
+            if !identical {
+                anyhow::bail!("the replayed mesh differs from a build from scratch");
+            }
+        }
+        let files = write_formats(&mesh, prefix, formats, 200_000)?;
+        if json {
+            writeln!(out, "{summary}}}")?;
+        }
+        let mut err = io::stderr().lock();
+        let _ = writeln!(err, "{:<24}{}", "live points", dynamic.len());
+        let _ = writeln!(err, "{:<24}{}", "edits", edits.len());
+        let _ = writeln!(err, "{:<24}{}", "time build", millis(build_time));
+        let _ = writeln!(err, "{:<24}{:.3} ms", "edit median", median(&mut seconds) * 1e3);
+        let _ = writeln!(err, "{:<24}{}", "time mesh", millis(mesh_time));
+        let _ = writeln!(err, "{:<24}{}", "triangles", mesh.triangles.len());
+        for file in files {
+            let _ = writeln!(err, "{:<24}{}", "wrote", file.display());
+        }
+        Ok(())
+    })
+}
+
+/// The median of `values` (0 for none).
+fn median(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    values.sort_by(f64::total_cmp);
+    values[values.len() / 2]
 }
 
 /// Refuses an output prefix whose files would replace the input file.

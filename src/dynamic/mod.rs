@@ -29,6 +29,16 @@ pub enum Edit {
     Move(u32, DVec2),
 }
 
+/// How to take back an edit of a batch.
+enum Undo {
+    /// Delete the point an insertion added, and give its id back.
+    Remove(u32),
+    /// Bring back a deleted point with its id.
+    Restore(u32),
+    /// Move a point back.
+    MoveBack(u32, DVec2),
+}
+
 /// What an edit did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct EditReport {
@@ -202,6 +212,18 @@ impl DynamicMesh {
         if let Some(existing) = self.live_at(p) {
             return Err(duplicate(id as usize, existing, p));
         }
+        let on = sides_on(p, &self.domain);
+        let within = match &mut self.tree {
+            Tracked::Narrow(k) => k.move_within_leaf(old, p, on),
+            Tracked::Wide(k) => k.move_within_leaf(old, p, on),
+        };
+        if within {
+            self.points[id as usize] = p;
+            return Ok(EditReport {
+                id,
+                ..EditReport::default()
+            });
+        }
         let gone = self.delete(id)?;
         self.points[id as usize] = p;
         self.live[id as usize] = true;
@@ -229,23 +251,55 @@ impl DynamicMesh {
     /// # Errors
     /// The first edit refused, by position, with why.
     pub fn apply(&mut self, edits: &[Edit]) -> Result<Vec<EditReport>, (usize, Error)> {
-        let before = self.clone();
         let mut reports = Vec::with_capacity(edits.len());
+        // How to take back each edit done, newest last.
+        let mut undo: Vec<Undo> = Vec::with_capacity(edits.len());
         for (k, &edit) in edits.iter().enumerate() {
+            let before = match edit {
+                Edit::Move(id, _) => self.point(id),
+                _ => None,
+            };
             let done = match edit {
                 Edit::Insert(p) => self.insert(p),
                 Edit::Delete(id) => self.delete(id),
                 Edit::Move(id, p) => self.move_to(id, p),
             };
             match done {
-                Ok(report) => reports.push(report),
+                Ok(report) => {
+                    undo.push(match edit {
+                        Edit::Insert(_) => Undo::Remove(report.id),
+                        Edit::Delete(id) => Undo::Restore(id),
+                        Edit::Move(id, _) => Undo::MoveBack(id, before.expect("a live point")),
+                    });
+                    reports.push(report);
+                }
                 Err(e) => {
-                    *self = before;
+                    self.take_back(undo);
                     return Err((k, e));
                 }
             }
         }
         Ok(reports)
+    }
+
+    /// Takes back edits done, newest first: the tree depends on the live points alone, so
+    /// it comes back as it was; the ids the insertions took are given back too.
+    fn take_back(&mut self, undo: Vec<Undo>) {
+        for step in undo.into_iter().rev() {
+            let restored = match step {
+                Undo::Remove(id) => self.delete(id).map(|_| {
+                    self.points.pop();
+                    self.live.pop();
+                }),
+                Undo::Restore(id) => {
+                    self.live[id as usize] = true;
+                    self.live_count += 1;
+                    self.place(id).map(|_| ())
+                }
+                Undo::MoveBack(id, p) => self.move_to(id, p).map(|_| ()),
+            };
+            restored.expect("an edit taken back fits as it did before");
+        }
     }
 
     /// Moves every point `ids[k]` by `displacements[k]`: a time step of moving points, all or
@@ -461,6 +515,14 @@ impl<K: MortonKey> Keyed<K> {
             return None;
         }
         Some(self.separated.touched())
+    }
+
+    /// Moves the point at `from` to `to` if that keeps the tree as it is (see
+    /// [`SeparatedPoints::move_within_leaf`]).
+    fn move_within_leaf(&mut self, from: DVec2, to: DVec2, on: u8) -> bool {
+        let (from, to) = (self.key(from), self.key(to));
+        from == to && self.separated.sides_on_of(from) == Some(on)
+            || self.separated.move_within_leaf(from, to, on)
     }
 
     /// Takes the point at `p` out; returns the split squares touched.

@@ -6,6 +6,7 @@
 //! whatever index base a `.node` file uses. Large files are parsed in parallel on the current
 //! rayon pool; errors name the earliest bad line whatever the thread count.
 
+mod edits;
 mod lines;
 mod mesh_write;
 mod node;
@@ -16,6 +17,7 @@ use std::path::Path;
 
 use glam::DVec2;
 
+pub use edits::parse_edits;
 pub use mesh_write::{
     with_extension_appended, write_edge, write_ele, write_msh, write_neigh, write_node, write_poly,
     write_svg, write_triangle_files, write_vtu,

@@ -1,0 +1,107 @@
+//! `quadmesh replay`: the final files equal, byte for byte, what `quadmesh mesh --warp` writes
+//! for the live points in id order on the same domain; bad edits are one-line errors that
+//! name the edit and write nothing.
+
+mod cli_support;
+
+use cli_support::{TempDir, quadmesh, s, stderr};
+
+const POINTS: &str = "0.1 0.2\n0.8 0.3\n0.45 0.9\n0.5 0.5\n0 0.75\n";
+const EDITS: &str = "# a few edits\ni 0.3 0.3\nd 1\nm 3 0.52 0.48\ni 1 1\nm 0 0.9 0.1\n";
+/// The live points after the edits, in id order: 0 (moved), 2, 3 (moved), 4, 5, 6.
+const LIVE: &str = "0.9 0.1\n0.45 0.9\n0.52 0.48\n0 0.75\n0.3 0.3\n1 1\n";
+
+#[test]
+fn replayed_files_equal_those_of_a_mesh_of_the_live_points() {
+    let dir = TempDir::new("replay");
+    let (points, edits, live) = (dir.file("p.txt"), dir.file("e.txt"), dir.file("l.txt"));
+    std::fs::write(&points, POINTS).unwrap();
+    std::fs::write(&edits, EDITS).unwrap();
+    std::fs::write(&live, LIVE).unwrap();
+    let (replayed, meshed) = (dir.file("replayed"), dir.file("meshed"));
+    let out = quadmesh(&[
+        "replay",
+        s(&points),
+        s(&edits),
+        "-o",
+        s(&replayed),
+        "--domain",
+        "0,0,1,1",
+        "--json",
+        "--verify",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let json = String::from_utf8(out.stdout).unwrap();
+    let lines: Vec<&str> = json.lines().collect();
+    assert_eq!(lines.len(), 6, "a line per edit and a summary: {json}");
+    assert!(
+        lines[0].starts_with("{\"edit\":1,\"seconds\":"),
+        "{}",
+        lines[0]
+    );
+    assert!(lines[5].contains("\"identical\":true"), "{}", lines[5]);
+    let out = quadmesh(&[
+        "mesh",
+        s(&live),
+        "-o",
+        s(&meshed),
+        "--warp",
+        "--domain",
+        "0,0,1,1",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    for extension in ["node", "ele", "neigh", "edge"] {
+        let read = |prefix: &std::path::Path| {
+            std::fs::read(format!("{}.{extension}", prefix.display())).unwrap()
+        };
+        assert_eq!(
+            read(&replayed),
+            read(&meshed),
+            "the .{extension} files differ"
+        );
+    }
+}
+
+#[test]
+fn a_bad_edit_is_named_and_nothing_is_written() {
+    let dir = TempDir::new("replay-bad");
+    let (points, edits) = (dir.file("p.txt"), dir.file("e.txt"));
+    std::fs::write(&points, POINTS).unwrap();
+    for (text, expected) in [
+        ("i 0.3 0.3\nd 9\n", "edit 2"),
+        ("i 2 0.5\n", "outside the domain"),
+        ("m 1 0.1 0.2\n", "already point 0"),
+        ("i 0.3\n", "e.txt:1:"),
+    ] {
+        std::fs::write(&edits, text).unwrap();
+        let prefix = dir.file("out");
+        let out = quadmesh(&[
+            "replay",
+            s(&points),
+            s(&edits),
+            "-o",
+            s(&prefix),
+            "--domain",
+            "0,0,1,1",
+        ]);
+        assert!(!out.status.success(), "{text:?} was accepted");
+        let message = stderr(&out);
+        assert_eq!(message.lines().count(), 1, "{message}");
+        assert!(message.contains(expected), "{text:?}: {message}");
+        assert!(
+            !dir.names().iter().any(|n| n.starts_with("out")),
+            "{text:?} wrote files"
+        );
+    }
+    let out = quadmesh(&[
+        "replay",
+        s(&points),
+        s(&edits),
+        "-o",
+        "x",
+        "--domain",
+        "0,0,2,1",
+    ]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("square"), "{}", stderr(&out));
+}
