@@ -1,0 +1,80 @@
+//! Dynamic warped meshes: one edit on a built mesh against a rebuild.
+//!
+//! Group `dynamic/uniform/t<threads>`, ids `insert_delete/<n>` (a point inserted and deleted
+//! again, so the mesh is the same after each iteration), `move_there_and_back/<n>` (a point
+//! moved across the domain and back), `mesh/<n>` (warping the current tree) and `rebuild/<n>`
+//! (the static mesh of the same points). Sizes default to 1e4 and 1e5
+//! (`QUADMESH_BENCH_DYNAMIC_SIZES`); threads come from `QUADMESH_BENCH_THREADS`.
+
+mod common;
+
+use common::{SEED, configure, env_counts, pools};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use quadmesh::dynamic::DynamicMesh;
+use quadmesh::generate::{Distribution2d, points};
+use quadmesh::mesh::Domain;
+use quadmesh::{DVec2, Input, Options, Region};
+
+/// Places spread over the unit square, off the generated points.
+fn places(count: usize) -> Vec<DVec2> {
+    let golden = 0.618_033_988_749_894_9;
+    (0..count)
+        .map(|k| {
+            let t = k as f64 + 0.5;
+            DVec2::new((t * golden).fract(), t / count as f64)
+        })
+        .collect()
+}
+
+fn dynamic_benches(c: &mut Criterion) {
+    let domain = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::ONE,
+    };
+    for n in env_counts("QUADMESH_BENCH_DYNAMIC_SIZES", "10000,100000") {
+        let pts = points(Distribution2d::Uniform, n, SEED);
+        let targets = places(1024);
+        for (threads, pool) in pools() {
+            let mut group = c.benchmark_group(format!("dynamic/uniform/t{threads}"));
+            configure(&mut group, n);
+            let mut dynamic = pool.install(|| DynamicMesh::new(&pts, domain).expect("a mesh"));
+            let mut next = 0;
+            group.bench_function(BenchmarkId::new("insert_delete", n), |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        next = (next + 1) % targets.len();
+                        if let Ok(done) = dynamic.insert(targets[next]) {
+                            dynamic.delete(done.id).expect("a live point");
+                        }
+                    })
+                })
+            });
+            group.bench_function(BenchmarkId::new("move_there_and_back", n), |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        next = (next + 1) % targets.len();
+                        let id = (next * 7919 % n) as u32;
+                        let home = dynamic.point(id).expect("a live point");
+                        if dynamic.move_to(id, targets[next]).is_ok() {
+                            dynamic.move_to(id, home).expect("back home");
+                        }
+                    })
+                })
+            });
+            group.bench_function(BenchmarkId::new("mesh", n), |b| {
+                b.iter_with_large_drop(|| pool.install(|| dynamic.mesh().expect("a mesh")))
+            });
+            let options = Options::default().warp().region(Region::Rectangle(domain));
+            let input = Input::points(pts.clone());
+            group.bench_function(BenchmarkId::new("rebuild", n), |b| {
+                b.iter_with_large_drop(|| {
+                    pool.install(|| quadmesh::mesh(&input, &options).expect("a mesh"))
+                })
+            });
+            group.finish();
+        }
+    }
+}
+
+criterion_group!(benches, dynamic_benches);
+criterion_main!(benches);
