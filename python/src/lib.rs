@@ -7,6 +7,8 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use quadmesh::dynamic::DynamicMesh;
+use quadmesh::mesh::Domain;
 use quadmesh::{DVec2, Error, Input, Mesh, MeshReport, Options, Region, RegionSeed, Segment};
 
 create_exception!(
@@ -353,9 +355,105 @@ fn _mesh<'py>(
     mesh_dict(py, mesh, &report, edges)
 }
 
+/// A dynamic warped mesh; see the package's `DynamicMesh`.
+#[pyclass(name = "_DynamicMesh", module = "quadmesh._quadmesh")]
+struct PyDynamicMesh {
+    inner: DynamicMesh,
+}
+
+/// The library's error as the package's exception.
+fn raise(e: &Error) -> PyErr {
+    QuadmeshError::new_err(message(e))
+}
+
+#[pymethods]
+impl PyDynamicMesh {
+    #[new]
+    fn new(
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        domain: (f64, f64, f64, f64),
+    ) -> PyResult<Self> {
+        let points = rows(&points, 2, "points", |r| DVec2::new(r[0], r[1]))?;
+        let (x0, y0, x1, y1) = domain;
+        let domain = Domain {
+            lo: DVec2::new(x0, y0),
+            hi: DVec2::new(x1, y1),
+        };
+        let inner = py
+            .detach(|| DynamicMesh::new(&points, domain))
+            .map_err(|e| raise(&e))?;
+        Ok(PyDynamicMesh { inner })
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.len()
+    }
+
+    fn insert(&mut self, x: f64, y: f64) -> PyResult<u32> {
+        let report = self.inner.insert(DVec2::new(x, y)).map_err(|e| raise(&e))?;
+        Ok(report.id)
+    }
+
+    fn delete(&mut self, id: i64) -> PyResult<()> {
+        self.inner.delete(point_id(id)?).map_err(|e| raise(&e))?;
+        Ok(())
+    }
+
+    fn move_to(&mut self, id: i64, x: f64, y: f64) -> PyResult<()> {
+        self.inner
+            .move_to(point_id(id)?, DVec2::new(x, y))
+            .map_err(|e| raise(&e))?;
+        Ok(())
+    }
+
+    fn move_all(
+        &mut self,
+        py: Python<'_>,
+        ids: PyReadonlyArray1<'_, i64>,
+        displacements: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<()> {
+        let ids: Vec<u32> = ids
+            .as_slice()?
+            .iter()
+            .map(|&id| point_id(id))
+            .collect::<PyResult<_>>()?;
+        let shifts = rows(&displacements, 2, "displacements", |r| {
+            DVec2::new(r[0], r[1])
+        })?;
+        let inner = &mut self.inner;
+        py.detach(|| inner.move_all(&ids, &shifts))
+            .map_err(|(k, e)| QuadmeshError::new_err(format!("move {k}: {}", message(&e))))?;
+        Ok(())
+    }
+
+    /// The ids of the live points, in increasing order.
+    fn live_ids<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        self.inner.live_points().0.into_pyarray(py).into_any()
+    }
+
+    fn mesh<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let inner = &self.inner;
+        let mesh = py.detach(|| inner.mesh()).map_err(|e| raise(&e))?;
+        let report = MeshReport {
+            points: inner.len(),
+            vertices: mesh.vertices.len(),
+            triangles: mesh.triangles.len(),
+            ..MeshReport::default()
+        };
+        mesh_dict(py, mesh, &report, false)
+    }
+}
+
+/// A point id from Python.
+fn point_id(id: i64) -> PyResult<u32> {
+    u32::try_from(id).map_err(|_| QuadmeshError::new_err(format!("no live point has id {id}")))
+}
+
 #[pymodule]
 fn _quadmesh(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_mesh, m)?)?;
+    m.add_class::<PyDynamicMesh>()?;
     m.add("QuadmeshError", m.py().get_type::<QuadmeshError>())?;
     m.add("NONE", quadmesh::NONE)?;
     Ok(())

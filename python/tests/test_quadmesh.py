@@ -137,3 +137,66 @@ def test_meshio_round_trip(tmp_path):
     assert np.array_equal(back.points[:, :2], m.vertices)
     assert np.array_equal(back.cells_dict["triangle"], m.triangles)
     assert np.array_equal(back.cell_data["attribute"][0], m.triangle_attributes)
+
+
+def _same_mesh(a, b):
+    for name in ("vertices", "triangles", "neighbors", "vertex_input", "vertex_markers"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+def test_a_dynamic_mesh_after_edits_is_a_fresh_one_of_its_live_points():
+    rng = np.random.default_rng(3)
+    start = rng.random((300, 2))
+    dynamic = quadmesh.DynamicMesh(start, (0, 0, 1, 1))
+    where = {i: tuple(p) for i, p in enumerate(start)}
+    for k in range(60):
+        ids = list(where)
+        if k % 3 == 0:
+            x, y = rng.random(2)
+            where[dynamic.insert(x, y)] = (x, y)
+        elif k % 3 == 1:
+            gone = ids[int(rng.integers(len(ids)))]
+            dynamic.delete(gone)
+            del where[gone]
+        else:
+            moved = ids[int(rng.integers(len(ids)))]
+            x, y = rng.random(2)
+            dynamic.move_to(moved, x, y)
+            where[moved] = (x, y)
+    live = dynamic.live_ids()
+    assert list(live) == sorted(where)
+    assert len(dynamic) == len(where)
+    points = np.array([where[i] for i in live])
+    mesh = dynamic.mesh()
+    _same_mesh(mesh, quadmesh.DynamicMesh(points, (0, 0, 1, 1)).mesh())
+    # Every live point is a vertex, numbered in id order.
+    vertex_of = {int(v): i for i, v in enumerate(mesh.vertex_input) if v >= 0}
+    np.testing.assert_array_equal(mesh.vertices[[vertex_of[k] for k in range(len(live))]], points)
+
+
+def test_bad_dynamic_edits_raise_and_change_nothing():
+    dynamic = quadmesh.DynamicMesh([[0.2, 0.3], [0.7, 0.8]], (0, 0, 1, 1))
+    before = dynamic.mesh()
+    for edit in (
+        lambda: dynamic.insert(1.5, 0.5),
+        lambda: dynamic.insert(float("nan"), 0.5),
+        lambda: dynamic.insert(0.7, 0.8),
+        lambda: dynamic.delete(5),
+        lambda: dynamic.delete(-1),
+        lambda: dynamic.move_to(0, 0.7, 0.8),
+        lambda: dynamic.move_all([0, 1], [[0.1, 0.1], [0.5, 0.0]]),
+    ):
+        with pytest.raises(quadmesh.QuadmeshError):
+            edit()
+        _same_mesh(dynamic.mesh(), before)
+    with pytest.raises(quadmesh.QuadmeshError, match="square"):
+        quadmesh.DynamicMesh([[0.5, 0.5]], (0, 0, 2, 1))
+
+
+def test_a_time_step_moves_every_point():
+    rng = np.random.default_rng(8)
+    start = 0.1 + 0.8 * rng.random((200, 2))
+    dynamic = quadmesh.DynamicMesh(start, (0, 0, 1, 1))
+    shift = (rng.random((200, 2)) - 0.5) * 1e-3
+    dynamic.move_all(np.arange(200), shift)
+    _same_mesh(dynamic.mesh(), quadmesh.DynamicMesh(start + shift, (0, 0, 1, 1)).mesh())

@@ -19,9 +19,9 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
-from ._quadmesh import NONE, QuadmeshError, _mesh
+from ._quadmesh import NONE, QuadmeshError, _DynamicMesh, _mesh
 
-__all__ = ["Mesh", "QuadmeshError", "mesh", "triangulate"]
+__all__ = ["DynamicMesh", "Mesh", "QuadmeshError", "mesh", "triangulate"]
 
 
 @dataclass
@@ -151,9 +151,58 @@ def mesh(
         threads=threads,
         edges=edges,
     )
+    return _mesh_of(raw)
+
+
+def _mesh_of(raw) -> Mesh:
     neighbors = raw.pop("neighbors_raw").astype(np.int64)
     neighbors[neighbors == NONE] = -1
     return Mesh(neighbors=neighbors, **raw)
+
+
+class DynamicMesh:
+    """A warped quadtree mesh (every angle in [22.5°, 112.5°]) of points on a fixed square
+    ``domain`` (x0, y0, x1, y1), kept current while points are inserted, deleted and moved.
+
+    The initial points have ids ``0 .. n-1``; each insertion takes the next id, and a deleted
+    id is never given out again. After any edits, ``mesh()`` is exactly the mesh that a new
+    ``DynamicMesh`` of the live points (in id order) gives; its ``vertex_input`` numbers the
+    live points in id order (``live_ids()``). A bad edit (outside the domain, NaN, the place of
+    a live point, an unknown id) raises ``QuadmeshError`` and changes nothing; ``move_all`` moves
+    all points or none.
+    """
+
+    def __init__(self, points, domain):
+        x0, y0, x1, y1 = (float(v) for v in domain)
+        self._inner = _DynamicMesh(_as_points(points, "points"), (x0, y0, x1, y1))
+
+    def __len__(self) -> int:
+        return len(self._inner)
+
+    def insert(self, x: float, y: float) -> int:
+        """Adds a point; returns its id."""
+        return self._inner.insert(float(x), float(y))
+
+    def delete(self, id: int) -> None:
+        """Deletes the live point ``id``."""
+        self._inner.delete(int(id))
+
+    def move_to(self, id: int, x: float, y: float) -> None:
+        """Moves the live point ``id`` to (x, y)."""
+        self._inner.move_to(int(id), float(x), float(y))
+
+    def move_all(self, ids, displacements) -> None:
+        """Moves each point ``ids[k]`` by ``displacements[k]`` (a time step), all or none."""
+        ids = np.ascontiguousarray(ids, dtype=np.int64).reshape(-1)
+        self._inner.move_all(ids, _as_points(displacements, "displacements"))
+
+    def live_ids(self) -> np.ndarray:
+        """The ids of the live points, in increasing order."""
+        return self._inner.live_ids()
+
+    def mesh(self) -> Mesh:
+        """The current mesh."""
+        return _mesh_of(self._inner.mesh())
 
 
 # Switches of Triangle's option string this mesher supports, and those it refuses by name.
