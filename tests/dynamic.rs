@@ -266,3 +266,50 @@ fn a_domain_that_is_not_square_is_refused() {
         Err(Error::DuplicatePoint { .. })
     ));
 }
+
+#[test]
+fn the_change_between_meshes_is_local_and_turns_the_old_mesh_into_the_new() {
+    let mut rng = Rng(41);
+    let points: Vec<DVec2> = (0..2000)
+        .map(|_| DVec2::new(rng.unit(), rng.unit()))
+        .collect();
+    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    let corners = |m: &Mesh, t: u32| m.triangles[t as usize].map(|v| m.vertices[v as usize]);
+    for step in 0..12 {
+        let before = dynamic.mesh().unwrap();
+        let edit = match step % 3 {
+            0 => Edit::Insert(DVec2::new(rng.unit(), rng.unit())),
+            1 => Edit::Delete(some_id(&dynamic, &mut rng)),
+            _ => Edit::Move(
+                some_id(&dynamic, &mut rng),
+                DVec2::new(rng.unit(), rng.unit()),
+            ),
+        };
+        dynamic.apply(&[edit]).unwrap();
+        let after = dynamic.mesh().unwrap();
+        let change = after.changes_from(&before);
+        // Kept triangles are the same triangles, and with the new ones they make the mesh.
+        for &[old, new] in &change.kept {
+            let (a, b) = (corners(&before, old), corners(&after, new));
+            assert!(
+                (0..3).any(|r| (0..3).all(|k| a[k] == b[(k + r) % 3])),
+                "{edit:?}"
+            );
+        }
+        assert_eq!(
+            change.kept.len() + change.added.len(),
+            after.triangles.len()
+        );
+        assert_eq!(
+            change.kept.len() + change.removed.len(),
+            before.triangles.len()
+        );
+        // An edit among 2000 points changes a small part of the mesh.
+        let changed = change.removed.len() + change.added.len();
+        assert!(
+            changed * 20 < after.triangles.len(),
+            "{edit:?}: {changed} of {} triangles changed",
+            after.triangles.len()
+        );
+    }
+}

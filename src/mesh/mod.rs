@@ -1,6 +1,7 @@
 //! The triangle mesh every meshing mode produces, its validity and Delaunay checks, its
 //! topology (edges, boundary markers, neighbours) and its quality report.
 
+mod changes;
 mod delaunay_check;
 #[cfg(test)]
 pub(crate) mod fixtures;
@@ -15,6 +16,7 @@ use rayon::prelude::*;
 /// Marks "no triangle" in [`Mesh::neighbours`] and "no input point" in [`Mesh::vertex_input`].
 pub use crate::domain::NONE;
 pub use crate::domain::{BoundaryEdge, BoundarySide, Domain, Reflection, SubSegment};
+pub use changes::MeshChange;
 pub use delaunay_check::check_delaunay;
 pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
