@@ -13,11 +13,11 @@ Studies, each printed as a markdown table:
 * spread: the quadtree squares an insertion touches (median) when it puts a point at distance
   2^-k from one of 10 000 uniform points, for k from 4 to 32;
 * batches: 0.1 %, 1 % and 10 % of the points edited (a third each inserted, deleted, moved
-  anywhere) against a rebuild;
-* steps: a time step moving every point by a random displacement of a given size against a
-  rebuild.
+  anywhere), one by one and as one batch, against a rebuild;
+* steps: a time step moving every point by a random displacement of a given size, one by one
+  and as one batch, against a rebuild.
 
-The edits are applied one by one; every run is checked against a rebuild (`--verify`).
+Every run is checked against a rebuild (`--verify`).
 """
 
 import argparse
@@ -47,11 +47,11 @@ def write_edits(path, edits):
             f.write(" ".join(e if isinstance(e, str) else repr(e) for e in e) + "\n")
 
 
-def replay(points_path, edits_path, out_dir, threads):
-    """The per-edit lines and the summary of one replay."""
+def replay(points_path, edits_path, out_dir, threads, batch=1):
+    """The per-edit (or per-batch) lines and the summary of one replay."""
     cmd = [binary(), "replay", points_path, edits_path, "-o", os.path.join(out_dir, "out"),
            "--domain", "0,0,1,1", "--format", "svg", "--json", "--verify", "--threads",
-           str(threads)]
+           str(threads), "--batch", str(batch)]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
         sys.exit(f"replay failed: {run.stderr.strip()}")
@@ -137,8 +137,8 @@ def batches(args, rng):
     write_points(path, points)
     n = len(points)
     print(f"\n### Batches of edits, {n} uniform points, {args.threads} threads\n")
-    print("| share of points | edits | total s | rebuild s | total / rebuild |")
-    print("|---|---:|---:|---:|---:|")
+    print("| share of points | edits | one by one s | as one batch s | rebuild s | one by one / rebuild | batch / rebuild |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
     for share in (0.001, 0.01, 0.1):
         count = int(n * share)
         ids = rng.sample(range(n), 2 * (count // 3) + 2)
@@ -154,8 +154,11 @@ def batches(args, rng):
         write_edits(edits_path, edits)
         lines, summary = replay(path, edits_path, args.dir, args.threads)
         total = sum(line["seconds"] for line in lines)
+        batched, _ = replay(path, edits_path, args.dir, args.threads, batch=count)
+        together = sum(line["seconds"] for line in batched)
         rebuild = summary["rebuild_seconds"]
-        print(f"| {share:.1%} | {count} | {total:.3f} | {rebuild:.3f} | {total / rebuild:.2f} |")
+        print(f"| {share:.1%} | {count} | {total:.3f} | {together:.3f} | {rebuild:.3f} | "
+              f"{total / rebuild:.2f} | {together / rebuild:.2f} |")
 
 
 def steps(args, rng):
@@ -164,8 +167,8 @@ def steps(args, rng):
     write_points(path, points)
     n = len(points)
     print(f"\n### A time step moving every point, {n} uniform points, {args.threads} threads\n")
-    print("| displacement | moves in their leaf | total s | rebuild s | total / rebuild |")
-    print("|---|---:|---:|---:|---:|")
+    print("| displacement | moves in their leaf | one by one s | as one batch s | rebuild s | one by one / rebuild | batch / rebuild |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
     for size in (1e-7, 1e-5, 1e-3):
         edits = []
         for i, (x, y) in enumerate(points):
@@ -177,9 +180,11 @@ def steps(args, rng):
         lines, summary = replay(path, edits_path, args.dir, args.threads)
         total = sum(line["seconds"] for line in lines)
         within = sum(1 for line in lines if line["cells"] == 0)
+        batched, _ = replay(path, edits_path, args.dir, args.threads, batch=n)
+        together = sum(line["seconds"] for line in batched)
         rebuild = summary["rebuild_seconds"]
-        print(f"| {size:g} | {within / n:.1%} | {total:.3f} | {rebuild:.3f} | "
-              f"{total / rebuild:.2f} |")
+        print(f"| {size:g} | {within / n:.1%} | {total:.3f} | {together:.3f} | {rebuild:.3f} | "
+              f"{total / rebuild:.2f} | {together / rebuild:.2f} |")
 
 
 def main():

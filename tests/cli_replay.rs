@@ -35,7 +35,7 @@ fn replayed_files_equal_those_of_a_mesh_of_the_live_points() {
     let lines: Vec<&str> = json.lines().collect();
     assert_eq!(lines.len(), 6, "a line per edit and a summary: {json}");
     assert!(
-        lines[0].starts_with("{\"edit\":1,\"seconds\":"),
+        lines[0].starts_with("{\"edit\":1,\"edits\":1,\"seconds\":"),
         "{}",
         lines[0]
     );
@@ -50,6 +50,22 @@ fn replayed_files_equal_those_of_a_mesh_of_the_live_points() {
         "0,0,1,1",
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
+    // The same edits in batches of two.
+    let batched = dir.file("batched");
+    let out = quadmesh(&[
+        "replay",
+        s(&points),
+        s(&edits),
+        "-o",
+        s(&batched),
+        "--domain",
+        "0,0,1,1",
+        "--batch",
+        "2",
+        "--json",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(String::from_utf8(out.stdout).unwrap().lines().count(), 4);
     for extension in ["node", "ele", "neigh", "edge"] {
         let read = |prefix: &std::path::Path| {
             std::fs::read(format!("{}.{extension}", prefix.display())).unwrap()
@@ -58,6 +74,11 @@ fn replayed_files_equal_those_of_a_mesh_of_the_live_points() {
             read(&replayed),
             read(&meshed),
             "the .{extension} files differ"
+        );
+        assert_eq!(
+            read(&batched),
+            read(&meshed),
+            "the batched .{extension} files differ"
         );
     }
 }

@@ -194,16 +194,73 @@ fn a_batch_equals_its_edits_one_by_one_and_a_bad_batch_changes_nothing() {
             _ => Edit::Move(k as u32, DVec2::new(rng.unit(), rng.unit())),
         })
         .collect();
-    batched.apply(&edits).unwrap();
+    let mut sequential = batched.clone();
+    let report = batched.apply_batch(&edits).unwrap();
+    sequential.apply(&edits).unwrap();
     for &edit in &edits {
         single.apply(&[edit]).unwrap();
     }
     assert_eq!(batched.mesh().unwrap(), single.mesh().unwrap());
+    assert_eq!(sequential.mesh().unwrap(), single.mesh().unwrap());
+    assert_eq!(batched.live_points(), single.live_points());
+    assert_eq!(report.ids.len(), edits.len());
     check(&batched, "after the batch");
     let before = batched.mesh().unwrap();
     let bad = [Edit::Insert(DVec2::new(0.123, 0.456)), Edit::Delete(1)];
     assert_eq!(batched.apply(&bad).unwrap_err().0, 1);
+    assert_eq!(batched.apply_batch(&bad).unwrap_err().0, 1);
     assert_eq!(batched.mesh().unwrap(), before);
+    // 40 points and 10 insertions: the refused batches took no id.
+    assert_eq!(batched.insert(DVec2::new(0.31, 0.62)).unwrap().id, 50);
+}
+
+#[test]
+fn random_batches_equal_their_edits_one_by_one() {
+    for seed in 1..=6u64 {
+        let mut rng = Rng(seed * 0x1234_5678_9ABC_DEF1);
+        let initial: Vec<DVec2> = {
+            let mut v: Vec<DVec2> = (0..60).map(|_| point(&mut rng)).collect();
+            v.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+            v.dedup();
+            v
+        };
+        let mut batched = DynamicMesh::new(&initial, unit()).unwrap();
+        let mut single = batched.clone();
+        for round in 0..8 {
+            // Edits that may name points inserted or moved earlier in the same batch.
+            let mut edits = Vec::new();
+            let mut next_id = batched.live_points().0.iter().max().map_or(0, |m| m + 1);
+            let (mut ids, _) = batched.live_points();
+            for _ in 0..1 + rng.below(25) {
+                let edit = match rng.below(if ids.len() > 1 { 4 } else { 1 }) {
+                    0 => {
+                        ids.push(next_id.max(batched.len() as u32));
+                        next_id += 1;
+                        Edit::Insert(point(&mut rng))
+                    }
+                    1 => Edit::Delete(ids.swap_remove(rng.below(ids.len()))),
+                    2 => Edit::Move(ids[rng.below(ids.len())], point(&mut rng)),
+                    _ => {
+                        let id = ids[rng.below(ids.len())];
+                        let p = batched.point(id).unwrap_or(DVec2::splat(0.5));
+                        Edit::Move(id, (p + DVec2::splat(1e-6)).min(DVec2::ONE))
+                    }
+                };
+                edits.push(edit);
+            }
+            let together = batched.apply_batch(&edits);
+            let one_by_one = single.apply(&edits);
+            match (together, one_by_one) {
+                (Ok(_), Ok(_)) => {
+                    assert_eq!(batched.live_points(), single.live_points());
+                    assert!(batched.mesh().unwrap() == single.mesh().unwrap());
+                    check(&batched, &format!("seed {seed} round {round}"));
+                }
+                (Err((a, _)), Err((b, _))) => assert_eq!(a, b, "seed {seed} round {round}"),
+                (a, b) => panic!("seed {seed} round {round}: batch {a:?}, one by one {b:?}"),
+            }
+        }
+    }
 }
 
 #[test]

@@ -18,6 +18,8 @@
 
 use std::collections::HashSet;
 
+use rayon::prelude::*;
+
 use super::separate::{
     DomainSides, Move, Rules, around, chebyshev, clear_of_points, demands_of, descend, settle_all,
     walk,
@@ -135,16 +137,67 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// Adds a point with key `key`, not one of the points yet, lying on the domain sides `on`;
     /// returns its Morton position.
     pub fn insert(&mut self, key: K, on: u8) -> usize {
-        let i = self.keys.partition_point(|k| *k < key);
-        assert!(self.keys.get(i) != Some(&key), "a new key");
-        self.keys.insert(i, key);
-        self.levels.insert(i, 0);
-        self.at_level[0] += 1;
-        self.sides.on.insert(i, on);
+        self.insert_many(&[(key, on)])[0]
+    }
+
+    /// Adds points with keys `new` (sorted, distinct, none of the points yet) and their domain
+    /// sides; returns their Morton positions. Their first moves are found in parallel and the
+    /// rounds run on all of them at once, as in a build from scratch.
+    pub fn insert_many(&mut self, new: &[(K, u8)]) -> Vec<usize> {
+        debug_assert!(
+            new.windows(2).all(|w| w[0].0 < w[1].0),
+            "sorted, distinct keys"
+        );
+        let total = self.keys.len() + new.len();
+        let (mut keys, mut levels, mut on) = (
+            Vec::with_capacity(total),
+            Vec::with_capacity(total),
+            Vec::with_capacity(total),
+        );
+        let mut positions = Vec::with_capacity(new.len());
+        let mut old = 0;
+        for &(key, sides) in new {
+            let end = old + self.keys[old..].partition_point(|k| *k < key);
+            assert!(self.keys.get(end) != Some(&key), "a new key");
+            keys.extend_from_slice(&self.keys[old..end]);
+            levels.extend_from_slice(&self.levels[old..end]);
+            on.extend_from_slice(&self.sides.on[old..end]);
+            positions.push(keys.len());
+            keys.push(key);
+            levels.push(0);
+            on.push(sides);
+            old = end;
+        }
+        keys.extend_from_slice(&self.keys[old..]);
+        levels.extend_from_slice(&self.levels[old..]);
+        on.extend_from_slice(&self.sides.on[old..]);
+        (self.keys, self.levels, self.sides.on) = (keys, levels, on);
+        self.at_level[0] += new.len();
         self.touched = 0;
-        let first = self.first_move(i);
-        self.run_rounds(vec![first]);
-        i
+        let moves = positions.par_iter().map(|&i| self.first_move(i)).collect();
+        let crowded = self.leaves_taken(&positions);
+        self.run_rounds(moves, crowded);
+        positions
+    }
+
+    /// The points whose leaf one of the new points at `positions` (sorted) lies in: the
+    /// nearest earlier points on either side of each in Morton order, as a leaf is a run of
+    /// keys holding one point.
+    fn leaves_taken(&self, positions: &[usize]) -> Vec<u32> {
+        let is_new = |j: usize| positions.binary_search(&j).is_ok();
+        let mut taken = Vec::new();
+        for &p in positions {
+            let before = (0..p).rev().find(|&j| !is_new(j));
+            let after = (p + 1..self.keys.len()).find(|&j| !is_new(j));
+            for q in before.into_iter().chain(after) {
+                if Cell::containing(self.keys[q], self.levels[q]).contains(self.keys[p]) {
+                    taken.push(q as u32);
+                }
+            }
+        }
+        taken.sort_unstable();
+        taken.dedup();
+        taken
     }
 
     /// Moves the point with key `from` to key `to` if that keeps it in its leaf, on the same
@@ -166,23 +219,57 @@ impl<K: MortonKey> SeparatedPoints<K> {
 
     /// Removes the point with key `key`, one of the points; returns its Morton position.
     pub fn remove(&mut self, key: K) -> usize {
-        let i = self.keys.binary_search(&key).expect("a present key");
-        let resting = self.resting_on(i);
-        let demanded = self.demands_of_points(resting.iter().copied().chain([i]));
-        self.keys.remove(i);
-        self.at_level[self.levels.remove(i) as usize] -= 1;
-        self.sides.on.remove(i);
+        self.remove_many(&[key])[0]
+    }
+
+    /// Removes the points with keys `gone` (sorted, distinct, all of them points); returns
+    /// their Morton positions before the removal. The points that may have rested on any of
+    /// them restart together, their first moves found in parallel.
+    pub fn remove_many(&mut self, gone: &[K]) -> Vec<usize> {
+        let removed: Vec<usize> = gone
+            .iter()
+            .map(|&key| self.keys.binary_search(&key).expect("a present key"))
+            .collect();
+        debug_assert!(
+            removed.windows(2).all(|w| w[0] < w[1]),
+            "sorted, distinct keys"
+        );
+        let resting = self.resting_on(&removed);
+        let demanded = self.demands_of_points(resting.iter().chain(&removed).copied());
+        self.compact_without(&removed);
         self.touched = 0;
-        // Positions past the removed point move down one.
+        // Positions past removed points move down one for each.
         let restart: Vec<usize> = resting
             .into_iter()
-            .map(|q| if q > i { q - 1 } else { q })
+            .map(|q| q - removed.partition_point(|&r| r < q))
             .collect();
         let held_back: HashSet<usize> = restart.iter().copied().collect();
         self.drop_unsupported(&demanded, &held_back);
-        let moves = restart.iter().map(|&q| self.first_move(q)).collect();
-        self.run_rounds(moves);
-        i
+        let moves = restart.par_iter().map(|&q| self.first_move(q)).collect();
+        self.run_rounds(moves, Vec::new());
+        removed
+    }
+
+    /// Takes the points at the sorted positions `removed` out of the arrays.
+    fn compact_without(&mut self, removed: &[usize]) {
+        for &i in removed {
+            self.at_level[self.levels[i] as usize] -= 1;
+        }
+        let mut next = removed.iter().copied().peekable();
+        let mut write = 0;
+        for read in 0..self.keys.len() {
+            if next.peek() == Some(&read) {
+                next.next();
+                continue;
+            }
+            self.keys[write] = self.keys[read];
+            self.levels[write] = self.levels[read];
+            self.sides.on[write] = self.sides.on[read];
+            write += 1;
+        }
+        self.keys.truncate(write);
+        self.levels.truncate(write);
+        self.sides.on.truncate(write);
     }
 
     /// The move of point `i` from the root: past split squares and squares whose block holds
@@ -212,8 +299,8 @@ impl<K: MortonKey> SeparatedPoints<K> {
 
     /// The rounds of [`super::separate_in`] from `moves` on: the squares the moves demand,
     /// then the moves of the points those crowd, until none moves.
-    fn run_rounds(&mut self, mut moves: Vec<Move>) {
-        while !moves.is_empty() {
+    fn run_rounds(&mut self, mut moves: Vec<Move>, mut crowded: Vec<u32>) {
+        while !moves.is_empty() || !crowded.is_empty() {
             let mut demanded = Vec::new();
             for &m in &moves {
                 demands_of(&self.set, &self.keys, m, &mut demanded);
@@ -226,7 +313,14 @@ impl<K: MortonKey> SeparatedPoints<K> {
             for m in &moves {
                 self.set_level(m.point as usize, m.to);
             }
-            let candidates = self.near(&added);
+            let mut candidates = self.near(&added);
+            // Points whose leaf took new points are settled in the first round whatever it
+            // added: their leaves are split squares now, demanded by the new points' paths.
+            if !crowded.is_empty() {
+                candidates.append(&mut crowded);
+                candidates.sort_unstable();
+                candidates.dedup();
+            }
             let rules = Rules::new(Some(&self.sides));
             moves = settle_all(&self.set, &rules, &self.keys, &self.levels, &candidates);
         }
@@ -238,13 +332,10 @@ impl<K: MortonKey> SeparatedPoints<K> {
             .iter()
             .flat_map(|squares| squares.cells())
             .flat_map(|square| around_and(square, 2))
-            .flat_map(|cell| {
-                // A leaf held one point, and may hold the one just inserted too; a square
-                // holding more is no leaf.
-                let points = self.points_in(cell);
-                let few = if points.len() <= 2 { points } else { 0..0 };
-                few.filter(move |&i| self.levels[i] == cell.level)
-                    .map(|i| i as u32)
+            .filter_map(|cell| {
+                // A leaf holds one point (those that took new points are settled apart).
+                let i = self.only_point_in(cell)?;
+                (self.levels[i] == cell.level).then_some(i as u32)
             })
             .collect();
         points.sort_unstable();
@@ -268,9 +359,9 @@ impl<K: MortonKey> SeparatedPoints<K> {
         first..end
     }
 
-    /// The points whose level may have rested on point `i` (see the module's account), found
-    /// from it transitively; Morton positions before its removal.
-    fn resting_on(&self, i: usize) -> Vec<usize> {
+    /// The points whose level may have rested on the points `removed` (see the module's
+    /// account), found from them transitively; Morton positions before their removal.
+    fn resting_on(&self, removed: &[usize]) -> Vec<usize> {
         let rules = Rules::new(Some(&self.sides));
         let mut points_only = std::collections::HashMap::new();
         let mut points_only_level = |q: usize| {
@@ -279,13 +370,13 @@ impl<K: MortonKey> SeparatedPoints<K> {
                 .or_insert_with(|| clear_of_points(&rules, &self.keys, q, self.lone_level(q)))
         };
         let mut found: Vec<usize> = Vec::new();
-        let mut seen: HashSet<usize> = HashSet::from([i]);
-        let mut queue = vec![i];
+        let mut seen: HashSet<usize> = removed.iter().copied().collect();
+        let mut queue = removed.to_vec();
         while let Some(r) = queue.pop() {
-            let removed = r == i;
+            let is_removed = removed.binary_search(&r).is_ok();
             // The removed point also frees the points its own presence crowded, one level
             // above their points-only level: within two squares there, five at that level.
-            let (radius, deepest) = if removed {
+            let (radius, deepest) = if is_removed {
                 (5, self.levels[r])
             } else {
                 (4, self.levels[r].saturating_sub(1))
@@ -301,7 +392,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
                     }
                     let distance = chebyshev(grid_position(cell), grid_position(centre));
                     let rested = self.levels[q] > m && self.levels[r] > m && distance <= 4;
-                    let crowded = removed && m > 0 && {
+                    let crowded = is_removed && m > 0 && {
                         let above = |k: K| grid_position(Cell::containing(k, m - 1));
                         chebyshev(above(self.keys[q]), above(self.keys[r])) <= 2
                     };
@@ -337,10 +428,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// are judged on what stays at the level below.
     fn drop_unsupported(&mut self, demanded: &SplitSet<K>, held_back: &HashSet<usize>) {
         for level in (0..=K::AXIS_BITS as u8).rev() {
-            let squares: Vec<Cell<K>> = {
-                use rayon::prelude::*;
-                demanded.squares_at(level).collect()
-            };
+            let squares: Vec<Cell<K>> = demanded.squares_at(level).collect();
             for square in squares {
                 if !self.demanded_by_others(square, held_back) {
                     self.set.remove(square);
@@ -565,6 +653,37 @@ mod tests {
             check_against_static(&points);
         }
         assert!(moved > 100, "only {moved} moves stayed in their leaves");
+    }
+
+    #[test]
+    fn batches_of_insertions_and_removals_give_the_static_tree() {
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
+        let mut rng = Rng(57);
+        let mut points = SeparatedPoints::<u64>::new(Vec::new(), Vec::new());
+        let mut live: Vec<u64> = Vec::new();
+        for round in 0..30 {
+            let size = 1 + (rng.next() % 40) as usize;
+            if round % 3 == 2 && !live.is_empty() {
+                let mut gone: Vec<u64> = (0..size.min(live.len()))
+                    .map(|_| live.swap_remove((rng.next() % live.len() as u64) as usize))
+                    .collect();
+                gone.sort_unstable();
+                points.remove_many(&gone);
+            } else {
+                let mut new: Vec<(u64, u8)> = (0..size)
+                    .map(|_| {
+                        let p = point(&mut rng);
+                        (key_of(&grid, p), on_sides(p))
+                    })
+                    .filter(|&(k, _)| !points.contains(k))
+                    .collect();
+                new.sort_unstable();
+                new.dedup_by_key(|p| p.0);
+                points.insert_many(&new);
+                live.extend(new.iter().map(|p| p.0));
+            }
+            check_against_static(&points);
+        }
     }
 
     #[test]

@@ -132,7 +132,8 @@ enum Command {
         /// Worker threads [default: all cores].
         #[arg(long, value_name = "N")]
         threads: Option<NonZeroUsize>,
-        /// Print a JSON line per edit (`edit`, `seconds`, `cells`, `rebuilt`) and one at the end
+        /// Print a JSON line per edit or batch (`edit`: the first one's number, `edits`,
+        /// `seconds`, `cells`, `rebuilt`) and one at the end
         /// (`build_seconds`, `mesh_seconds`, and with `--verify` `rebuild_seconds` and
         /// `identical`).
         #[arg(long)]
@@ -140,6 +141,10 @@ enum Command {
         /// Build the final mesh from scratch too and compare the two.
         #[arg(long)]
         verify: bool,
+        /// Apply the edits in batches of N (one tree update per batch, its moves in
+        /// parallel), with a JSON line per batch.
+        #[arg(long, value_name = "N", default_value_t = NonZeroUsize::MIN)]
+        batch: NonZeroUsize,
     },
     /// Write seeded random points as `x y` lines, or a seeded planar straight-line graph as a
     /// Triangle `.poly` file (`--pslg`), that read back exactly.
@@ -384,13 +389,14 @@ fn main() -> ExitCode {
             threads,
             json,
             verify,
+            batch,
         } => replay(
             (&points, &edits),
             &output,
             domain,
             &format,
             threads,
-            (json, verify),
+            (json, verify, batch.get()),
         ),
         Command::Generate {
             points,
@@ -530,7 +536,7 @@ fn replay(
     domain: Domain,
     formats: &[Format],
     threads: Option<NonZeroUsize>,
-    (json, verify): (bool, bool),
+    (json, verify, batch): (bool, bool, usize),
 ) -> Result<()> {
     refuse_overwriting(points_path, prefix)?;
     let points = read_points(points_path)?;
@@ -542,17 +548,20 @@ fn replay(
         let mut dynamic = built.map_err(|e| anyhow::anyhow!("{}: {e}", points_path.display()))?;
         let mut out = io::stdout().lock();
         let mut seconds = Vec::with_capacity(edits.len());
-        for (k, &edit) in edits.iter().enumerate() {
-            let (done, time) = timed(|| dynamic.apply(&[edit]));
-            let report = done.map_err(|(_, e)| {
-                anyhow::anyhow!("{}: edit {} ({edit:?}): {e}", edits_path.display(), k + 1)
-            })?[0];
+        for (b, group) in edits.chunks(batch).enumerate() {
+            let (done, time) = timed(|| dynamic.apply_batch(group));
+            let report = done.map_err(|(k, e)| {
+                let at = b * batch + k;
+                let edit = edits[at];
+                anyhow::anyhow!("{}: edit {} ({edit:?}): {e}", edits_path.display(), at + 1)
+            })?;
             seconds.push(time.as_secs_f64());
             if json {
                 writeln!(
                     out,
-                    "{{\"edit\":{},\"seconds\":{},\"cells\":{},\"rebuilt\":{}}}",
-                    k + 1,
+                    "{{\"edit\":{},\"edits\":{},\"seconds\":{},\"cells\":{},\"rebuilt\":{}}}",
+                    b * batch + 1,
+                    group.len(),
                     time.as_secs_f64(),
                     report.cells,
                     report.rebuilt
