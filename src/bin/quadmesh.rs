@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use quadmesh::dynamic::DynamicMesh;
+use quadmesh::dynamic::{BatchReport, DynamicMesh};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{
     read_input, read_points, with_extension_appended, write_input_poly, write_leaves_csv,
@@ -549,7 +549,15 @@ fn replay(
         let mut out = io::stdout().lock();
         let mut seconds = Vec::with_capacity(edits.len());
         for (b, group) in edits.chunks(batch).enumerate() {
-            let (done, time) = timed(|| dynamic.apply_batch(group));
+            // A single edit takes the single-edit path, which updates the arrays in place.
+            let (done, time) = timed(|| match group {
+                [edit] => dynamic.apply(&[*edit]).map(|r| BatchReport {
+                    ids: vec![r[0].id],
+                    cells: r[0].cells,
+                    rebuilt: r[0].rebuilt,
+                }),
+                _ => dynamic.apply_batch(group),
+            });
             let report = done.map_err(|(k, e)| {
                 let at = b * batch + k;
                 let edit = edits[at];
