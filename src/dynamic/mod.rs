@@ -4,7 +4,7 @@
 //! it every point's Morton key, stays put while points come and go. Its well-separated quadtree
 //! is kept by [`SeparatedPoints`], which re-runs the static separation rules only on the points
 //! an edit can reach; after any sequence of edits the tree, and the mesh [`DynamicMesh::mesh`]
-//! warps from it, are byte for byte what [`crate::mesh`] builds for the live points in id order
+//! warps from it, are byte for byte what [`crate::mesh()`] builds for the live points in id order
 //! on the same domain.
 //!
 //! Points keep their ids across edits: the initial points are `0..n` in the order given, and
@@ -91,7 +91,7 @@ pub struct DynamicMesh {
 }
 
 /// The tree on the grid width the live points need: the narrow grid unless two of them share
-/// a narrow key or a leaf is finer than it resolves, as [`crate::mesh`] chooses.
+/// a narrow key or a leaf is finer than it resolves, as [`crate::mesh()`] chooses.
 #[derive(Clone)]
 enum Tracked {
     Narrow(Keyed<u64>),
@@ -533,7 +533,7 @@ impl DynamicMesh {
         self.apply_batch(&edits)
     }
 
-    /// The warped mesh of the live points: what [`crate::mesh`] gives for them in id order on
+    /// The warped mesh of the live points: what [`crate::mesh()`] gives for them in id order on
     /// this domain, its `vertex_input` numbering them in that order.
     ///
     /// # Errors
