@@ -24,7 +24,7 @@ use super::separate::{
     DomainSides, Move, Rules, around, chebyshev, clear_of_points, demands_of, descend, settle_all,
     walk,
 };
-use super::split_set::{SplitSet, Squares, grid_position};
+use super::split_set::{SplitSet, Squares, at_position, grid_position, last_position};
 use super::{BalancedTree, forced_by, linked_tree, separate_in};
 use crate::framework::build_framework;
 use crate::morton::{Cell, MortonKey, Side};
@@ -148,35 +148,37 @@ impl<K: MortonKey> SeparatedPoints<K> {
             new.windows(2).all(|w| w[0].0 < w[1].0),
             "sorted, distinct keys"
         );
-        let total = self.keys.len() + new.len();
-        let (mut keys, mut levels, mut on) = (
-            Vec::with_capacity(total),
-            Vec::with_capacity(total),
-            Vec::with_capacity(total),
-        );
-        let mut positions = Vec::with_capacity(new.len());
-        let mut old = 0;
-        for &(key, sides) in new {
-            let end = old + self.keys[old..].partition_point(|k| *k < key);
-            assert!(self.keys.get(end) != Some(&key), "a new key");
-            keys.extend_from_slice(&self.keys[old..end]);
-            levels.extend_from_slice(&self.levels[old..end]);
-            on.extend_from_slice(&self.sides.on[old..end]);
-            positions.push(keys.len());
-            keys.push(key);
-            levels.push(0);
-            on.push(sides);
-            old = end;
-        }
-        keys.extend_from_slice(&self.keys[old..]);
-        levels.extend_from_slice(&self.levels[old..]);
-        on.extend_from_slice(&self.sides.on[old..]);
-        (self.keys, self.levels, self.sides.on) = (keys, levels, on);
+        let positions = self.merge_in(new);
         self.at_level[0] += new.len();
         self.touched = 0;
         let moves = positions.par_iter().map(|&i| self.first_move(i)).collect();
         let crowded = self.leaves_taken(&positions);
         self.run_rounds(moves, crowded);
+        positions
+    }
+
+    /// Puts the keys `new` (sorted) with their sides into the arrays in place, at level 0,
+    /// moving each run of old entries once, from the back; returns their positions.
+    fn merge_in(&mut self, new: &[(K, u8)]) -> Vec<usize> {
+        let (old, added) = (self.keys.len(), new.len());
+        self.keys.resize(old + added, K::default());
+        self.levels.resize(old + added, 0);
+        self.sides.on.resize(old + added, 0);
+        let mut positions = vec![0; added];
+        // Entries at `end..` of the old part have moved; the next free slot is `write - 1`.
+        let (mut end, mut write) = (old, old + added);
+        for (j, &(key, on)) in new.iter().enumerate().rev() {
+            let start = self.keys[..end].partition_point(|k| *k < key);
+            assert!(start == end || self.keys[start] != key, "a new key");
+            let run = end - start;
+            self.keys.copy_within(start..end, write - run);
+            self.levels.copy_within(start..end, write - run);
+            self.sides.on.copy_within(start..end, write - run);
+            write -= run + 1;
+            (self.keys[write], self.levels[write], self.sides.on[write]) = (key, 0, on);
+            positions[j] = write;
+            end = start;
+        }
         positions
     }
 
@@ -255,21 +257,9 @@ impl<K: MortonKey> SeparatedPoints<K> {
         for &i in removed {
             self.at_level[self.levels[i] as usize] -= 1;
         }
-        let mut next = removed.iter().copied().peekable();
-        let mut write = 0;
-        for read in 0..self.keys.len() {
-            if next.peek() == Some(&read) {
-                next.next();
-                continue;
-            }
-            self.keys[write] = self.keys[read];
-            self.levels[write] = self.levels[read];
-            self.sides.on[write] = self.sides.on[read];
-            write += 1;
-        }
-        self.keys.truncate(write);
-        self.levels.truncate(write);
-        self.sides.on.truncate(write);
+        remove_positions(&mut self.keys, removed);
+        remove_positions(&mut self.levels, removed);
+        remove_positions(&mut self.sides.on, removed);
     }
 
     /// The move of point `i` from the root: past split squares and squares whose block holds
@@ -351,6 +341,54 @@ impl<K: MortonKey> SeparatedPoints<K> {
         (inside(first) && !inside(first + 1)).then_some(first)
     }
 
+    /// The points alone in their square of `centre`'s level within `radius` (at most 5) of
+    /// it. The squares four levels up that cover those (at most 2×2) are runs of Morton
+    /// positions: a short run is read point by point, a long one searched square by square.
+    fn alone_near(&self, centre: Cell<K>, radius: u64) -> Vec<usize> {
+        const SHORT_RUN: usize = 48;
+        let level = centre.level;
+        let up = 4.min(level);
+        let (x, y) = grid_position(centre);
+        let last = last_position(level);
+        let span =
+            |c: u64| (c.saturating_sub(radius) >> up)..=(c.saturating_add(radius).min(last) >> up);
+        let alone = |q: usize, cell: Cell<K>| {
+            let holds = |j: Option<usize>| {
+                j.and_then(|j| self.keys.get(j))
+                    .is_some_and(|&k| cell.contains(k))
+            };
+            !holds(q.checked_sub(1)) && !holds(Some(q + 1))
+        };
+        let mut found = Vec::new();
+        for cx in span(x) {
+            for cy in span(y) {
+                let cover = at_position::<K>(cx, cy, level - up);
+                let run = self.points_in(cover);
+                if run.len() <= SHORT_RUN {
+                    for q in run {
+                        let cell = Cell::containing(self.keys[q], level);
+                        let near = chebyshev(grid_position(cell), (x, y)) <= radius;
+                        if near && alone(q, cell) {
+                            found.push(q);
+                        }
+                    }
+                    continue;
+                }
+                let keys = &self.keys[run.clone()];
+                for cell in around_and(centre, radius as i64).filter(|c| cover.contains(c.anchor)) {
+                    let anchor = cell.anchor;
+                    let first = keys.partition_point(|k| *k < anchor);
+                    if keys.get(first).is_some_and(|&k| cell.contains(k))
+                        && alone(run.start + first, cell)
+                    {
+                        found.push(run.start + first);
+                    }
+                }
+            }
+        }
+        found
+    }
+
     /// The points of `cell` by Morton position.
     fn points_in(&self, cell: Cell<K>) -> std::ops::Range<usize> {
         let anchor = cell.anchor;
@@ -383,13 +421,11 @@ impl<K: MortonKey> SeparatedPoints<K> {
             };
             for m in 0..=deepest {
                 let centre = Cell::containing(self.keys[r], m);
-                for cell in around_and(centre, radius) {
-                    let Some(q) = self.only_point_in(cell) else {
-                        continue;
-                    };
+                for q in self.alone_near(centre, radius as u64) {
                     if seen.contains(&q) || points_only_level(q) != m {
                         continue;
                     }
+                    let cell = Cell::containing(self.keys[q], m);
                     let distance = chebyshev(grid_position(cell), grid_position(centre));
                     let rested = self.levels[q] > m && self.levels[r] > m && distance <= 4;
                     let crowded = is_removed && m > 0 && {
@@ -461,6 +497,21 @@ impl<K: MortonKey> SeparatedPoints<K> {
             || forcing_candidates(square)
                 .any(|finer| self.set.contains(finer) && forced_by(finer).contains(&Some(square)))
     }
+}
+
+/// Takes the entries at the sorted, distinct `positions` out of `v`, moving each run between
+/// them once.
+pub(crate) fn remove_positions<T: Copy>(v: &mut Vec<T>, positions: &[usize]) {
+    let Some(&first) = positions.first() else {
+        return;
+    };
+    let mut write = first;
+    for (k, &gone) in positions.iter().enumerate() {
+        let end = positions.get(k + 1).copied().unwrap_or(v.len());
+        v.copy_within(gone + 1..end, write);
+        write += end - gone - 1;
+    }
+    v.truncate(write);
 }
 
 /// `cell` and the same-size squares within `radius` of it inside the root.

@@ -12,7 +12,7 @@
 
 use glam::DVec2;
 
-use crate::balance::{ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, SeparatedPoints};
+use crate::balance::{ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, SeparatedPoints, remove_positions};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, StageTimes};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey};
@@ -771,16 +771,7 @@ impl<K: MortonKey> Keyed<K> {
         let mut keys: Vec<K> = places.iter().map(|&p| self.key(p)).collect();
         keys.sort_unstable();
         let removed = self.separated.remove_many(&keys);
-        let mut next = removed.iter().copied().peekable();
-        let mut position = 0;
-        self.ids.retain(|_| {
-            let gone = next.peek() == Some(&position);
-            if gone {
-                next.next();
-            }
-            position += 1;
-            !gone
-        });
+        remove_positions(&mut self.ids, &removed);
         self.separated.touched()
     }
 
