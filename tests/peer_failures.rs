@@ -384,3 +384,23 @@ fn a_hull_spike_to_a_far_point_is_not_peeled_away() {
         }
     }
 }
+
+#[test]
+fn a_warped_mesh_whose_areas_overflow_is_refused() {
+    // Found by the `point_sets` fuzz target: one point at -1e178 gave a warped mesh of a square
+    // whose area is infinite in f64, so its areas could not be checked or used.
+    for points in [
+        vec![DVec2::new(
+            -1.058_397_204_323_598_4e178,
+            455_366.777_225_075_2,
+        )],
+        vec![DVec2::new(0.0, 0.0), DVec2::new(1e160, 1.0)],
+    ] {
+        let input = Input::points(points);
+        let options = Options::default().warp();
+        match within_limit(&input, options) {
+            Ok(mesh) => panic!("a mesh of area {}", mesh.domain.area()),
+            Err(e) => assert!(matches!(e, Error::CoordinateRange { .. }), "{e}"),
+        }
+    }
+}

@@ -46,7 +46,8 @@ impl Grid {
         };
         let side = 2.0 * half;
         let origin = centre - DVec2::splat(half);
-        if !(side.is_finite() && origin.is_finite()) {
+        // The mesh's areas are squares of lengths up to the side: they must stay finite.
+        if !(side.is_finite() && (side * side).is_finite() && origin.is_finite()) {
             return Err(Error::CoordinateRange {
                 lo: lo.into(),
                 hi: hi.into(),
@@ -65,7 +66,8 @@ impl Grid {
     pub fn on_domain(lo: DVec2, hi: DVec2, axis_bits: u32) -> Result<Grid, Error> {
         let extent = hi - lo;
         let side = extent.max_element();
-        if !(lo.is_finite() && hi.is_finite() && side.is_finite() && side > 0.0) {
+        let areas_finite = (side * side).is_finite();
+        if !(lo.is_finite() && hi.is_finite() && side.is_finite() && areas_finite && side > 0.0) {
             return Err(Error::CoordinateRange {
                 lo: lo.into(),
                 hi: hi.into(),
