@@ -274,8 +274,11 @@ mod tests {
     fn tiny_and_huge_extents_work() {
         let g = Grid::around(DVec2::ZERO, DVec2::new(5e-324, 0.0), 32).unwrap();
         assert_ne!(g.quantize(DVec2::ZERO), g.quantize(DVec2::new(5e-324, 0.0)));
-        let g = Grid::around(DVec2::splat(1e308), DVec2::splat(1e308), 64).unwrap();
-        assert!(g.side().is_finite());
+        let g = Grid::around(DVec2::splat(1e150), DVec2::splat(1e150), 64).unwrap();
+        assert!((g.side() * g.side()).is_finite());
+        // A square whose area overflows f64 is refused: nothing could measure the mesh's areas.
+        let r = Grid::around(DVec2::splat(1e308), DVec2::splat(1e308), 64);
+        assert!(matches!(r, Err(Error::CoordinateRange { .. })));
     }
 
     #[test]
