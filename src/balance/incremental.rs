@@ -112,11 +112,6 @@ impl<K: MortonKey> SeparatedPoints<K> {
         &self.levels
     }
 
-    /// The domain sides each point lies on, by Morton position.
-    pub fn sides_on(&self) -> &[u8] {
-        &self.sides.on
-    }
-
     /// The domain sides the point with key `key` lies on, if it is one of the points.
     pub fn sides_on_of(&self, key: K) -> Option<u8> {
         let i = self.keys.binary_search(&key).ok()?;
@@ -535,7 +530,7 @@ fn forcing_candidates<K: MortonKey>(square: Cell<K>) -> impl Iterator<Item = Cel
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::balance::{ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP};
+    use crate::balance::sides_of;
     use crate::morton::{Grid, MortonKey};
     use glam::DVec2;
 
@@ -609,15 +604,7 @@ mod tests {
     }
 
     fn on_sides(p: DVec2) -> u8 {
-        [
-            (p.x == 0.0, ON_LEFT),
-            (p.y == 0.0, ON_BOTTOM),
-            (p.x == 1.0, ON_RIGHT),
-            (p.y == 1.0, ON_TOP),
-        ]
-        .into_iter()
-        .filter(|&(on, _)| on)
-        .fold(0, |bits, (_, side)| bits | side)
+        sides_of(p, DVec2::ZERO, DVec2::ONE)
     }
 
     /// A random point of the unit square: uniform, in a tight cluster, on a side or a
@@ -636,6 +623,19 @@ mod tests {
             }
             _ => DVec2::new(rng.unit(), rng.unit()),
         }
+    }
+
+    /// The keys of `count` random points with their sides, sorted, one per key.
+    fn random_keys(rng: &mut Rng, count: usize, grid: &Grid) -> Vec<(u64, u8)> {
+        let mut pairs: Vec<(u64, u8)> = (0..count)
+            .map(|_| {
+                let p = point(rng);
+                (key_of(grid, p), on_sides(p))
+            })
+            .collect();
+        pairs.sort_unstable();
+        pairs.dedup_by_key(|p| p.0);
+        pairs
     }
 
     fn key_of(grid: &Grid, p: DVec2) -> u64 {
@@ -678,14 +678,7 @@ mod tests {
     fn moves_within_a_leaf_keep_the_static_tree() {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
         let mut rng = Rng(31);
-        let mut pairs: Vec<(u64, u8)> = (0..300)
-            .map(|_| {
-                let p = point(&mut rng);
-                (key_of(&grid, p), on_sides(p))
-            })
-            .collect();
-        pairs.sort_unstable();
-        pairs.dedup_by_key(|p| p.0);
+        let pairs = random_keys(&mut rng, 300, &grid);
         let (mut keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
         let mut points = SeparatedPoints::new(keys.clone(), on.clone());
         let mut moved = 0;
@@ -753,14 +746,7 @@ mod tests {
     fn a_built_tree_edits_like_one_grown_point_by_point() {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
         let mut rng = Rng(77);
-        let mut pairs: Vec<(u64, u8)> = (0..400)
-            .map(|_| {
-                let p = point(&mut rng);
-                (key_of(&grid, p), on_sides(p))
-            })
-            .collect();
-        pairs.sort_unstable();
-        pairs.dedup_by_key(|p| p.0);
+        let pairs = random_keys(&mut rng, 400, &grid);
         let (keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
         let mut points = SeparatedPoints::new(keys, on);
         check_against_static(&points);

@@ -19,7 +19,7 @@ use links::cross_links_by;
 pub use links::{Links, across, cross_links, point_leaves};
 pub use separate::{
     Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
-    check_separated_in, coarsest_band_level, separate, separate_in,
+    check_separated_in, coarsest_band_level, separate, separate_in, sides_of,
 };
 
 use crate::framework::NONE;

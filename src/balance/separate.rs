@@ -245,18 +245,7 @@ impl DomainSides {
     /// lies on, for a grid on a given domain; `None` for a grid around the points.
     pub fn of(points: &[DVec2], order: &[u32], grid: &Grid) -> Option<DomainSides> {
         let (lo, hi) = grid.given_domain()?;
-        let on = collect_indexed(order.len(), |i| {
-            let p = points[order[i] as usize];
-            [
-                (p.x == lo.x, ON_LEFT),
-                (p.y == lo.y, ON_BOTTOM),
-                (p.x == hi.x, ON_RIGHT),
-                (p.y == hi.y, ON_TOP),
-            ]
-            .into_iter()
-            .filter(|&(on, _)| on)
-            .fold(0, |bits, (_, side)| bits | side)
-        });
+        let on = collect_indexed(order.len(), |i| sides_of(points[order[i] as usize], lo, hi));
         Some(DomainSides {
             on,
             inner_top: grid.inner_top(),
@@ -264,6 +253,20 @@ impl DomainSides {
             graded_top: None,
         })
     }
+}
+
+/// The sides of the rectangle `[lo, hi]` that `p` lies on, a bit each ([`ON_LEFT`],
+/// [`ON_BOTTOM`], [`ON_RIGHT`], [`ON_TOP`]).
+pub fn sides_of(p: DVec2, lo: DVec2, hi: DVec2) -> u8 {
+    [
+        (p.x == lo.x, ON_LEFT),
+        (p.y == lo.y, ON_BOTTOM),
+        (p.x == hi.x, ON_RIGHT),
+        (p.y == hi.y, ON_TOP),
+    ]
+    .into_iter()
+    .filter(|&(on, _)| on)
+    .fold(0, |bits, (_, side)| bits | side)
 }
 
 /// The point lies on the domain's left side.

@@ -12,7 +12,7 @@
 
 use glam::DVec2;
 
-use crate::balance::{ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, SeparatedPoints, remove_positions};
+use crate::balance::{SeparatedPoints, remove_positions, sides_of};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, StageTimes};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey};
@@ -241,7 +241,7 @@ impl DynamicMesh {
         if let Some(existing) = self.live_at(p) {
             return Err(duplicate(id as usize, existing, p));
         }
-        let on = sides_on(p, &self.domain);
+        let on = sides_of(p, self.domain.lo, self.domain.hi);
         let within = match &mut self.tree {
             Tracked::Narrow(k) => k.move_within_leaf(old, p, on),
             Tracked::Wide(k) => k.move_within_leaf(old, p, on),
@@ -351,9 +351,11 @@ impl DynamicMesh {
                 continue;
             }
             if let (Some(from), Some(to)) = (start, end)
-                && self
-                    .tree
-                    .move_within_leaf(from, to, sides_on(to, &self.domain))
+                && self.tree.move_within_leaf(
+                    from,
+                    to,
+                    sides_of(to, self.domain.lo, self.domain.hi),
+                )
             {
                 self.points[id as usize] = to;
                 continue;
@@ -570,7 +572,7 @@ impl DynamicMesh {
     /// Puts the live point `id` into the tree, moving to the wide grid if it needs it there.
     fn place(&mut self, id: u32) -> Result<EditReport, Error> {
         let p = self.points[id as usize];
-        let on = sides_on(p, &self.domain);
+        let on = sides_of(p, self.domain.lo, self.domain.hi);
         let fits = match &mut self.tree {
             Tracked::Narrow(k) => k.insert(id, p, on),
             Tracked::Wide(k) => k.insert(id, p, on),
@@ -704,7 +706,7 @@ impl<K: MortonKey> Keyed<K> {
         pairs.dedup_by_key(|pair| pair.0);
         let on = pairs
             .iter()
-            .map(|&(_, id)| sides_on(points[id as usize], domain))
+            .map(|&(_, id)| sides_of(points[id as usize], domain.lo, domain.hi))
             .collect();
         let (keys, ids) = pairs.into_iter().unzip();
         keyed.separated = SeparatedPoints::new(keys, on);
@@ -747,7 +749,7 @@ impl<K: MortonKey> Keyed<K> {
         let mut new: Vec<(K, u8, u32)> = ids
             .iter()
             .zip(places)
-            .map(|(&id, &p)| (self.key(p), sides_on(p, domain), id))
+            .map(|(&id, &p)| (self.key(p), sides_of(p, domain.lo, domain.hi), id))
             .collect();
         new.sort_unstable_by_key(|n| n.0);
         let repeated = new.windows(2).any(|w| w[0].0 == w[1].0);
@@ -866,18 +868,4 @@ fn duplicate(id: usize, existing: usize, p: DVec2) -> Error {
         x: p.x,
         y: p.y,
     }
-}
-
-/// The domain sides `p` lies on, as [`crate::balance::DomainSides::of`] marks them.
-fn sides_on(p: DVec2, domain: &Domain) -> u8 {
-    let (lo, hi) = (domain.lo, domain.hi);
-    [
-        (p.x == lo.x, ON_LEFT),
-        (p.y == lo.y, ON_BOTTOM),
-        (p.x == hi.x, ON_RIGHT),
-        (p.y == hi.y, ON_TOP),
-    ]
-    .into_iter()
-    .filter(|&(on, _)| on)
-    .fold(0, |bits, (_, side)| bits | side)
 }
