@@ -6,7 +6,7 @@ use crate::error::Error;
 use crate::mesh::{AngleBounds, Domain};
 use crate::morton::SortAlgorithm;
 use crate::refine::{GUARANTEED_MIN_ANGLE_DEG, MAX_MIN_ANGLE_DEG};
-use crate::warp::ANGLE_BOUNDS;
+use crate::warp::{ANGLE_BOUNDS, NONOBTUSE_MAX_DEG};
 
 /// The geometry to mesh: a point set, or a planar straight-line graph (points, segments, holes
 /// and regions, as in Triangle's `.poly` files).
@@ -82,6 +82,17 @@ pub enum Mode {
     Delaunay,
     /// The warped quadtree mesh: every angle in [22.5°, 112.5°], about 104 triangles per point.
     Warp,
+    /// The quadtree mesh split into right triangles at the points: every angle at most 90°,
+    /// none bounded below, a few more triangles than the warp mode's.
+    Nonobtuse,
+}
+
+impl Mode {
+    /// Whether the mode meshes the well-separated quadtree (warp or nonobtuse), which takes
+    /// rectangles and no area bound or vertex budget.
+    pub fn is_quadtree(self) -> bool {
+        matches!(self, Mode::Warp | Mode::Nonobtuse)
+    }
 }
 
 /// The region a mesh covers.
@@ -156,6 +167,11 @@ impl Options {
     /// The warp mode.
     pub fn warp(self) -> Self {
         self.with_mode(Mode::Warp)
+    }
+
+    /// The nonobtuse mode.
+    pub fn nonobtuse(self) -> Self {
+        self.with_mode(Mode::Nonobtuse)
     }
 
     /// Every angle at least `degrees` (Delaunay mode), in [0, 45]; 0 asks for no angle bound.
@@ -247,12 +263,16 @@ impl Options {
 
     /// The angles every mesh of these options has, outside input angles smaller than the bound
     /// (the corners of a convex hull): at least the bound and at most 180° minus twice it in the
-    /// Delaunay mode, [22.5°, 112.5°] in the warp mode.
+    /// Delaunay mode, [22.5°, 112.5°] in the warp mode, at most 90° in the nonobtuse mode.
     pub fn angle_bounds(&self) -> AngleBounds {
         match self.mode {
             Mode::Warp => AngleBounds {
                 min_deg: ANGLE_BOUNDS.0,
                 max_deg: ANGLE_BOUNDS.1,
+            },
+            Mode::Nonobtuse => AngleBounds {
+                min_deg: 0.0,
+                max_deg: NONOBTUSE_MAX_DEG,
             },
             Mode::Delaunay => AngleBounds {
                 min_deg: self.min_angle_deg,
@@ -261,10 +281,10 @@ impl Options {
         }
     }
 
-    /// Whether termination is proven for these options: always in the warp mode, and up to
-    /// [`GUARANTEED_MIN_ANGLE_DEG`] in the Delaunay mode.
+    /// Whether termination is proven for these options: always in the quadtree modes, and up
+    /// to [`GUARANTEED_MIN_ANGLE_DEG`] in the Delaunay mode.
     pub fn termination_proven(&self) -> bool {
-        self.mode == Mode::Warp || self.min_angle_deg <= GUARANTEED_MIN_ANGLE_DEG
+        self.mode.is_quadtree() || self.min_angle_deg <= GUARANTEED_MIN_ANGLE_DEG
     }
 
     /// Refuses values out of range, and Delaunay-mode options in the warp mode.
@@ -288,17 +308,17 @@ impl Options {
         if let Region::Rectangle(d) = self.region {
             d.check()?;
         }
-        if self.mode == Mode::Warp {
+        if self.mode.is_quadtree() {
             if self.max_area.is_some() || self.max_vertices.is_some() {
                 return invalid(
                     "mode",
-                    "the warp mode takes no area bound or vertex budget".into(),
+                    "the warp and nonobtuse modes take no area bound or vertex budget".into(),
                 );
             }
             if self.region == Region::ConvexHull {
                 return invalid(
                     "region",
-                    "the warp mode meshes rectangles, not convex hulls".into(),
+                    "the warp and nonobtuse modes mesh rectangles, not convex hulls".into(),
                 );
             }
         }

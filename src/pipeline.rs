@@ -19,7 +19,7 @@ use crate::quadtree::{Quadtree, expand};
 use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, refine_pslg};
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
-use crate::warp::{leaves_below, point_finer_than_grid, unresolvable, warp};
+use crate::warp::{leaves_below, point_finer_than_grid, split, unresolvable, warp};
 
 /// The trees of one input on one grid width.
 #[derive(Clone, Debug)]
@@ -149,6 +149,9 @@ pub struct MeshOptions {
     /// The rectangle to mesh, holding every point (on its sides too); by default the points'
     /// bounding box centred in a square twice its larger side.
     pub domain: Option<Domain>,
+    /// Split the leaves by the lines through the points into right triangles (every angle at
+    /// most 90°, see [`crate::warp::split`]) instead of warping their corners.
+    pub nonobtuse: bool,
 }
 
 /// The well-separated tree the warp needs, on the narrow grid if it resolves the points finely
@@ -319,9 +322,10 @@ pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, Mes
 /// [`mesh_points`] once the domain, if any, is at least as wide as it is tall.
 fn mesh_on(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport), Error> {
     let (tree, mut times) = separated_tree(points, options)?;
+    let nonobtuse = options.nonobtuse;
     let (mesh, quality, duplicates) = match tree {
-        Tree::Narrow(build) => warp_build(build, points, &mut times)?,
-        Tree::Wide(build) => warp_build(build, points, &mut times)?,
+        Tree::Narrow(build) => warp_build(build, points, nonobtuse, &mut times)?,
+        Tree::Wide(build) => warp_build(build, points, nonobtuse, &mut times)?,
     };
     let report = report_of(
         &mesh,
@@ -338,6 +342,7 @@ type Warped = (Mesh, AngleQuality, usize);
 fn warp_build<K: MortonKey>(
     build: TreeBuild<K>,
     points: &[DVec2],
+    nonobtuse: bool,
     times: &mut StageTimes,
 ) -> Result<Warped, Error> {
     // The framework and the unbalanced tree go here; the warp reads the separated tree's leaves,
@@ -360,7 +365,11 @@ fn warp_build<K: MortonKey>(
                 unresolvable(points[index as usize], index)
             })?;
     }
-    let (mesh, quality) = warp(&tree, &morton.order, &morton.grid, points, times)?;
+    let (mesh, quality) = if nonobtuse {
+        split(&tree, &morton.order, &morton.grid, points, times)?
+    } else {
+        warp(&tree, &morton.order, &morton.grid, points, times)?
+    };
     Ok((mesh, quality, morton.duplicates.count))
 }
 
@@ -395,10 +404,11 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
         Region::Auto | Region::ConvexHull | Region::Square => None,
     };
     match options.mode() {
-        Mode::Warp => {
+        Mode::Warp | Mode::Nonobtuse => {
             let warp = MeshOptions {
                 sort: options.sort_algorithm(),
                 domain: rectangle,
+                nonobtuse: options.mode() == Mode::Nonobtuse,
             };
             mesh_points(points, &warp)
         }
@@ -423,7 +433,7 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
 /// The mesh of a planar straight-line graph: the Delaunay mode over what its segments enclose
 /// or over its convex hull.
 fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
-    if options.mode() == Mode::Warp {
+    if options.mode().is_quadtree() {
         input.check_supported()?;
     }
     let convex_hull = match options.region_choice() {

@@ -1,10 +1,10 @@
 //! Dynamic warped meshes: after any sequence of edits, the same mesh as a build from scratch of
-//! the live points in id order; bad edits change nothing.
+//! the live points in id order, warped or nonobtuse; bad edits change nothing.
 
 use glam::DVec2;
 use quadmesh::dynamic::{DynamicMesh, Edit};
 use quadmesh::mesh::Domain;
-use quadmesh::{Error, Input, Mesh, Options, Region};
+use quadmesh::{Error, Input, Mesh, Mode, Options, Region};
 
 fn unit() -> Domain {
     Domain {
@@ -13,18 +13,24 @@ fn unit() -> Domain {
     }
 }
 
-/// What a build from scratch gives for the live points in id order.
-fn rebuilt(dynamic: &DynamicMesh) -> Mesh {
+/// What a build from scratch gives for the live points in id order, in the mode `mode`.
+fn rebuilt_in(dynamic: &DynamicMesh, mode: Mode) -> Mesh {
     let (_, points) = dynamic.live_points();
     let options = Options::default()
-        .warp()
+        .with_mode(mode)
         .region(Region::Rectangle(dynamic.domain()));
     quadmesh::mesh(&Input::points(points), &options)
         .expect("the live points mesh from scratch")
         .0
 }
 
-/// The dynamic mesh equals the rebuild, and passes the crate's check.
+/// The warped rebuild.
+fn rebuilt(dynamic: &DynamicMesh) -> Mesh {
+    rebuilt_in(dynamic, Mode::Warp)
+}
+
+/// The dynamic mesh equals the rebuild, in the warp and the nonobtuse mode, and passes the
+/// crate's check.
 fn check(dynamic: &DynamicMesh, what: &str) {
     let mesh = dynamic.mesh().expect("the dynamic mesh warps");
     let expected = rebuilt(dynamic);
@@ -34,6 +40,14 @@ fn check(dynamic: &DynamicMesh, what: &str) {
     );
     let (_, points) = dynamic.live_points();
     mesh.validate(&points, Options::default().warp().angle_bounds())
+        .unwrap_or_else(|e| panic!("{what}: {e}"));
+    let split = dynamic.mesh_nonobtuse().expect("the dynamic mesh splits");
+    assert!(
+        split == rebuilt_in(dynamic, Mode::Nonobtuse),
+        "{what}: the dynamic nonobtuse mesh differs from a rebuild"
+    );
+    split
+        .validate_nonobtuse(&points)
         .unwrap_or_else(|e| panic!("{what}: {e}"));
 }
 

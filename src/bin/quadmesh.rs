@@ -175,6 +175,11 @@ struct QualityArgs {
     /// twice its larger side).
     #[arg(long, conflicts_with_all = ["min_angle", "max_area", "max_vertices"])]
     warp: bool,
+    /// The quadtree mesh split into right triangles at the points instead: every angle at most
+    /// 90° (none bounded below; a point near a grid line of its leaf makes thin triangles), on
+    /// a rectangle as for `--warp`, with a few more triangles.
+    #[arg(long, conflicts_with_all = ["warp", "min_angle", "max_area", "max_vertices"])]
+    nonobtuse: bool,
     /// Every angle at least A degrees (0 to 45) [default: 20, below the 20.7° up to which
     /// termination is proven]. Above 20.7° refinement usually finishes up to about 34° and
     /// stops at the vertex budget otherwise. Input angles smaller than A (narrow corners of the
@@ -254,6 +259,9 @@ impl QualityArgs {
         if self.warp {
             options = options.warp();
         }
+        if self.nonobtuse {
+            options = options.nonobtuse();
+        }
         if let Some(a) = self.min_angle {
             options = options.min_angle(a);
         }
@@ -311,7 +319,7 @@ fn cli_terms(e: &quadmesh::Error) -> String {
                 "min_angle" => "--min-angle",
                 "max_area" => "--max-area",
                 "region" | "domain" => "--domain",
-                "mode" => "--warp",
+                "mode" => "--warp/--nonobtuse",
                 other => other,
             };
             format!("{flag}: {message}")
@@ -493,6 +501,8 @@ fn mesh(
                 if input_points.is_graph() {
                     let hull = options.region_choice() == Region::ConvexHull;
                     validate_pslg_with(&mesh, &input_points, options.angle_bounds(), hull)?;
+                } else if options.mode() == Mode::Nonobtuse {
+                    mesh.validate_nonobtuse(&input_points.points)?;
                 } else {
                     mesh.validate(&input_points.points, options.angle_bounds())?;
                 }

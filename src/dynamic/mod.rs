@@ -16,7 +16,7 @@ use crate::balance::{SeparatedPoints, remove_positions, sides_of};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, StageTimes};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey};
-use crate::warp::{unresolvable, warp};
+use crate::warp::{split, unresolvable, warp};
 
 /// One edit of a dynamic mesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -542,6 +542,19 @@ impl DynamicMesh {
     /// [`Error::Empty`] with no live point, and what the warp refuses ([`Error::Unresolvable`]
     /// where f64 cannot place the vertices around a point apart).
     pub fn mesh(&self) -> Result<Mesh, Error> {
+        self.mesh_of(false)
+    }
+
+    /// The nonobtuse mesh of the live points, from the same tree: what [`crate::mesh()`] gives
+    /// for them in id order on this domain in the nonobtuse mode.
+    ///
+    /// # Errors
+    /// As [`Self::mesh`].
+    pub fn mesh_nonobtuse(&self) -> Result<Mesh, Error> {
+        self.mesh_of(true)
+    }
+
+    fn mesh_of(&self, nonobtuse: bool) -> Result<Mesh, Error> {
         if self.live_count == 0 {
             return Err(Error::Empty);
         }
@@ -555,8 +568,8 @@ impl DynamicMesh {
             }
         }
         match &self.tree {
-            Tracked::Narrow(k) => k.mesh(&live_points, &rank),
-            Tracked::Wide(k) => k.mesh(&live_points, &rank),
+            Tracked::Narrow(k) => k.mesh(&live_points, &rank, nonobtuse),
+            Tracked::Wide(k) => k.mesh(&live_points, &rank, nonobtuse),
         }
     }
 
@@ -809,11 +822,16 @@ impl<K: MortonKey> Keyed<K> {
         self.ids[i]
     }
 
-    fn mesh(&self, live_points: &[DVec2], rank: &[u32]) -> Result<Mesh, Error> {
+    fn mesh(&self, live_points: &[DVec2], rank: &[u32], nonobtuse: bool) -> Result<Mesh, Error> {
         let tree = self.separated.tree();
         let order: Vec<u32> = self.ids.iter().map(|&id| rank[id as usize]).collect();
         let mut times = StageTimes::default();
-        warp(&tree, &order, &self.grid, live_points, &mut times).map(|(mesh, _)| mesh)
+        let meshed = if nonobtuse {
+            split(&tree, &order, &self.grid, live_points, &mut times)
+        } else {
+            warp(&tree, &order, &self.grid, live_points, &mut times)
+        };
+        meshed.map(|(mesh, _)| mesh)
     }
 }
 

@@ -22,7 +22,9 @@ pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
 pub use topology::Edge;
 pub(crate) use topology::{EdgeLister, edges_listed_with, opposite_edge};
-pub use validate::{AngleBounds, InvalidMesh, MeshCheck, validate};
+pub use validate::{
+    AngleBounds, InvalidMesh, MeshCheck, first_obtuse, validate, validate_nonobtuse,
+};
 pub use validate_pslg::{validate_pslg, validate_pslg_with};
 
 /// A conforming triangle mesh of a rectangle, or of the points' convex hull (`outline`).

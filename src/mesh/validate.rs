@@ -50,6 +50,60 @@ pub fn validate(mesh: &Mesh, points: &[DVec2], bounds: AngleBounds) -> Result<()
     check_angles(mesh, bounds).map_err(fault(Angles))
 }
 
+/// [`validate`] for a nonobtuse mesh: the same checks, and every angle at most 90° up to the
+/// rounding of the triangle's vertices to f64 (see [`first_obtuse`]) in place of the angle
+/// bounds.
+///
+/// # Errors
+/// [`InvalidMesh`] naming the check that failed.
+pub fn validate_nonobtuse(mesh: &Mesh, points: &[DVec2]) -> Result<(), InvalidMesh> {
+    let any_angle = AngleBounds {
+        min_deg: 0.0,
+        max_deg: 180.0,
+    };
+    validate(mesh, points, any_angle)?;
+    match first_obtuse(mesh) {
+        Some((_, message)) => Err(fault(MeshCheck::Angles)(message)),
+        None => Ok(()),
+    }
+}
+
+/// The first triangle with an angle over 90° by more than rounding explains, with a message.
+///
+/// A nonobtuse mesh reaches 90° by construction, between edges the grid makes perpendicular;
+/// its vertices' f64 coordinates are the grid's rounded, each by at most a few units in the
+/// last place of the largest coordinate of the domain, `m`. Moving the three corners of a
+/// triangle whose shortest edge is `e` that far turns each edge by at most `2·√2·4ε·m / e`
+/// radians, so an angle by at most twice that; the check allows this beyond
+/// [`ANGLE_SLACK_DEG`].
+pub fn first_obtuse(mesh: &Mesh) -> Option<(usize, String)> {
+    let m = [mesh.domain.lo, mesh.domain.hi]
+        .iter()
+        .map(|p| p.abs().max_element())
+        .fold(0.0, f64::max);
+    (0..mesh.triangles.len())
+        .into_par_iter()
+        .find_map_first(|t| {
+            let tri = mesh.triangles[t];
+            let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
+            let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
+            let rounding = (16.0 * 2f64.sqrt() * f64::EPSILON * m / shortest).to_degrees();
+            let largest = angles_deg(a, b, c).into_iter().fold(0.0, f64::max);
+            (largest > 90.0 + ANGLE_SLACK_DEG + rounding).then(|| {
+            (
+                t,
+                format!(
+                    "triangle {t} {tri:?} at {} {} {} has an angle of {largest} degrees, over 90 \
+                     by more than rounding its vertices explains ({rounding:e} degrees)",
+                    pt(a),
+                    pt(b),
+                    pt(c)
+                ),
+            )
+        })
+        })
+}
+
 /// The checks [`validate`] and [`super::check_delaunay`] make, in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[non_exhaustive]
@@ -108,6 +162,14 @@ impl Mesh {
     /// [`InvalidMesh`] naming the check that failed.
     pub fn validate(&self, points: &[DVec2], bounds: AngleBounds) -> Result<(), InvalidMesh> {
         validate(self, points, bounds)
+    }
+
+    /// Checks a nonobtuse mesh; see [`validate_nonobtuse`].
+    ///
+    /// # Errors
+    /// [`InvalidMesh`] naming the check that failed.
+    pub fn validate_nonobtuse(&self, points: &[DVec2]) -> Result<(), InvalidMesh> {
+        validate_nonobtuse(self, points)
     }
 }
 

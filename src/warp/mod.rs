@@ -9,10 +9,12 @@
 
 mod cut;
 pub mod placement;
+mod split;
 mod templates;
 mod vertices;
 
 pub use cut::leaves_below;
+pub use split::{NONOBTUSE_MAX_DEG, split};
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -87,16 +89,7 @@ pub fn warp<K: MortonKey>(
     // The numbering is only needed for labels; free it before the neighbours take their place.
     drop(numbering);
     let neighbours = times.time("warp neighbours", || {
-        collect_per_leaf(&offsets, |leaf, out| {
-            for row in &template_of(kinds[leaf]).across {
-                out.push(row.map(|a| match a {
-                    Across::Inside { triangle, .. } => offsets[leaf] + triangle as u32,
-                    Across::Boundary { side, part } => {
-                        facing_triangle(&geometry, &kinds, &offsets, leaf, side, part)
-                    }
-                }));
-            }
-        })
+        neighbours_of(&geometry, &kinds, &offsets)
     });
     let (boundary, quality) = times.time("warp boundary", || {
         let inexact = |leaf: usize| !geometry.template_accurate(leaf);
@@ -111,7 +104,7 @@ pub fn warp<K: MortonKey>(
     if !(quality.min >= ANGLE_BOUNDS.0 - ROUNDING_SLACK_DEG
         && quality.max <= ANGLE_BOUNDS.1 + ROUNDING_SLACK_DEG)
     {
-        let bent = bent_leaf(&geometry, &offsets, (&triangles, &vertices));
+        let bent = bent_leaf(&geometry, &offsets, (&triangles, &vertices), ANGLE_BOUNDS);
         return Err(point_near(&geometry, bent, order, points));
     }
     let (lo, hi) = grid.domain();
@@ -126,6 +119,24 @@ pub fn warp<K: MortonKey>(
         ..Mesh::default()
     };
     Ok((mesh, quality))
+}
+
+/// The triangles across each triangle's edges, leaf by leaf from the templates' tables.
+fn neighbours_of<K: MortonKey>(
+    geometry: &LeafGeometry<K>,
+    kinds: &[u8],
+    offsets: &[u32],
+) -> Vec<[u32; 3]> {
+    collect_per_leaf(offsets, |leaf, out| {
+        for row in &template_of(kinds[leaf]).across {
+            out.push(row.map(|a| match a {
+                Across::Inside { triangle, .. } => offsets[leaf] + triangle as u32,
+                Across::Boundary { side, part } => {
+                    facing_triangle(geometry, kinds, offsets, leaf, side, part)
+                }
+            }));
+        }
+    })
 }
 
 /// The template of a leaf's code, whether or not a corner of the leaf moved.
@@ -317,11 +328,9 @@ fn bent_leaf<K: MortonKey>(
     geometry: &LeafGeometry<K>,
     offsets: &[u32],
     (triangles, vertices): (&[[u32; 3]], &[DVec2]),
+    bounds: (f64, f64),
 ) -> usize {
-    let (lo, hi) = (
-        ANGLE_BOUNDS.0 - ROUNDING_SLACK_DEG,
-        ANGLE_BOUNDS.1 + ROUNDING_SLACK_DEG,
-    );
+    let (lo, hi) = (bounds.0 - ROUNDING_SLACK_DEG, bounds.1 + ROUNDING_SLACK_DEG);
     (0..geometry.leaves())
         .into_par_iter()
         .position_first(|leaf| {
@@ -527,7 +536,9 @@ fn facing_triangle<K: MortonKey>(
         let other = if part == Part::Low { first } else { second };
         (other as usize, Part::Full)
     } else if geometry.level(first as usize) >= geometry.level(leaf) {
-        (first as usize, Part::Full)
+        // A leaf of our size faces us with the same parts: the whole side, or, where a point's
+        // lines meet the side (see [`split`]), the same halves.
+        (first as usize, part)
     } else {
         // A larger leaf: we face the half of its side we lie along.
         let low = geometry.starts_together(leaf, first as usize, link_side(side));
@@ -536,6 +547,19 @@ fn facing_triangle<K: MortonKey>(
     let (triangle, _) =
         template_of(kinds[other]).facing[side.opposite() as usize][other_part as usize];
     offsets[other] + triangle as u32
+}
+
+/// The segments of a leaf's `side` in ring order: the whole side, or, where a point's lines
+/// meet a side on the domain's boundary (see [`split`]), its two halves.
+fn boundary_parts(kind: u8, side: RingSide) -> impl Iterator<Item = Part> {
+    let halved = templates::midpoint_mask_of(kind & !MOVED) & (1 << side as u8) != 0;
+    let increasing = matches!(side, RingSide::South | RingSide::East);
+    let parts = match (halved, increasing) {
+        (false, _) => [Some(Part::Full), None],
+        (true, true) => [Some(Part::Low), Some(Part::High)],
+        (true, false) => [Some(Part::High), Some(Part::Low)],
+    };
+    parts.into_iter().flatten()
 }
 
 /// The triangle edges on the root's sides, counter-clockwise, leaf by leaf in Morton order.
@@ -551,9 +575,11 @@ fn boundary_edges<K: MortonKey>(
             RingSide::ALL
                 .into_iter()
                 .filter(move |&side| geometry.across(leaf, link_side(side))[0] == NONE)
-                .map(move |side| {
-                    let (t, corner) =
-                        template_of(kinds[leaf]).facing[side as usize][Part::Full as usize];
+                .flat_map(move |side| {
+                    boundary_parts(kinds[leaf], side).map(move |part| (side, part))
+                })
+                .map(move |(side, part)| {
+                    let (t, corner) = template_of(kinds[leaf]).facing[side as usize][part as usize];
                     let tri = triangles[offsets[leaf] as usize + t as usize];
                     let c = corner as usize;
                     BoundaryEdge {
@@ -674,7 +700,7 @@ mod tests {
             .flat_map(|i| (0..=steps).map(move |j| (i, j)))
             .map(|(i, j)| best_largest_angle(DVec2::new(i as f64, j as f64) * (0.5 / steps as f64)))
             .fold(0.0, f64::max);
-        // The figure the documentation states for `--nonobtuse`.
+        // The figure the documentation states for why `--nonobtuse` splits leaves instead.
         assert!((worst - 102.13).abs() < 0.01, "{worst}");
     }
 

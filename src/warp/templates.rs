@@ -126,6 +126,11 @@ impl Kind {
     }
 }
 
+/// The sides carrying a midpoint in template `code`, one bit per ring side.
+pub fn midpoint_mask_of(code: u8) -> u8 {
+    Kind::of_code(code).midpoint_mask()
+}
+
 /// Masks with two or more of the four sides.
 const STAR_MASKS: [u8; 11] = [3, 5, 6, 7, 9, 10, 11, 12, 13, 14, 15];
 

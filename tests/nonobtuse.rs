@@ -1,0 +1,186 @@
+//! Nonobtuse meshes of point sets: every mesh passes `Mesh::validate_nonobtuse` (every angle at
+//! most 90° up to the rounding of its vertices), on every family, on grid-aligned, collinear and
+//! domain-touching inputs, for every place of a point in its leaf; 1 and 2 threads give the same
+//! mesh; the count stays within ten triangles per point of the warped mesh of the same tree.
+
+mod common;
+
+use common::{FAMILIES, mesh_angles, mixed_point_sets, on_threads};
+use proptest::prelude::*;
+use quadmesh::generate::{self, Distribution2d};
+use quadmesh::mesh::Domain;
+use quadmesh::{DVec2, Input, Mesh, MeshOptions, MeshReport, Mode, Options, Region, mesh_points};
+
+fn nonobtuse(domain: Option<Domain>) -> MeshOptions {
+    MeshOptions {
+        domain,
+        nonobtuse: true,
+        ..MeshOptions::default()
+    }
+}
+
+/// The nonobtuse mesh of `points`, checked, and its report.
+fn mesh_checked(points: &[DVec2], domain: Option<Domain>) -> (Mesh, MeshReport) {
+    let (mesh, report) = mesh_points(points, &nonobtuse(domain)).unwrap();
+    if let Err(fault) = mesh.validate_nonobtuse(points) {
+        panic!("invalid nonobtuse mesh of {} points: {fault}", points.len());
+    }
+    assert_eq!(report.triangles, mesh.triangles.len());
+    // The report's extremes are the mesh's, measured.
+    let (lo, hi) = mesh_angles(&mesh).fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
+        (lo.min(a), hi.max(a))
+    });
+    assert_eq!((report.min_angle, report.max_angle), (lo, hi));
+    (mesh, report)
+}
+
+/// The warped mesh's triangle count on the same points and domain.
+fn warped_count(points: &[DVec2], domain: Option<Domain>) -> usize {
+    let options = MeshOptions {
+        domain,
+        ..MeshOptions::default()
+    };
+    mesh_points(points, &options).unwrap().0.triangles.len()
+}
+
+/// Checks the mesh and that it adds at most ten triangles per point to the warped mesh's
+/// count (six in the point's leaf, one in each of its four neighbours).
+fn check_against_warp(points: &[DVec2], domain: Option<Domain>) {
+    let (mesh, report) = mesh_checked(points, domain);
+    let warped = warped_count(points, domain);
+    let n = mesh.triangles.len();
+    assert!(
+        n >= warped && n <= warped + 10 * report.points,
+        "{n} triangles against {warped} warped for {} points",
+        report.points
+    );
+}
+
+#[test]
+fn every_family_meshes_nonobtuse() {
+    for dist in FAMILIES {
+        for n in [1, 10, 300, 4000] {
+            let points = generate::points(dist, n, 11);
+            check_against_warp(&points, None);
+        }
+    }
+}
+
+#[test]
+fn a_point_anywhere_in_its_leaf() {
+    // Three points far apart on a unit grid: the middle one's leaf is about as large as the
+    // spacing allows, and its offset in the leaf sweeps the corners, sides, inside, and places
+    // within rounding of a side.
+    let near: Vec<f64> = (0..=32)
+        .map(|i| i as f64 / 32.0)
+        .chain([1e-15, 1e-9, 1.0 - 1e-9, 1.0 - 1e-15])
+        .collect();
+    for &dx in &near {
+        for &dy in &near {
+            let points = [
+                DVec2::new(0.0, 0.0),
+                DVec2::new(0.5 + dx / 64.0, 0.5 + dy / 64.0),
+                DVec2::new(1.0, 1.0),
+            ];
+            let domain = Domain {
+                lo: DVec2::ZERO,
+                hi: DVec2::ONE,
+            };
+            mesh_checked(&points, Some(domain));
+            mesh_checked(&points, None);
+        }
+    }
+}
+
+#[test]
+fn grid_aligned_and_collinear_points() {
+    let lattice: Vec<DVec2> = (0..=16)
+        .flat_map(|i| (0..=16).map(move |j| DVec2::new(i as f64 / 16.0, j as f64 / 16.0)))
+        .collect();
+    let unit = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::ONE,
+    };
+    check_against_warp(&lattice, Some(unit));
+    check_against_warp(&lattice, None);
+    // On the lattice every point sits on a corner of its leaf: no lines, right isosceles
+    // templates only.
+    let (_, report) = mesh_checked(&lattice, Some(unit));
+    assert!(report.min_angle >= 26.5, "{}", report.min_angle);
+    let line: Vec<DVec2> = (0..500).map(|i| DVec2::new(i as f64 * 0.37, 2.0)).collect();
+    check_against_warp(&line, None);
+    let diagonal: Vec<DVec2> = (0..500).map(|i| DVec2::splat(i as f64 / 499.0)).collect();
+    check_against_warp(&diagonal, None);
+}
+
+#[test]
+fn points_on_a_given_rectangle_and_its_sides() {
+    let mut points = generate::points(Distribution2d::Uniform, 1500, 5)
+        .into_iter()
+        .map(|p| DVec2::new(3.0 * p.x, p.y))
+        .collect::<Vec<_>>();
+    for i in 1..40 {
+        let t = i as f64 / 40.0;
+        points.extend([
+            DVec2::new(3.0 * t, 0.0),
+            DVec2::new(3.0 * t + 0.01, 1.0),
+            DVec2::new(0.0, t),
+            DVec2::new(3.0, t + 0.005),
+        ]);
+    }
+    points.extend([DVec2::ZERO, DVec2::new(3.0, 1.0), DVec2::new(3.0, 0.0)]);
+    let wide = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::new(3.0, 1.0),
+    };
+    check_against_warp(&points, Some(wide));
+    // The same points in a tall rectangle (meshed as the mirror image).
+    let tall: Vec<DVec2> = points.iter().map(|p| DVec2::new(p.y, p.x)).collect();
+    let domain = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::new(1.0, 3.0),
+    };
+    check_against_warp(&tall, Some(domain));
+}
+
+#[test]
+fn one_and_two_threads_give_the_same_mesh() {
+    for dist in FAMILIES {
+        let points = generate::points(dist, 3000, 2);
+        let one = on_threads(1, || mesh_checked(&points, None).0);
+        let two = on_threads(2, || mesh_checked(&points, None).0);
+        assert_eq!(one, two, "{dist:?}");
+    }
+}
+
+#[test]
+fn front_door_mode() {
+    let points = generate::points(Distribution2d::Kuzmin, 500, 4);
+    let options = Options::default().nonobtuse();
+    assert_eq!(options.mode(), Mode::Nonobtuse);
+    let (mesh, _) = quadmesh::mesh(&Input::points(points.clone()), &options).unwrap();
+    mesh.validate_nonobtuse(&points).unwrap();
+    assert_eq!(mesh, mesh_checked(&points, None).0);
+    // The quadtree modes take no area bound, and mesh rectangles only.
+    assert!(quadmesh::mesh(&Input::points(points.clone()), &options.max_area(0.1)).is_err());
+    let hull = options.region(Region::ConvexHull);
+    assert!(quadmesh::mesh(&Input::points(points), &hull).is_err());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    #[test]
+    fn mixed_inputs_mesh_nonobtuse_or_fail_cleanly(points in mixed_point_sets()) {
+        match mesh_points(&points, &nonobtuse(None)) {
+            Ok((mesh, _)) => {
+                if let Err(fault) = mesh.validate_nonobtuse(&points) {
+                    panic!("{fault}");
+                }
+            }
+            // Points too close for f64 are refused by name, as in the warp mode.
+            Err(quadmesh::Error::Unresolvable { .. }) => {}
+            Err(e) => panic!("unexpected error {e}"),
+        }
+    }
+}
