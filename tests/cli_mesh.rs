@@ -164,3 +164,36 @@ fn bench_prints_one_json_object_last() {
     assert!(field("max_angle") <= ANGLE_BOUNDS.1 + 1e-9);
     assert!(field("triangles") > 3000.0);
 }
+
+#[test]
+fn nonobtuse_meshes_read_back_valid_and_the_modes_exclude_each_other() {
+    let dir = TempDir::new("nonobtuse");
+    let (input, points) = generate(&dir, 400, "kuzmin");
+    let prefix = dir.file("out");
+    let out = quadmesh(&[
+        "mesh",
+        s(&input),
+        "-o",
+        s(&prefix),
+        "--check",
+        "--nonobtuse",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(stderr(&out).contains("check                   passed"));
+    let mesh = read_triangle_files(&prefix);
+    if let Err(fault) = mesh.validate_nonobtuse(&points) {
+        panic!("nonobtuse mesh read back from files is invalid: {fault}");
+    }
+    for other in ["--warp", "--min-angle=25", "--max-area=0.1"] {
+        let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--nonobtuse", other]);
+        assert!(
+            !out.status.success(),
+            "--nonobtuse with {other} was accepted"
+        );
+        assert!(
+            stderr(&out).contains("cannot be used with"),
+            "{}",
+            stderr(&out)
+        );
+    }
+}

@@ -126,3 +126,65 @@ fn a_bad_edit_is_named_and_nothing_is_written() {
     assert!(!out.status.success());
     assert!(stderr(&out).contains("square"), "{}", stderr(&out));
 }
+
+#[test]
+fn a_nonobtuse_replay_equals_a_nonobtuse_mesh_of_the_live_points() {
+    let dir = TempDir::new("replay-nonobtuse");
+    let (points, edits, live) = (dir.file("p.txt"), dir.file("e.txt"), dir.file("l.txt"));
+    std::fs::write(&points, POINTS).unwrap();
+    std::fs::write(&edits, EDITS).unwrap();
+    std::fs::write(&live, LIVE).unwrap();
+    let (replayed, meshed) = (dir.file("replayed"), dir.file("meshed"));
+    let replay = [
+        "replay",
+        s(&points),
+        s(&edits),
+        "-o",
+        s(&replayed),
+        "--domain",
+        "0,0,1,1",
+        "--nonobtuse",
+        "--verify",
+        "--json",
+    ];
+    let out = quadmesh(&replay);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let json = String::from_utf8(out.stdout).unwrap();
+    assert!(json.contains("\"identical\":true"), "{json}");
+    let mesh = [
+        "mesh",
+        s(&live),
+        "-o",
+        s(&meshed),
+        "--nonobtuse",
+        "--domain",
+        "0,0,1,1",
+    ];
+    let out = quadmesh(&mesh);
+    assert!(out.status.success(), "{}", stderr(&out));
+    for extension in ["node", "ele", "neigh", "edge"] {
+        let read = |prefix: &std::path::Path| {
+            std::fs::read(format!("{}.{extension}", prefix.display())).unwrap()
+        };
+        assert_eq!(
+            read(&replayed),
+            read(&meshed),
+            "the .{extension} files differ"
+        );
+    }
+    // The warped files differ: the two modes are not the same mesh.
+    let warped = dir.file("warped");
+    let out = quadmesh(&[
+        "mesh",
+        s(&live),
+        "-o",
+        s(&warped),
+        "--warp",
+        "--domain",
+        "0,0,1,1",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let ele =
+        |prefix: &std::path::Path| std::fs::read(format!("{}.ele", prefix.display())).unwrap();
+    assert_ne!(ele(&replayed), ele(&warped));
+}

@@ -9,7 +9,9 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use quadmesh::dynamic::DynamicMesh;
 use quadmesh::mesh::Domain;
-use quadmesh::{DVec2, Error, Input, Mesh, MeshReport, Options, Region, RegionSeed, Segment};
+use quadmesh::{
+    DVec2, Error, Input, Mesh, MeshReport, Mode, Options, Region, RegionSeed, Segment,
+};
 
 create_exception!(
     _quadmesh,
@@ -23,7 +25,7 @@ struct Asked {
     min_angle: f64,
     max_area: Option<f64>,
     max_vertices: Option<usize>,
-    warp: bool,
+    mode: Mode,
     convex_hull: bool,
     no_boundary_steiner: bool,
     split_crossings: bool,
@@ -31,10 +33,9 @@ struct Asked {
 
 impl Asked {
     fn options(&self) -> Options {
-        let mut options = Options::default().min_angle(self.min_angle);
-        if self.warp {
-            options = options.warp();
-        }
+        let mut options = Options::default()
+            .min_angle(self.min_angle)
+            .with_mode(self.mode);
         if let Some(a) = self.max_area {
             options = options.max_area(a);
         }
@@ -320,12 +321,13 @@ fn _mesh<'py>(
     threads: Option<usize>,
     edges: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let warp = match mode {
-        "delaunay" => false,
-        "warp" => true,
+    let mode = match mode {
+        "delaunay" => Mode::Delaunay,
+        "warp" => Mode::Warp,
+        "nonobtuse" => Mode::Nonobtuse,
         other => {
             return Err(QuadmeshError::new_err(format!(
-                "mode must be \"delaunay\" or \"warp\", not {other:?}"
+                "mode must be \"delaunay\", \"warp\" or \"nonobtuse\", not {other:?}"
             )));
         }
     };
@@ -343,7 +345,7 @@ fn _mesh<'py>(
         min_angle,
         max_area,
         max_vertices,
-        warp,
+        mode,
         convex_hull,
         no_boundary_steiner,
         split_crossings,

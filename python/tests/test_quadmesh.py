@@ -18,15 +18,24 @@ def area(vertices, triangles):
     return 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
 
 
-def min_angles(vertices, triangles):
+def angles(vertices, triangles):
+    """Every triangle's three angles in degrees, one row per corner."""
     p = vertices[triangles]
-    angles = []
+    rows = []
     for k in range(3):
         u = p[:, (k + 1) % 3] - p[:, k]
         v = p[:, (k + 2) % 3] - p[:, k]
         cos = (u * v).sum(1) / np.linalg.norm(u, axis=1) / np.linalg.norm(v, axis=1)
-        angles.append(np.degrees(np.arccos(np.clip(cos, -1, 1))))
-    return np.min(angles, axis=0)
+        rows.append(np.degrees(np.arccos(np.clip(cos, -1, 1))))
+    return np.array(rows)
+
+
+def min_angles(vertices, triangles):
+    return angles(vertices, triangles).min(axis=0)
+
+
+def max_angles(vertices, triangles):
+    return angles(vertices, triangles).max(axis=0)
 
 
 def same_vertices(out, vertices):
@@ -89,6 +98,15 @@ def test_point_sets_and_keyword_interface():
     warped = quadmesh.mesh(points[:200], mode="warp")
     angles = min_angles(warped.vertices, warped.triangles)
     assert angles.min() >= 22.5 - 1e-6
+    # Nonobtuse: every angle at most 90° (to rounding), and every point a vertex.
+    split = quadmesh.mesh(points[:200], mode="nonobtuse")
+    assert max_angles(split.vertices, split.triangles).max() <= 90 + 1e-6
+    assert (area(split.vertices, split.triangles) > 0).all()
+    inputs = split.vertex_input[split.vertex_input >= 0]
+    assert sorted(inputs) == list(range(200))
+    assert (split.vertices[split.vertex_input >= 0] == points[inputs]).all()
+    with pytest.raises(quadmesh.QuadmeshError, match="nonobtuse"):
+        quadmesh.mesh(points[:10], mode="acute")
 
 
 def test_the_same_arrays_on_any_thread_count():

@@ -123,9 +123,12 @@ enum Command {
         /// The square domain `X0,Y0,X1,Y1`, holding every point at every step.
         #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_square, allow_hyphen_values = true)]
         domain: Domain,
-        /// The warped mesh (the only mode dynamic meshes have yet; accepted for clarity).
+        /// The warped mesh (the default; accepted for clarity).
         #[arg(long)]
         warp: bool,
+        /// Write the nonobtuse mesh of the final tree instead, as `mesh --nonobtuse` would.
+        #[arg(long, conflicts_with = "warp")]
+        nonobtuse: bool,
         /// Output formats, comma-separated, as for `mesh`.
         #[arg(long, value_delimiter = ',', default_value = "node")]
         format: Vec<Format>,
@@ -393,6 +396,7 @@ fn main() -> ExitCode {
             output,
             domain,
             warp: _,
+            nonobtuse,
             format,
             threads,
             json,
@@ -405,6 +409,11 @@ fn main() -> ExitCode {
             &format,
             threads,
             (json, verify, batch.get()),
+            if nonobtuse {
+                Mode::Nonobtuse
+            } else {
+                Mode::Warp
+            },
         ),
         Command::Generate {
             points,
@@ -547,6 +556,7 @@ fn replay(
     formats: &[Format],
     threads: Option<NonZeroUsize>,
     (json, verify, batch): (bool, bool, usize),
+    mode: Mode,
 ) -> Result<()> {
     refuse_overwriting(points_path, prefix)?;
     let points = read_points(points_path)?;
@@ -586,7 +596,10 @@ fn replay(
                 )?;
             }
         }
-        let (meshed, mesh_time) = timed(|| dynamic.mesh());
+        let (meshed, mesh_time) = timed(|| match mode {
+            Mode::Nonobtuse => dynamic.mesh_nonobtuse(),
+            _ => dynamic.mesh(),
+        });
         let mesh = meshed.map_err(|e| anyhow::anyhow!("the final mesh: {e}"))?;
         let mut summary = format!(
             "{{\"points\":{},\"edits\":{},\"build_seconds\":{},\"mesh_seconds\":{},\"edit_seconds_median\":{}",
@@ -598,7 +611,9 @@ fn replay(
         );
         if verify {
             let (_, live) = dynamic.live_points();
-            let options = Options::default().warp().region(Region::Rectangle(domain));
+            let options = Options::default()
+                .with_mode(mode)
+                .region(Region::Rectangle(domain));
             let (rebuilt, rebuild_time) = timed(|| quadmesh::mesh(&Input::points(live), &options));
             let (rebuilt, _) = rebuilt.map_err(|e| anyhow::anyhow!("the rebuild: {e}"))?;
             let identical = rebuilt == mesh;
