@@ -7,7 +7,7 @@ Usage (from the repository root):
     pip install triangle numpy          # once; the script installs nothing itself
     python3 scripts/compare_peers.py [--sizes 100000,1000000] [--dists uniform,cluster,kuzmin]
         [--threads 1,2] [--repeats 3] [--angles 20,30] [--domain hull|square]
-        [--tools triangle,spade,quadmesh,quadmesh-refine]
+        [--tools triangle,spade,quadmesh,quadmesh-nonobtuse,quadmesh-refine]
         [--quadmesh-args='--some-flag value'] [--timeout 600] [--out results.json] [--markdown]
     python3 scripts/compare_peers.py [--pslg FILE.poly ...] [--pslg-examples]
         [--pslg-generated [--pslg-segments 200000] [--pslg-holes 2000] [--pslg-dir DIR]]
@@ -58,6 +58,8 @@ What it does:
   memory and prints one JSON object as its last line of output; its time is that object's
   ``total_s``. If the subcommand is missing or fails, quadmesh rows say so and the other tools
   still run;
+* quadmesh's nonobtuse mesh (tool ``quadmesh-nonobtuse``): the same command with
+  ``--nonobtuse`` in place of ``--warp``;
 * quadmesh's quality Delaunay mesh (tool ``quadmesh-refine``, the CLI's default mode): the same
   command without ``--warp``, with ``--domain hull`` or ``--domain square`` (as ``--domain``
   says) and ``--min-angle A`` for every angle A of ``--angles`` and every thread count of
@@ -146,7 +148,7 @@ SPADE = TARGET / "release" / "examples" / "spade_mesh"
 CHILD_MARK = "__triangle_child__"
 
 # The --tools names.
-TOOLS = ("triangle", "spade", "quadmesh", "quadmesh-refine")
+TOOLS = ("triangle", "spade", "quadmesh", "quadmesh-nonobtuse", "quadmesh-refine")
 
 # The --domain choices: the points' convex hull, or the square the warped mesh covers.
 DOMAINS = ("hull", "square")
@@ -267,7 +269,8 @@ def parse_args():
                              "the warped mesh's rows always use the square")
     parser.add_argument("--tools", type=str_list, default=list(TOOLS),
                         help=f"which tools to run (default {','.join(TOOLS)}; quadmesh is the "
-                             f"warped mesh, quadmesh-refine the Delaunay refinement)")
+                             f"warped mesh, quadmesh-nonobtuse the nonobtuse quadtree mesh, "
+                             f"quadmesh-refine the Delaunay refinement)")
     parser.add_argument("--quadmesh-args", default="",
                         help="extra arguments for `quadmesh bench`, one shell-quoted string; "
                              "use the --quadmesh-args='...' form")
@@ -417,8 +420,10 @@ def configs_for(args, dist, size, points_txt, npy, corners):
     if "spade" in args.tools:
         configs.append(Config("spade", "Delaunay", 1, spade_on[domain], selector="spade",
                               domain=domain))
-    if "quadmesh" in args.tools:
-        # The warp covers the square: on the hull, its peers get their own rows on the square.
+    quadtree = [tool for tool in ("quadmesh", "quadmesh-nonobtuse") if tool in args.tools]
+    if quadtree:
+        # The quadtree meshes cover the square: on the hull, their peers get their own rows on
+        # the square.
         if domain != "square":
             if "triangle" in args.tools:
                 configs.append(Config("Triangle", "Delaunay", 1, child("square", "Q"),
@@ -426,10 +431,12 @@ def configs_for(args, dist, size, points_txt, npy, corners):
             if "spade" in args.tools:
                 configs.append(Config("spade", "Delaunay", 1, spade, selector="spade",
                                       domain="square"))
-        for t in args.threads:
-            configs.append(Config("quadmesh", "warp" + suffix, t,
-                                  bench(t, ["--warp", "--domain", "square"]),
-                                  time_key="total_s", selector="quadmesh", domain="square"))
+        for tool in quadtree:
+            mode = "warp" if tool == "quadmesh" else "nonobtuse"
+            for t in args.threads:
+                configs.append(Config("quadmesh", mode + suffix, t,
+                                      bench(t, [f"--{mode}", "--domain", "square"]),
+                                      time_key="total_s", selector=tool, domain="square"))
     for a in args.angles:
         if "triangle" in args.tools:
             configs.append(Config("Triangle", f"q{angle_text(a)}", 1,
@@ -962,11 +969,13 @@ def main():
                         if "unrecognized subcommand" in error:
                             note = ("skipped: this quadmesh has no `bench` subcommand yet "
                                     "(`quadmesh bench ... --json` failed)")
-                            skips["quadmesh"] = skips["quadmesh-refine"] = note
+                            for selector in ("quadmesh", "quadmesh-nonobtuse", "quadmesh-refine"):
+                                skips[selector] = note
                             result["error"] = note
                         elif unknown:
-                            what = ("warped mesh" if config.selector == "quadmesh"
-                                    else "refinement")
+                            what = {"quadmesh": "warped mesh",
+                                    "quadmesh-nonobtuse": "nonobtuse mesh"}.get(
+                                        config.selector, "refinement")
                             note = (f"skipped: this quadmesh's `bench` has no "
                                     f"`{unknown.group(1)}`, which its {what} rows need")
                             skips[config.selector] = note
