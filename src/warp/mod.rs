@@ -47,11 +47,7 @@ pub fn warp<K: MortonKey>(
     points: &[DVec2],
     times: &mut StageTimes,
 ) -> Result<(Mesh, AngleQuality), Error> {
-    if let Some(p) = point_finer_than_grid(tree) {
-        let index = order[p] as usize;
-        return Err(unresolvable(points[index], index as u32));
-    }
-    let geometry = LeafGeometry::new(tree, grid);
+    let geometry = resolved_geometry(tree, order, grid, points)?;
     let (numbering, vertices, vertex_input, moves) = times.time("warp vertices", || {
         let numbering = Numbering::new(&geometry)?;
         let (mut vertices, mut vertex_input) = numbering.vertices(&geometry);
@@ -107,8 +103,39 @@ pub fn warp<K: MortonKey>(
         let bent = bent_leaf(&geometry, &offsets, (&triangles, &vertices), ANGLE_BOUNDS);
         return Err(point_near(&geometry, bent, order, points));
     }
+    let mesh = leaf_mesh(
+        grid,
+        (vertices, vertex_input),
+        (triangles, neighbours),
+        boundary,
+    );
+    Ok((mesh, quality))
+}
+
+/// The leaves' geometry, unless a point's leaf is finer than the grid resolves the points
+/// ([`Error::Unresolvable`] naming it).
+fn resolved_geometry<'a, K: MortonKey>(
+    tree: &'a BalancedTree<K>,
+    order: &[u32],
+    grid: &'a Grid,
+    points: &[DVec2],
+) -> Result<LeafGeometry<'a, K>, Error> {
+    if let Some(p) = point_finer_than_grid(tree) {
+        let index = order[p] as usize;
+        return Err(unresolvable(points[index], index as u32));
+    }
+    Ok(LeafGeometry::new(tree, grid))
+}
+
+/// The mesh of the leaves' arrays on the grid's domain.
+fn leaf_mesh(
+    grid: &Grid,
+    (vertices, vertex_input): (Vec<DVec2>, Vec<u32>),
+    (triangles, neighbours): (Vec<[u32; 3]>, Vec<[u32; 3]>),
+    boundary: Vec<BoundaryEdge>,
+) -> Mesh {
     let (lo, hi) = grid.domain();
-    let mesh = Mesh {
+    Mesh {
         outline: None,
         vertices,
         vertex_input,
@@ -117,8 +144,7 @@ pub fn warp<K: MortonKey>(
         boundary,
         domain: Domain { lo, hi },
         ..Mesh::default()
-    };
-    Ok((mesh, quality))
+    }
 }
 
 /// The triangles across each triangle's edges, leaf by leaf from the templates' tables.

@@ -19,13 +19,12 @@ use rayon::prelude::*;
 use super::templates::{CENTRE, Kind, RingSide};
 use super::vertices::{LeafGeometry, Numbering};
 use super::{
-    UNRESOLVED, boundary_edges, collect_per_leaf, leaf_offsets, link_side, neighbours_of,
-    point_finer_than_grid, point_near, template_of, triangle_offsets, unmoved_templates,
-    unresolvable,
+    UNRESOLVED, boundary_edges, collect_per_leaf, leaf_mesh, leaf_offsets, link_side,
+    neighbours_of, point_near, resolved_geometry, template_of, triangle_offsets, unmoved_templates,
 };
 use crate::balance::BalancedTree;
 use crate::error::Error;
-use crate::mesh::{AngleQuality, Domain, Mesh, NONE, StageTimes, angles_deg, first_obtuse};
+use crate::mesh::{AngleQuality, Mesh, NONE, StageTimes, angles_deg, first_obtuse};
 use crate::morton::{Grid, MortonKey};
 
 /// The largest angle of a nonobtuse mesh, in degrees.
@@ -228,11 +227,7 @@ pub fn split<K: MortonKey>(
     points: &[DVec2],
     times: &mut StageTimes,
 ) -> Result<(Mesh, AngleQuality), Error> {
-    if let Some(p) = point_finer_than_grid(tree) {
-        let index = order[p] as usize;
-        return Err(unresolvable(points[index], index as u32));
-    }
-    let geometry = LeafGeometry::new(tree, grid);
+    let geometry = resolved_geometry(tree, order, grid, points)?;
     let point_at = |p: usize| points[order[p] as usize];
     let (numbering, vertices, vertex_input, splits) = times.time("split vertices", || {
         let numbering = Numbering::new(&geometry)?;
@@ -302,17 +297,12 @@ pub fn split<K: MortonKey>(
             measured(&triangles, &vertices),
         )
     });
-    let (lo, hi) = grid.domain();
-    let mesh = Mesh {
-        outline: None,
-        vertices,
-        vertex_input,
-        triangles,
-        neighbours,
+    let mesh = leaf_mesh(
+        grid,
+        (vertices, vertex_input),
+        (triangles, neighbours),
         boundary,
-        domain: Domain { lo, hi },
-        ..Mesh::default()
-    };
+    );
     // Only a point that f64 puts just outside its leaf can bend a right angle past rounding.
     if let Some((t, _)) = first_obtuse(&mesh) {
         let bent = offsets.partition_point(|&first| first as usize <= t) - 1;
