@@ -1216,7 +1216,7 @@ mod tests {
 
     /// Timing on a large mesh: `QUADMESH_VALIDATE_N=4000 cargo test --release -- --ignored`.
     #[test]
-    #[ignore]
+    #[ignore = "timing, run by hand in release"]
     fn large_grid_timing() {
         let n = std::env::var("QUADMESH_VALIDATE_N").map_or(2000, |s| s.parse().unwrap());
         let (mesh, points) = grid(n);

@@ -594,7 +594,9 @@ mod tests {
     }
 
     #[test]
-    #[should_panic]
+    // A block's writer is its stride of slots: the fifth value of a stride of three is out of
+    // its bounds (a checked index, never a write past the block).
+    #[should_panic(expected = "index out of bounds")]
     fn block_scratch_refuses_a_block_past_its_stride() {
         let _ = BlockScratch::fill(3, (0..2usize).into_par_iter(), |_, _, out| {
             (0..4u8).for_each(|k| out.push(k))
