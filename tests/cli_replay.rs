@@ -188,3 +188,69 @@ fn a_nonobtuse_replay_equals_a_nonobtuse_mesh_of_the_live_points() {
         |prefix: &std::path::Path| std::fs::read(format!("{}.ele", prefix.display())).unwrap();
     assert_ne!(ele(&replayed), ele(&warped));
 }
+
+/// The number of triangles in `PREFIX.ele` (the first field of its first line that is not a
+/// comment).
+fn triangle_count(prefix: &std::path::Path) -> i64 {
+    let text = std::fs::read_to_string(format!("{}.ele", prefix.display())).unwrap();
+    let header = text.lines().find(|l| !l.starts_with('#')).unwrap();
+    header.split_whitespace().next().unwrap().parse().unwrap()
+}
+
+/// A JSON line's integer field.
+fn field(line: &str, name: &str) -> i64 {
+    let at = line
+        .find(&format!("\"{name}\":"))
+        .unwrap_or_else(|| panic!("{name} in {line}"));
+    let rest = &line[at + name.len() + 3..];
+    let end = rest.find([',', '}']).unwrap();
+    rest[..end].parse().unwrap()
+}
+
+#[test]
+fn the_triangles_each_edit_changes_add_up_to_the_final_mesh() {
+    let dir = TempDir::new("replay-changes");
+    let (points, edits) = (dir.file("p.txt"), dir.file("e.txt"));
+    std::fs::write(&points, POINTS).unwrap();
+    std::fs::write(&edits, EDITS).unwrap();
+    let (first, last) = (dir.file("first"), dir.file("last"));
+    let out = quadmesh(&[
+        "mesh",
+        s(&points),
+        "-o",
+        s(&first),
+        "--warp",
+        "--domain",
+        "0,0,1,1",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let replay = [
+        "replay",
+        s(&points),
+        s(&edits),
+        "-o",
+        s(&last),
+        "--domain",
+        "0,0,1,1",
+        "--json",
+        "--changes",
+    ];
+    let out = quadmesh(&replay);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let json = String::from_utf8(out.stdout).unwrap();
+    let lines: Vec<&str> = json.lines().collect();
+    let mut count = triangle_count(&first);
+    for line in &lines[..lines.len() - 1] {
+        let (removed, added) = (
+            field(line, "triangles_removed"),
+            field(line, "triangles_added"),
+        );
+        // Every edit here moves, adds or takes out a point: some triangles change, not all.
+        assert!(removed > 0 && added > 0 && removed < count, "{line}");
+        count += added - removed;
+    }
+    assert_eq!(count, triangle_count(&last));
+    // Without --json there is nowhere to print them.
+    let out = quadmesh(&["replay", s(&points), s(&edits), "-o", s(&last), "--changes"]);
+    assert!(!out.status.success());
+}

@@ -26,11 +26,21 @@ fn mesh_checked(points: &[DVec2], domain: Option<Domain>) -> (Mesh, MeshReport) 
         panic!("invalid nonobtuse mesh of {} points: {fault}", points.len());
     }
     assert_eq!(report.triangles, mesh.triangles.len());
-    // The report's extremes are the mesh's, measured.
+    // The report's extremes are the mesh's: measured where the points split leaves, the
+    // templates' elsewhere, which rounding moves by less than 0.01°.
     let (lo, hi) = mesh_angles(&mesh).fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
         (lo.min(a), hi.max(a))
     });
-    assert_eq!((report.min_angle, report.max_angle), (lo, hi));
+    assert!(
+        (report.min_angle - lo).abs() < 0.01,
+        "{} {lo}",
+        report.min_angle
+    );
+    assert!(
+        (report.max_angle - hi).abs() < 0.01,
+        "{} {hi}",
+        report.max_angle
+    );
     (mesh, report)
 }
 

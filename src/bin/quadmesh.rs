@@ -144,6 +144,11 @@ enum Command {
         /// Build the final mesh from scratch too and compare the two.
         #[arg(long)]
         verify: bool,
+        /// With `--json`: also mesh after every edit or batch and print how many triangles it
+        /// removed and added (`triangles_removed`, `triangles_added`, from
+        /// `Mesh::changes_from`); a whole mesh and comparison each, not in `seconds`.
+        #[arg(long, requires = "json")]
+        changes: bool,
         /// Apply the edits in batches of N (one tree update per batch, its moves in
         /// parallel), with a JSON line per batch.
         #[arg(long, value_name = "N", default_value_t = NonZeroUsize::MIN)]
@@ -401,6 +406,7 @@ fn main() -> ExitCode {
             threads,
             json,
             verify,
+            changes,
             batch,
         } => replay(
             (&points, &edits),
@@ -408,7 +414,7 @@ fn main() -> ExitCode {
             domain,
             &format,
             threads,
-            (json, verify, batch.get()),
+            (json, verify, changes, batch.get()),
             if nonobtuse {
                 Mode::Nonobtuse
             } else {
@@ -555,7 +561,7 @@ fn replay(
     domain: Domain,
     formats: &[Format],
     threads: Option<NonZeroUsize>,
-    (json, verify, batch): (bool, bool, usize),
+    (json, verify, changes, batch): (bool, bool, bool, usize),
     mode: Mode,
 ) -> Result<()> {
     refuse_overwriting(points_path, prefix)?;
@@ -568,6 +574,14 @@ fn replay(
         let mut dynamic = built.map_err(|e| anyhow::anyhow!("{}: {e}", points_path.display()))?;
         let mut out = io::stdout().lock();
         let mut seconds = Vec::with_capacity(edits.len());
+        let mesh_of = |dynamic: &DynamicMesh| match mode {
+            Mode::Nonobtuse => dynamic.mesh_nonobtuse(),
+            _ => dynamic.mesh(),
+        };
+        let mut previous = match changes {
+            true => Some(mesh_of(&dynamic).map_err(|e| anyhow::anyhow!("the first mesh: {e}"))?),
+            false => None,
+        };
         for (b, group) in edits.chunks(batch).enumerate() {
             // A single edit takes the single-edit path, which updates the arrays in place.
             let (done, time) = timed(|| match group {
@@ -584,10 +598,21 @@ fn replay(
                 anyhow::anyhow!("{}: edit {} ({edit:?}): {e}", edits_path.display(), at + 1)
             })?;
             seconds.push(time.as_secs_f64());
+            let mut triangles = String::new();
+            if let Some(before) = previous.as_mut() {
+                let now = mesh_of(&dynamic).map_err(|e| anyhow::anyhow!("the mesh: {e}"))?;
+                let change = now.changes_from(before);
+                triangles = format!(
+                    ",\"triangles_removed\":{},\"triangles_added\":{}",
+                    change.removed.len(),
+                    change.added.len()
+                );
+                *before = now;
+            }
             if json {
                 writeln!(
                     out,
-                    "{{\"edit\":{},\"edits\":{},\"seconds\":{},\"cells\":{},\"rebuilt\":{}}}",
+                    "{{\"edit\":{},\"edits\":{},\"seconds\":{},\"cells\":{},\"rebuilt\":{}{triangles}}}",
                     b * batch + 1,
                     group.len(),
                     time.as_secs_f64(),
@@ -596,10 +621,7 @@ fn replay(
                 )?;
             }
         }
-        let (meshed, mesh_time) = timed(|| match mode {
-            Mode::Nonobtuse => dynamic.mesh_nonobtuse(),
-            _ => dynamic.mesh(),
-        });
+        let (meshed, mesh_time) = timed(|| mesh_of(&dynamic));
         let mesh = meshed.map_err(|e| anyhow::anyhow!("the final mesh: {e}"))?;
         let mut summary = format!(
             "{{\"points\":{},\"edits\":{},\"build_seconds\":{},\"mesh_seconds\":{},\"edit_seconds_median\":{}",

@@ -77,31 +77,40 @@ pub fn validate_nonobtuse(mesh: &Mesh, points: &[DVec2]) -> Result<(), InvalidMe
 /// radians, so an angle by at most twice that; the check allows this beyond
 /// [`ANGLE_SLACK_DEG`].
 pub fn first_obtuse(mesh: &Mesh) -> Option<(usize, String)> {
-    let m = [mesh.domain.lo, mesh.domain.hi]
-        .iter()
-        .map(|p| p.abs().max_element())
-        .fold(0.0, f64::max);
+    let m = largest_coordinate(&mesh.domain);
     (0..mesh.triangles.len())
         .into_par_iter()
         .find_map_first(|t| {
             let tri = mesh.triangles[t];
             let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
-            let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
-            let rounding = (16.0 * 2f64.sqrt() * f64::EPSILON * m / shortest).to_degrees();
-            let largest = angles_deg(a, b, c).into_iter().fold(0.0, f64::max);
-            (largest > 90.0 + ANGLE_SLACK_DEG + rounding).then(|| {
-            (
-                t,
-                format!(
-                    "triangle {t} {tri:?} at {} {} {} has an angle of {largest} degrees, over 90 \
-                     by more than rounding its vertices explains ({rounding:e} degrees)",
-                    pt(a),
-                    pt(b),
-                    pt(c)
-                ),
-            )
+            let (largest, rounding) = obtuse_beyond_rounding([a, b, c], m)?;
+            let message = format!(
+                "triangle {t} {tri:?} at {} {} {} has an angle of {largest} degrees, over 90 by \
+             more than rounding its vertices explains ({rounding:e} degrees)",
+                pt(a),
+                pt(b),
+                pt(c)
+            );
+            Some((t, message))
         })
-        })
+}
+
+/// The largest absolute coordinate of a domain's corners: the scale of the rounding of its
+/// grid's vertices.
+pub fn largest_coordinate(domain: &Domain) -> f64 {
+    [domain.lo, domain.hi]
+        .iter()
+        .map(|p| p.abs().max_element())
+        .fold(0.0, f64::max)
+}
+
+/// The largest angle of triangle `abc` and the rounding allowance of [`first_obtuse`] for it,
+/// if that angle is over 90° by more than the allowance; `m` as [`largest_coordinate`] gives.
+pub fn obtuse_beyond_rounding([a, b, c]: [DVec2; 3], m: f64) -> Option<(f64, f64)> {
+    let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
+    let rounding = (16.0 * 2f64.sqrt() * f64::EPSILON * m / shortest).to_degrees();
+    let largest = angles_deg(a, b, c).into_iter().fold(0.0, f64::max);
+    (largest > 90.0 + ANGLE_SLACK_DEG + rounding).then_some((largest, rounding))
 }
 
 /// The checks [`validate`] and [`super::check_delaunay`] make, in order.

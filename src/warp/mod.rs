@@ -89,7 +89,8 @@ pub fn warp<K: MortonKey>(
     });
     let (boundary, quality) = times.time("warp boundary", || {
         let inexact = |leaf: usize| !geometry.template_accurate(leaf);
-        let measured = measured_quality(&kinds, &offsets, (&triangles, &vertices), inexact);
+        let unmoved_inexact = |leaf: usize| kinds[leaf] & MOVED == 0 && inexact(leaf);
+        let measured = measured_quality(&offsets, (&triangles, &vertices), unmoved_inexact);
         (
             boundary_edges(&geometry, &kinds, &triangles, &offsets),
             unmoved_quality(&kinds, inexact)
@@ -251,16 +252,15 @@ fn unmoved_quality(kinds: &[u8], inexact: impl Fn(usize) -> bool + Sync) -> Angl
         .fold(AngleQuality::empty(), AngleQuality::merge)
 }
 
-/// The angles of the triangles of the unmoved `inexact` leaves, measured.
+/// The angles of the triangles of the leaves `measure` picks, measured.
 fn measured_quality(
-    kinds: &[u8],
     offsets: &[u32],
     (triangles, vertices): (&[[u32; 3]], &[DVec2]),
-    inexact: impl Fn(usize) -> bool + Sync,
+    measure: impl Fn(usize) -> bool + Sync,
 ) -> AngleQuality {
-    (0..kinds.len())
+    (0..offsets.len() - 1)
         .into_par_iter()
-        .filter(|&leaf| kinds[leaf] & MOVED == 0 && inexact(leaf))
+        .filter(|&leaf| measure(leaf))
         .fold(AngleQuality::empty, |mut quality, leaf| {
             let range = offsets[leaf] as usize..offsets[leaf + 1] as usize;
             for t in &triangles[range] {

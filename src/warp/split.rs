@@ -19,12 +19,15 @@ use rayon::prelude::*;
 use super::templates::{CENTRE, Kind, RingSide};
 use super::vertices::{LeafGeometry, Numbering};
 use super::{
-    UNRESOLVED, boundary_edges, collect_per_leaf, leaf_mesh, leaf_offsets, link_side,
-    neighbours_of, point_near, resolved_geometry, template_of, triangle_offsets, unmoved_templates,
+    MOVED, UNRESOLVED, boundary_edges, collect_per_leaf, leaf_mesh, leaf_offsets, link_side,
+    measured_quality, neighbours_of, point_near, resolved_geometry, template_of, triangle_offsets,
+    unmoved_quality, unmoved_templates,
 };
 use crate::balance::BalancedTree;
 use crate::error::Error;
-use crate::mesh::{AngleQuality, Mesh, NONE, StageTimes, angles_deg, first_obtuse};
+use crate::mesh::{
+    AngleQuality, Domain, Mesh, NONE, StageTimes, largest_coordinate, obtuse_beyond_rounding,
+};
 use crate::morton::{Grid, MortonKey};
 
 /// The largest angle of a nonobtuse mesh, in degrees.
@@ -267,8 +270,13 @@ pub fn split<K: MortonKey>(
     })?;
     let (kinds, offsets) = times.time("split templates", || {
         let mut kinds = unmoved_templates(&geometry, order, points)?;
+        // A leaf the points change is marked as a warped one is: its angles are measured.
         kinds.par_iter_mut().enumerate().for_each(|(leaf, code)| {
-            *code = leaf_split(&geometry, &splits, leaf, *code).map_or(UNRESOLVED, |s| s.code)
+            *code = match leaf_split(&geometry, &splits, leaf, *code) {
+                None => UNRESOLVED,
+                Some(split) if split.count > 0 => split.code | MOVED,
+                Some(split) => split.code,
+            }
         });
         if let Some(leaf) = kinds.par_iter().position_first(|&k| k == UNRESOLVED) {
             return Err(point_near(&geometry, leaf, order, points));
@@ -279,7 +287,7 @@ pub fn split<K: MortonKey>(
     let triangles = times.time("split triangles", || {
         collect_per_leaf(&offsets, |leaf, out| {
             let mut labels = numbering.labels(&geometry, leaf);
-            if let Some(split) = leaf_split(&geometry, &splits, leaf, kinds[leaf]) {
+            if let Some(split) = leaf_split(&geometry, &splits, leaf, kinds[leaf] & !MOVED) {
                 split.apply(&mut labels);
             }
             for t in &template_of(kinds[leaf]).triangles {
@@ -291,23 +299,37 @@ pub fn split<K: MortonKey>(
     let neighbours = times.time("split neighbours", || {
         neighbours_of(&geometry, &kinds, &offsets)
     });
-    let (boundary, quality) = times.time("split boundary", || {
-        (
-            boundary_edges(&geometry, &kinds, &triangles, &offsets),
-            measured(&triangles, &vertices),
-        )
+    let (boundary, quality, bent) = times.time("split boundary", || {
+        let split = |leaf: usize| kinds[leaf] & MOVED != 0;
+        let inexact = |leaf: usize| !geometry.template_accurate(leaf);
+        let measured = |leaf: usize| split(leaf) || inexact(leaf);
+        let quality = unmoved_quality(&kinds, inexact).merge(measured_quality(
+            &offsets,
+            (&triangles, &vertices),
+            measured,
+        ));
+        // A template's right angles are the grid's, rounded; only a point that f64 puts just
+        // outside its leaf can bend one past what rounding explains.
+        let (lo, hi) = grid.domain();
+        let m = largest_coordinate(&Domain { lo, hi });
+        let bent = (0..kinds.len()).into_par_iter().find_first(|&leaf| {
+            split(leaf)
+                && triangles[offsets[leaf] as usize..offsets[leaf + 1] as usize]
+                    .iter()
+                    .any(|t| obtuse_beyond_rounding(t.map(|v| vertices[v as usize]), m).is_some())
+        });
+        let boundary = boundary_edges(&geometry, &kinds, &triangles, &offsets);
+        (boundary, quality, bent)
     });
+    if let Some(leaf) = bent {
+        return Err(point_near(&geometry, leaf, order, points));
+    }
     let mesh = leaf_mesh(
         grid,
         (vertices, vertex_input),
         (triangles, neighbours),
         boundary,
     );
-    // Only a point that f64 puts just outside its leaf can bend a right angle past rounding.
-    if let Some((t, _)) = first_obtuse(&mesh) {
-        let bent = offsets.partition_point(|&first| first as usize <= t) - 1;
-        return Err(point_near(&geometry, bent, order, points));
-    }
     Ok((mesh, quality))
 }
 
@@ -363,20 +385,4 @@ fn add_vertices<K: MortonKey>(
     });
     vertices.extend(coordinates);
     vertex_input.extend(inputs);
-}
-
-/// The smallest and largest angle of every triangle, measured.
-fn measured(triangles: &[[u32; 3]], vertices: &[DVec2]) -> AngleQuality {
-    triangles
-        .par_chunks(crate::par::GRAIN)
-        .fold(AngleQuality::empty, |mut quality, chunk| {
-            for t in chunk {
-                let [a, b, c] = t.map(|v| vertices[v as usize]);
-                angles_deg(a, b, c)
-                    .into_iter()
-                    .for_each(|angle| quality.add(angle, 1));
-            }
-            quality
-        })
-        .reduce(AngleQuality::empty, AngleQuality::merge)
 }
