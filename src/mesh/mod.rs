@@ -23,8 +23,8 @@ pub use report::{AngleQuality, MeshReport, StageTimes};
 pub use topology::Edge;
 pub(crate) use topology::{EdgeLister, edges_listed_with, opposite_edge};
 pub use validate::{
-    AngleBounds, InvalidMesh, MeshCheck, first_obtuse, largest_coordinate, obtuse_beyond_rounding,
-    validate, validate_nonobtuse,
+    AngleBounds, InvalidMesh, MeshCheck, first_obtuse, largest_coordinate, obtuse_beyond,
+    rounding_allowance_deg, validate, validate_nonobtuse,
 };
 pub use validate_pslg::{validate_pslg, validate_pslg_with};
 

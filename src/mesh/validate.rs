@@ -83,7 +83,11 @@ pub fn first_obtuse(mesh: &Mesh) -> Option<(usize, String)> {
         .find_map_first(|t| {
             let tri = mesh.triangles[t];
             let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
-            let (largest, rounding) = obtuse_beyond_rounding([a, b, c], m)?;
+            let largest = angles_deg(a, b, c).into_iter().fold(0.0, f64::max);
+            let rounding = rounding_allowance_deg([a, b, c], m);
+            if !obtuse_beyond(largest, rounding) {
+                return None;
+            }
             let message = format!(
                 "triangle {t} {tri:?} at {} {} {} has an angle of {largest} degrees, over 90 by \
              more than rounding its vertices explains ({rounding:e} degrees)",
@@ -104,13 +108,17 @@ pub fn largest_coordinate(domain: &Domain) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// The largest angle of triangle `abc` and the rounding allowance of [`first_obtuse`] for it,
-/// if that angle is over 90° by more than the allowance; `m` as [`largest_coordinate`] gives.
-pub fn obtuse_beyond_rounding([a, b, c]: [DVec2; 3], m: f64) -> Option<(f64, f64)> {
+/// How far past 90° rounding can take a right angle of triangle `abc`, in degrees, beyond
+/// [`ANGLE_SLACK_DEG`] (see [`first_obtuse`]); `m` as [`largest_coordinate`] gives.
+pub fn rounding_allowance_deg([a, b, c]: [DVec2; 3], m: f64) -> f64 {
     let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
-    let rounding = (16.0 * 2f64.sqrt() * f64::EPSILON * m / shortest).to_degrees();
-    let largest = angles_deg(a, b, c).into_iter().fold(0.0, f64::max);
-    (largest > 90.0 + ANGLE_SLACK_DEG + rounding).then_some((largest, rounding))
+    (16.0 * 2f64.sqrt() * f64::EPSILON * m / shortest).to_degrees()
+}
+
+/// Whether an angle `angle` of a triangle whose [`rounding_allowance_deg`] is `allowance` is
+/// over 90° by more than rounding explains.
+pub fn obtuse_beyond(angle: f64, allowance: f64) -> bool {
+    angle > 90.0 + ANGLE_SLACK_DEG + allowance
 }
 
 /// The checks [`validate`] and [`super::check_delaunay`] make, in order.

@@ -20,13 +20,14 @@ use super::templates::{CENTRE, Kind, RingSide};
 use super::vertices::{LeafGeometry, Numbering};
 use super::{
     MOVED, UNRESOLVED, boundary_edges, collect_per_leaf, leaf_mesh, leaf_offsets, link_side,
-    measured_quality, neighbours_of, point_near, resolved_geometry, template_of, triangle_offsets,
-    unmoved_quality, unmoved_templates,
+    neighbours_of, point_near, resolved_geometry, template_of, triangle_offsets, unmoved_quality,
+    unmoved_templates,
 };
 use crate::balance::BalancedTree;
 use crate::error::Error;
 use crate::mesh::{
-    AngleQuality, Domain, Mesh, NONE, StageTimes, largest_coordinate, obtuse_beyond_rounding,
+    AngleQuality, Domain, Mesh, NONE, StageTimes, angles_deg, largest_coordinate, obtuse_beyond,
+    rounding_allowance_deg,
 };
 use crate::morton::{Grid, MortonKey};
 
@@ -287,7 +288,10 @@ pub fn split<K: MortonKey>(
     let triangles = times.time("split triangles", || {
         collect_per_leaf(&offsets, |leaf, out| {
             let mut labels = numbering.labels(&geometry, leaf);
-            if let Some(split) = leaf_split(&geometry, &splits, leaf, kinds[leaf] & !MOVED) {
+            // Only the leaves the points split take labels from them.
+            if kinds[leaf] & MOVED != 0
+                && let Some(split) = leaf_split(&geometry, &splits, leaf, kinds[leaf] & !MOVED)
+            {
                 split.apply(&mut labels);
             }
             for t in &template_of(kinds[leaf]).triangles {
@@ -300,24 +304,10 @@ pub fn split<K: MortonKey>(
         neighbours_of(&geometry, &kinds, &offsets)
     });
     let (boundary, quality, bent) = times.time("split boundary", || {
-        let split = |leaf: usize| kinds[leaf] & MOVED != 0;
         let inexact = |leaf: usize| !geometry.template_accurate(leaf);
-        let measured = |leaf: usize| split(leaf) || inexact(leaf);
-        let quality = unmoved_quality(&kinds, inexact).merge(measured_quality(
-            &offsets,
-            (&triangles, &vertices),
-            measured,
-        ));
-        // A template's right angles are the grid's, rounded; only a point that f64 puts just
-        // outside its leaf can bend one past what rounding explains.
-        let (lo, hi) = grid.domain();
-        let m = largest_coordinate(&Domain { lo, hi });
-        let bent = (0..kinds.len()).into_par_iter().find_first(|&leaf| {
-            split(leaf)
-                && triangles[offsets[leaf] as usize..offsets[leaf + 1] as usize]
-                    .iter()
-                    .any(|t| obtuse_beyond_rounding(t.map(|v| vertices[v as usize]), m).is_some())
-        });
+        let (measured, bent) =
+            measured_and_bent(&kinds, &offsets, (&triangles, &vertices), grid, inexact);
+        let quality = unmoved_quality(&kinds, inexact).merge(measured);
         let boundary = boundary_edges(&geometry, &kinds, &triangles, &offsets);
         (boundary, quality, bent)
     });
@@ -331,6 +321,47 @@ pub fn split<K: MortonKey>(
         boundary,
     );
     Ok((mesh, quality))
+}
+
+/// The angles of the leaves the points split and of the `inexact` ones, measured, and the first
+/// split leaf with an angle over 90° by more than rounding explains, if any: a template's right
+/// angles are the grid's, rounded, and only a point that f64 puts just outside its leaf can
+/// bend one further.
+fn measured_and_bent(
+    kinds: &[u8],
+    offsets: &[u32],
+    (triangles, vertices): (&[[u32; 3]], &[DVec2]),
+    grid: &Grid,
+    inexact: impl Fn(usize) -> bool + Sync,
+) -> (AngleQuality, Option<usize>) {
+    let (lo, hi) = grid.domain();
+    let m = largest_coordinate(&Domain { lo, hi });
+    let split = |leaf: usize| kinds[leaf] & MOVED != 0;
+    (0..kinds.len())
+        .into_par_iter()
+        .filter(|&leaf| split(leaf) || inexact(leaf))
+        .fold(
+            || (AngleQuality::empty(), None),
+            |(mut quality, mut bent), leaf| {
+                for t in &triangles[offsets[leaf] as usize..offsets[leaf + 1] as usize] {
+                    let corners = t.map(|v| vertices[v as usize]);
+                    let angles = angles_deg(corners[0], corners[1], corners[2]);
+                    angles.iter().for_each(|&angle| quality.add(angle, 1));
+                    let largest = angles.into_iter().fold(0.0, f64::max);
+                    if bent.is_none()
+                        && split(leaf)
+                        && obtuse_beyond(largest, rounding_allowance_deg(corners, m))
+                    {
+                        bent = Some(leaf);
+                    }
+                }
+                (quality, bent)
+            },
+        )
+        .reduce(
+            || (AngleQuality::empty(), None),
+            |(a, x): (AngleQuality, Option<usize>), (b, y)| (a.merge(b), x.min(y).or(x).or(y)),
+        )
 }
 
 /// Puts each point that lies on a corner of its leaf in that corner's place.
