@@ -4,7 +4,7 @@
 
 mod cli_support;
 
-use cli_support::{TempDir, quadmesh, s, stderr};
+use cli_support::{TempDir, bench_json, json_number, quadmesh, s, stderr};
 
 const POINTS: &str = "0.1 0.2\n0.8 0.3\n0.45 0.9\n0.5 0.5\n0 0.75\n";
 const EDITS: &str = "# a few edits\ni 0.3 0.3\nd 1\nm 3 0.52 0.48\ni 1 1\nm 0 0.9 0.1\n";
@@ -197,16 +197,6 @@ fn triangle_count(prefix: &std::path::Path) -> i64 {
     header.split_whitespace().next().unwrap().parse().unwrap()
 }
 
-/// A JSON line's integer field.
-fn field(line: &str, name: &str) -> i64 {
-    let at = line
-        .find(&format!("\"{name}\":"))
-        .unwrap_or_else(|| panic!("{name} in {line}"));
-    let rest = &line[at + name.len() + 3..];
-    let end = rest.find([',', '}']).unwrap();
-    rest[..end].parse().unwrap()
-}
-
 #[test]
 fn the_triangles_each_edit_changes_add_up_to_the_final_mesh() {
     let dir = TempDir::new("replay-changes");
@@ -241,10 +231,8 @@ fn the_triangles_each_edit_changes_add_up_to_the_final_mesh() {
     let lines: Vec<&str> = json.lines().collect();
     let mut count = triangle_count(&first);
     for line in &lines[..lines.len() - 1] {
-        let (removed, added) = (
-            field(line, "triangles_removed"),
-            field(line, "triangles_added"),
-        );
+        let removed = json_number(line, "triangles_removed") as i64;
+        let added = json_number(line, "triangles_added") as i64;
         // Every edit here moves, adds or takes out a point: some triangles change, not all.
         assert!(removed > 0 && added > 0 && removed < count, "{line}");
         count += added - removed;
@@ -252,5 +240,36 @@ fn the_triangles_each_edit_changes_add_up_to_the_final_mesh() {
     assert_eq!(count, triangle_count(&last));
     // Without --json there is nowhere to print them.
     let out = quadmesh(&["replay", s(&points), s(&edits), "-o", s(&last), "--changes"]);
+    assert!(!out.status.success());
+}
+
+#[test]
+fn bench_dynamic_times_each_kind_of_edit() {
+    let line = bench_json(&[
+        "--points",
+        "3000",
+        "--dist",
+        "cluster",
+        "--dynamic",
+        "--edits",
+        "40",
+        "--threads",
+        "2",
+        "--json",
+    ]);
+    for kind in ["insert", "delete", "move"] {
+        assert!(json_number(&line, &format!("{kind}_s")) > 0.0, "{line}");
+        // A median count of squares (an insertion into a large empty leaf may touch none).
+        assert!(
+            json_number(&line, &format!("{kind}_cells")) >= 0.0,
+            "{line}"
+        );
+    }
+    for key in ["build_s", "rebuild_s", "mesh_s"] {
+        assert!(json_number(&line, key) > 0.0, "{line}");
+    }
+    assert_eq!(json_number(&line, "edits"), 40.0);
+    // Only the warp mode is dynamic.
+    let out = quadmesh(&["bench", "--points", "10", "--dynamic", "--min-angle", "25"]);
     assert!(!out.status.success());
 }

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use quadmesh::dynamic::{BatchReport, DynamicMesh};
+use quadmesh::dynamic::{BatchReport, DynamicMesh, Edit};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{
     read_input, read_points, with_extension_appended, write_input_poly, write_leaves_csv,
@@ -105,6 +105,14 @@ enum Command {
         /// Print one JSON object as the last line.
         #[arg(long)]
         json: bool,
+        /// Time a dynamic warped mesh of the points instead (on the square `--warp` takes by
+        /// default): `--edits` insertions, then as many deletions and moves, one at a time,
+        /// medians per kind against a build of the final points from scratch and its mesh.
+        #[arg(long, conflicts_with_all = ["nonobtuse", "min_angle", "max_area", "max_vertices", "domain"])]
+        dynamic: bool,
+        /// With `--dynamic`: how many edits of each kind.
+        #[arg(long, value_name = "K", default_value_t = 1000, requires = "dynamic")]
+        edits: usize,
         #[command(flatten)]
         quality: QualityArgs,
     },
@@ -393,8 +401,13 @@ fn main() -> ExitCode {
             input,
             threads,
             json,
+            dynamic,
+            edits,
             quality,
-        } => bench(points, input, threads, json, quality),
+        } => match dynamic {
+            true => bench_dynamic(points, input, threads, json, edits),
+            false => bench(points, input, threads, json, quality),
+        },
         Command::Replay {
             points,
             edits,
@@ -843,6 +856,125 @@ fn bench(
         )?;
     }
     Ok(())
+}
+
+/// `quadmesh bench --dynamic`: single insertions, deletions and moves on a dynamic warped mesh
+/// of the points, each timed, against a build from scratch of the final points.
+fn bench_dynamic(
+    points: PointsArgs,
+    input: Option<PathBuf>,
+    threads: Option<NonZeroUsize>,
+    json: bool,
+    edits: usize,
+) -> Result<()> {
+    let pool = pool(threads)?;
+    let seed = points.seed;
+    let (source, initial) = match &input {
+        Some(path) => (
+            format!("\"input\":{}", json_string(&path.display().to_string())),
+            read_points(path)?,
+        ),
+        None => {
+            let n = points
+                .points
+                .context("--points N or --input FILE is required")?;
+            let dist = points.dist;
+            (
+                format!("\"points\":{n},\"dist\":\"{dist:?}\",\"seed\":{seed}"),
+                pool.install(|| generate::points(dist, n, seed)),
+            )
+        }
+    };
+    let domain = square_around(&initial)?;
+    pool.install(|| {
+        let (built, build) = timed(|| DynamicMesh::new(&initial, domain));
+        let mut dynamic = built?;
+        let n = initial.len() as u64;
+        // New places, uniform in the square; ids to delete and to move, in a seeded order.
+        let places: Vec<DVec2> = generate::points(Distribution2d::Uniform, 2 * edits, seed + 1)
+            .into_iter()
+            .map(|u| domain.lo + u * (domain.hi - domain.lo))
+            .collect();
+        let mut ids: Vec<u32> = (0..initial.len() as u32).collect();
+        ids.sort_by_key(|&id| (u64::from(id) ^ seed).wrapping_mul(0x9E37_79B9_7F4A_7C15) % n.max(1));
+        let mut timings: [Vec<(f64, usize)>; 3] = Default::default();
+        let mut run = |kind: usize, edit: Edit| {
+            let (done, time) = timed(|| dynamic.apply(&[edit]));
+            // A random place can repeat a live point's: that edit is refused and not counted.
+            if let Ok(reports) = done {
+                timings[kind].push((time.as_secs_f64(), reports[0].cells));
+            }
+        };
+        for &p in &places[..edits] {
+            run(0, Edit::Insert(p));
+        }
+        for &id in ids.iter().take(edits) {
+            run(1, Edit::Delete(id));
+        }
+        for (&id, &p) in ids.iter().skip(edits).zip(&places[edits..]) {
+            run(2, Edit::Move(id, p));
+        }
+        let (_, live) = dynamic.live_points();
+        let (rebuilt, rebuild) = timed(|| DynamicMesh::new(&live, domain));
+        rebuilt?;
+        let (meshed, mesh) = timed(|| dynamic.mesh());
+        meshed?;
+        let mut out = io::stdout().lock();
+        let mut fields = String::new();
+        for (kind, name) in ["insert", "delete", "move"].into_iter().enumerate() {
+            let mut seconds: Vec<f64> = timings[kind].iter().map(|t| t.0).collect();
+            let mut cells: Vec<f64> = timings[kind].iter().map(|t| t.1 as f64).collect();
+            let (seconds, cells) = (median(&mut seconds), median(&mut cells));
+            writeln!(
+                out,
+                "{:<24}{} median, {cells} squares touched ({} edits)",
+                name,
+                millis(Duration::from_secs_f64(seconds)),
+                timings[kind].len()
+            )?;
+            fields += &format!(",\"{name}_s\":{seconds},\"{name}_cells\":{cells}");
+        }
+        writeln!(out, "{:<24}{}", "tree from scratch", millis(rebuild))?;
+        writeln!(out, "{:<24}{}", "mesh()", millis(mesh))?;
+        if json {
+            writeln!(
+                out,
+                "{{{source},\"threads\":{},\"edits\":{edits},\"build_s\":{}{fields},\"rebuild_s\":{},\"mesh_s\":{},\"peak_rss_bytes\":{}}}",
+                rayon::current_num_threads(),
+                build.as_secs_f64(),
+                rebuild.as_secs_f64(),
+                mesh.as_secs_f64(),
+                peak_rss_bytes().unwrap_or(0),
+            )?;
+        }
+        Ok(())
+    })
+}
+
+/// A square around the points, as the warp mode's default one is (the bounding box near its
+/// middle), whose sides are exactly equal in f64 as a dynamic mesh needs: its side a power of
+/// two from twice to four times the box's larger side, its corner on a grid of 2^-20 of that.
+fn square_around(points: &[DVec2]) -> Result<Domain> {
+    anyhow::ensure!(!points.is_empty(), "no points");
+    let (lo, hi) = quadmesh::morton::bounding_box(points);
+    let extent = (hi - lo).max_element();
+    let side = if extent > 0.0 {
+        (2.0 * extent).log2().ceil().exp2()
+    } else {
+        2.0
+    };
+    let quantum = side / f64::from(1u32 << 20);
+    let corner = (((lo + hi) * 0.5 - DVec2::splat(side / 2.0)) / quantum).floor() * quantum;
+    let domain = Domain {
+        lo: corner,
+        hi: corner + DVec2::splat(side),
+    };
+    let extents = domain.hi - domain.lo;
+    anyhow::ensure!(
+        extents.x == side && extents.y == side && domain.contains(lo) && domain.contains(hi),
+        "no square with exactly equal sides in f64 holds these points"
+    );
+    Ok(domain)
 }
 
 /// `"<stage>_s":seconds` for each stage, comma-separated; a stage that ran twice (a domain's
