@@ -1,8 +1,8 @@
 //! End-to-end warped meshing (`mesh_points`: Morton order, framework, quadtree, separation,
-//! warp) and the warp stage alone, on generated points.
+//! warp), the warp stage alone, and the nonobtuse split of the same tree, on generated points.
 //!
-//! Group `mesh/<dist>/t<threads>`, ids `mesh/<n>` (throughput: input points) and `warp/<n>`
-//! (throughput: output triangles). Sizes default to 1e4 and 1e5 (`QUADMESH_BENCH_MESH_SIZES`);
+//! Group `mesh/<dist>/t<threads>`, ids `mesh/<n>` (throughput: input points), `warp/<n>` and
+//! `split/<n>` (throughput: output triangles). Sizes default to 1e4 and 1e5 (`QUADMESH_BENCH_MESH_SIZES`);
 //! threads come from `QUADMESH_BENCH_THREADS` like the other benches. Triangle counts are printed
 //! to stderr.
 
@@ -10,12 +10,15 @@ mod common;
 
 use common::{DISTRIBUTIONS, SEED, configure, env_counts, pools};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use quadmesh::balance::BalancedTree;
 use quadmesh::generate::points;
+use quadmesh::mesh::AngleQuality;
 use quadmesh::mesh::StageTimes;
+use quadmesh::morton::Grid;
 use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::separated_tree;
-use quadmesh::warp::warp;
-use quadmesh::{DVec2, MeshOptions, Tree, TreeBuild, mesh_points};
+use quadmesh::warp::{split, warp};
+use quadmesh::{DVec2, Error, Mesh, MeshOptions, Tree, TreeBuild, mesh_points};
 use rayon::ThreadPool;
 
 fn bench_warp<K: MortonKey>(
@@ -27,20 +30,31 @@ fn bench_warp<K: MortonKey>(
 ) {
     let tree = build.balanced.as_ref().expect("a separated tree");
     let m = &build.morton;
-    let run = || {
-        pool.install(|| {
-            warp(tree, &m.order, &m.grid, pts, &mut StageTimes::default()).expect("a mesh")
-        })
-    };
-    let triangles = run().0.triangles.len();
     let mut group = c.benchmark_group(group_name);
     configure(&mut group, pts.len());
-    group.throughput(Throughput::Elements(triangles as u64));
-    group.bench_function(BenchmarkId::new("warp", pts.len()), |b| {
-        b.iter_with_large_drop(run)
-    });
+    for (name, stage) in [("warp", warp::<K> as Stage<K>), ("split", split::<K>)] {
+        let run = || {
+            pool.install(|| {
+                stage(tree, &m.order, &m.grid, pts, &mut StageTimes::default()).expect("a mesh")
+            })
+        };
+        let triangles = run().0.triangles.len();
+        group.throughput(Throughput::Elements(triangles as u64));
+        group.bench_function(BenchmarkId::new(name, pts.len()), |b| {
+            b.iter_with_large_drop(run)
+        });
+    }
     group.finish();
 }
+
+/// The warp and the nonobtuse split: a separated tree to its mesh.
+type Stage<K> = fn(
+    &BalancedTree<K>,
+    &[u32],
+    &Grid,
+    &[DVec2],
+    &mut StageTimes,
+) -> Result<(Mesh, AngleQuality), Error>;
 
 fn mesh_benches(c: &mut Criterion) {
     for n in env_counts("QUADMESH_BENCH_MESH_SIZES", "10000,100000") {
