@@ -9,9 +9,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use quadmesh::dynamic::DynamicMesh;
 use quadmesh::mesh::Domain;
-use quadmesh::{
-    DVec2, Error, Input, Mesh, MeshReport, Mode, Options, Region, RegionSeed, Segment,
-};
+use quadmesh::{DVec2, Error, Input, Mesh, MeshReport, Mode, Options, Region, RegionSeed, Segment};
 
 create_exception!(
     _quadmesh,
@@ -434,9 +432,14 @@ impl PyDynamicMesh {
         self.inner.live_points().0.into_pyarray(py).into_any()
     }
 
-    fn mesh<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+    #[pyo3(signature = (nonobtuse = false))]
+    fn mesh<'py>(&self, py: Python<'py>, nonobtuse: bool) -> PyResult<Bound<'py, PyDict>> {
         let inner = &self.inner;
-        let mesh = py.detach(|| inner.mesh()).map_err(|e| raise(&e))?;
+        let meshed = py.detach(|| match nonobtuse {
+            true => inner.mesh_nonobtuse(),
+            false => inner.mesh(),
+        });
+        let mesh = meshed.map_err(|e| raise(&e))?;
         let report = MeshReport {
             points: inner.len(),
             vertices: mesh.vertices.len(),

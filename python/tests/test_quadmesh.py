@@ -197,6 +197,11 @@ def test_a_dynamic_mesh_after_edits_is_a_fresh_one_of_its_live_points():
     points = np.array([where[i] for i in live])
     mesh = dynamic.mesh()
     _same_mesh(mesh, quadmesh.DynamicMesh(points, (0, 0, 1, 1)).mesh())
+    # The nonobtuse mesh of the same tree: a rebuild's, every angle at most 90°.
+    split = dynamic.mesh(nonobtuse=True)
+    _same_mesh(split, quadmesh.DynamicMesh(points, (0, 0, 1, 1)).mesh(nonobtuse=True))
+    assert max_angles(split.vertices, split.triangles).max() <= 90 + 1e-6
+    assert len(split.triangles) > len(mesh.triangles)
     # Every live point is a vertex, numbered in id order.
     vertex_of = {int(v): i for i, v in enumerate(mesh.vertex_input) if v >= 0}
     np.testing.assert_array_equal(mesh.vertices[[vertex_of[k] for k in range(len(live))]], points)

@@ -202,9 +202,10 @@ class DynamicMesh:
         """The ids of the live points, in increasing order."""
         return self._inner.live_ids()
 
-    def mesh(self) -> Mesh:
-        """The current mesh."""
-        return _mesh_of(self._inner.mesh())
+    def mesh(self, nonobtuse: bool = False) -> Mesh:
+        """The current mesh: the warped one, or with ``nonobtuse=True`` the nonobtuse mesh of
+        the same quadtree (every angle at most 90°), as ``mesh(..., mode="nonobtuse")`` gives."""
+        return _mesh_of(self._inner.mesh(nonobtuse))
 
 
 # Switches of Triangle's option string this mesher supports, and those it refuses by name.
