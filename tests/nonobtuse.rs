@@ -194,3 +194,32 @@ proptest! {
         }
     }
 }
+
+/// Fuzzing found a single point 2.8e-310 from a grid line of its leaf: the strip between
+/// them had triangles whose areas underflow. A point that close to a line counts as on it.
+#[test]
+fn a_point_a_subnormal_distance_from_a_grid_line() {
+    let point = DVec2::new(2.83583534408754e-310, 2.622116294214786e-178);
+    let options = Options::default().nonobtuse().region(Region::Square);
+    let (mesh, _) = quadmesh::mesh(&Input::points(vec![point]), &options).unwrap();
+    mesh.validate_nonobtuse(&[point]).unwrap();
+    // Near a line relative to the leaf but not by 2^-40: a thin strip, still valid.
+    let near = [DVec2::new(0.5 + 1e-11, 0.5 + 1e-3), DVec2::ZERO, DVec2::ONE];
+    mesh_checked(&near, None);
+}
+
+/// Points so small that the triangles' areas underflow f64 are refused by name, as the warp
+/// mode refuses them, never meshed into degenerate triangles.
+#[test]
+fn points_at_a_scale_whose_areas_underflow_are_refused() {
+    let points = [
+        DVec2::new(1e-200, 2e-200),
+        DVec2::new(3e-200, 1e-200),
+        DVec2::new(2.5e-200, 2.7e-200),
+    ];
+    match mesh_points(&points, &nonobtuse(None)) {
+        Err(quadmesh::Error::Unresolvable { .. }) => {}
+        Ok((mesh, _)) => mesh.validate_nonobtuse(&points).unwrap(),
+        Err(e) => panic!("unexpected error {e}"),
+    }
+}

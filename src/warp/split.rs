@@ -30,9 +30,14 @@ use crate::mesh::{
     rounding_allowance_deg,
 };
 use crate::morton::{Grid, MortonKey};
+use crate::predicates::{Orientation, orientation};
 
 /// The largest angle of a nonobtuse mesh, in degrees.
 pub const NONOBTUSE_MAX_DEG: f64 = 90.0;
+
+/// How close to a side of its leaf, relatively, a point counts as on it (see [`Place::of`]):
+/// 2^-40, so that the angles this bends stay within the check's 1e-9° slack.
+const SNAP: f64 = 1.0 / (1u64 << 40) as f64;
 
 /// Where a point lies in its leaf, by f64 comparison with the leaf's corners.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,27 +51,34 @@ enum Place {
 }
 
 impl Place {
+    /// Where `x` lies in the leaf `(lo, hi)`. A point within [`SNAP`] of a side, relative to its
+    /// distances from that side's ends, counts as on it, and one within [`SNAP`] of the leaf's
+    /// side from a corner in both directions as on the corner: a strip that thin would bend no
+    /// angle by more than [`SNAP`] radians if the point were on the line, and its own
+    /// triangles' areas could fall below what f64 multiplies exactly.
     fn of(x: DVec2, (lo, hi): (DVec2, DVec2)) -> Place {
-        // `Some(false)` on or below the low line, `Some(true)` on or past the high one.
-        let along = |v: f64, lo: f64, hi: f64| {
-            if v <= lo {
-                Some(false)
-            } else if v >= hi {
-                Some(true)
-            } else {
-                None
-            }
-        };
-        match (along(x.x, lo.x, hi.x), along(x.y, lo.y, hi.y)) {
-            (Some(false), Some(false)) => Place::Corner(0),
-            (Some(true), Some(false)) => Place::Corner(2),
-            (Some(true), Some(true)) => Place::Corner(4),
-            (Some(false), Some(true)) => Place::Corner(6),
-            (Some(false), None) => Place::Side(RingSide::West),
-            (Some(true), None) => Place::Side(RingSide::East),
-            (None, Some(false)) => Place::Side(RingSide::South),
-            (None, Some(true)) => Place::Side(RingSide::North),
-            (None, None) => Place::Inside,
+        // Distances to the four sides; negative where f64 put the point just outside.
+        let (west, east, south, north) = (x.x - lo.x, hi.x - x.x, x.y - lo.y, hi.y - x.y);
+        let (width, height) = (hi.x - lo.x, hi.y - lo.y);
+        if west.min(east) <= SNAP * width && south.min(north) <= SNAP * height {
+            return Place::Corner(match (east < west, north < south) {
+                (false, false) => 0,
+                (true, false) => 2,
+                (true, true) => 4,
+                (false, true) => 6,
+            });
+        }
+        let on = |d: f64, end: f64, other_end: f64| d <= SNAP * end.min(other_end);
+        if on(west, south, north) {
+            Place::Side(RingSide::West)
+        } else if on(east, south, north) {
+            Place::Side(RingSide::East)
+        } else if on(south, west, east) {
+            Place::Side(RingSide::South)
+        } else if on(north, west, east) {
+            Place::Side(RingSide::North)
+        } else {
+            Place::Inside
         }
     }
 
@@ -271,11 +283,13 @@ pub fn split<K: MortonKey>(
     })?;
     let (kinds, offsets) = times.time("split templates", || {
         let mut kinds = unmoved_templates(&geometry, order, points)?;
-        // A leaf the points change is marked as a warped one is: its angles are measured.
+        // A leaf the points change, or that holds one, is marked as a warped one is: its
+        // angles are measured and its triangles checked.
         kinds.par_iter_mut().enumerate().for_each(|(leaf, code)| {
+            let holds = geometry.point(leaf) != NONE;
             *code = match leaf_split(&geometry, &splits, leaf, *code) {
                 None => UNRESOLVED,
-                Some(split) if split.count > 0 => split.code | MOVED,
+                Some(split) if split.count > 0 || holds => split.code | MOVED,
                 Some(split) => split.code,
             }
         });
@@ -324,9 +338,10 @@ pub fn split<K: MortonKey>(
 }
 
 /// The angles of the leaves the points split and of the `inexact` ones, measured, and the first
-/// split leaf with an angle over 90° by more than rounding explains, if any: a template's right
-/// angles are the grid's, rounded, and only a point that f64 puts just outside its leaf can
-/// bend one further.
+/// split leaf with an angle over 90° by more than rounding explains or a triangle f64 cannot
+/// orient (coordinates so small that its area underflows), if any: a template's right angles
+/// are the grid's, rounded, and only a point that f64 puts just outside its leaf can bend one
+/// further.
 fn measured_and_bent(
     kinds: &[u8],
     offsets: &[u32],
@@ -348,9 +363,11 @@ fn measured_and_bent(
                     let angles = angles_deg(corners[0], corners[1], corners[2]);
                     angles.iter().for_each(|&angle| quality.add(angle, 1));
                     let largest = angles.into_iter().fold(0.0, f64::max);
+                    let [a, b, c] = corners;
                     if bent.is_none()
                         && split(leaf)
-                        && obtuse_beyond(largest, rounding_allowance_deg(corners, m))
+                        && (obtuse_beyond(largest, rounding_allowance_deg(corners, m))
+                            || orientation(a, b, c) != Orientation::Left)
                     {
                         bent = Some(leaf);
                     }
