@@ -106,7 +106,7 @@ fn midpoint_label(side: RingSide) -> u8 {
     2 * side as u8 + 1
 }
 
-/// The points' places and the first added vertex of each (after the grid's `grid_vertices`).
+/// The points' places and the first vertex each adds (numbered after the grid's vertices).
 struct Splits {
     places: Vec<Place>,
     first: Vec<u32>,
