@@ -26,6 +26,7 @@ POINT_JOBS = {
     "kuzmin-q30": ["--points", "1000000", "--dist", "kuzmin", "--min-angle", "30"],
     "uniform-q20": ["--points", "1000000", "--dist", "uniform", "--min-angle", "20"],
     "uniform-warp": ["--points", "300000", "--dist", "uniform", "--warp"],
+    "uniform-nonobtuse": ["--points", "300000", "--dist", "uniform", "--nonobtuse"],
 }
 PSLG_JOBS = {
     # name: (generate arguments, file name, bench arguments)
