@@ -5,6 +5,8 @@ use glam::DVec2;
 use quadmesh::dynamic::{DynamicMesh, Edit};
 use quadmesh::mesh::Domain;
 use quadmesh::{Error, Input, Mesh, Mode, Options, Region};
+use rand::{Rng as _, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus as Rng;
 
 fn unit() -> Domain {
     Domain {
@@ -51,54 +53,37 @@ fn check(dynamic: &DynamicMesh, what: &str) {
         .unwrap_or_else(|e| panic!("{what}: {e}"));
 }
 
-/// A small xorshift generator: the tests carry their own seeds.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-}
-
 /// A point of the unit square from one of the families: uniform, a tight cluster, a
 /// Kuzmin-like spread around a centre, on a side or a corner, or on a grid line.
 fn point(rng: &mut Rng) -> DVec2 {
-    match rng.below(10) {
-        0 | 1 => DVec2::new(0.3 + rng.unit() * 1e-3, 0.6 + rng.unit() * 1e-3),
+    match rng.random_range(0..10) {
+        0 | 1 => DVec2::new(
+            0.3 + rng.random::<f64>() * 1e-3,
+            0.6 + rng.random::<f64>() * 1e-3,
+        ),
         2 => {
-            let r = 0.4 * rng.unit().powi(3);
-            let a = rng.unit() * std::f64::consts::TAU;
+            let r = 0.4 * rng.random::<f64>().powi(3);
+            let a = rng.random::<f64>() * std::f64::consts::TAU;
             DVec2::new(0.5 + r * a.cos(), 0.5 + r * a.sin())
         }
-        3 => DVec2::new(rng.unit(), 0.0),
-        4 => DVec2::new(1.0, rng.unit()),
-        5 => [DVec2::ZERO, DVec2::ONE, DVec2::new(0.0, 1.0)][rng.below(3)],
-        6 => DVec2::new(0.5, rng.unit()),
-        _ => DVec2::new(rng.unit(), rng.unit()),
+        3 => DVec2::new(rng.random::<f64>(), 0.0),
+        4 => DVec2::new(1.0, rng.random::<f64>()),
+        5 => [DVec2::ZERO, DVec2::ONE, DVec2::new(0.0, 1.0)][rng.random_range(0..3)],
+        6 => DVec2::new(0.5, rng.random::<f64>()),
+        _ => DVec2::new(rng.random::<f64>(), rng.random::<f64>()),
     }
 }
 
 /// A random live id.
 fn some_id(dynamic: &DynamicMesh, rng: &mut Rng) -> u32 {
     let (ids, _) = dynamic.live_points();
-    ids[rng.below(ids.len())]
+    ids[rng.random_range(0..ids.len())]
 }
 
 #[test]
 fn random_edits_give_the_rebuilt_mesh_after_every_step() {
     for seed in 1..=4u64 {
-        let mut rng = Rng(seed * 0x2545_F491_4F6C_DD1D);
+        let mut rng = Rng::seed_from_u64(seed * 0x2545_F491_4F6C_DD1D);
         let initial: Vec<DVec2> = (0..30).map(|_| point(&mut rng)).collect();
         let mut initial = initial;
         initial.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
@@ -106,7 +91,7 @@ fn random_edits_give_the_rebuilt_mesh_after_every_step() {
         let mut dynamic = DynamicMesh::new(&initial, unit()).unwrap();
         check(&dynamic, "the initial build");
         for step in 0..120 {
-            let edit = match rng.below(if dynamic.len() > 1 { 3 } else { 1 }) {
+            let edit = match rng.random_range(0..if dynamic.len() > 1 { 3 } else { 1 }) {
                 0 => Edit::Insert(point(&mut rng)),
                 1 => Edit::Delete(some_id(&dynamic, &mut rng)),
                 _ => Edit::Move(some_id(&dynamic, &mut rng), point(&mut rng)),
@@ -122,9 +107,9 @@ fn random_edits_give_the_rebuilt_mesh_after_every_step() {
 
 #[test]
 fn deleting_down_to_one_point_and_back() {
-    let mut rng = Rng(99);
+    let mut rng = Rng::seed_from_u64(99);
     let points: Vec<DVec2> = (0..25)
-        .map(|_| DVec2::new(rng.unit(), rng.unit()))
+        .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
         .collect();
     let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
     for id in 0..24 {
@@ -134,7 +119,7 @@ fn deleting_down_to_one_point_and_back() {
     assert_eq!(dynamic.len(), 1);
     for k in 0..10 {
         let id = dynamic
-            .insert(DVec2::new(rng.unit(), rng.unit()))
+            .insert(DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
             .unwrap()
             .id;
         assert_eq!(id, 25 + k, "new points take the next ids");
@@ -195,17 +180,20 @@ fn bad_edits_are_refused_and_change_nothing() {
 
 #[test]
 fn a_batch_equals_its_edits_one_by_one_and_a_bad_batch_changes_nothing() {
-    let mut rng = Rng(5);
+    let mut rng = Rng::seed_from_u64(5);
     let points: Vec<DVec2> = (0..40)
-        .map(|_| DVec2::new(rng.unit(), rng.unit()))
+        .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
         .collect();
     let mut batched = DynamicMesh::new(&points, unit()).unwrap();
     let mut single = batched.clone();
     let edits: Vec<Edit> = (0..30)
         .map(|k| match k % 3 {
-            0 => Edit::Insert(DVec2::new(rng.unit(), rng.unit())),
+            0 => Edit::Insert(DVec2::new(rng.random::<f64>(), rng.random::<f64>())),
             1 => Edit::Delete(k as u32),
-            _ => Edit::Move(k as u32, DVec2::new(rng.unit(), rng.unit())),
+            _ => Edit::Move(
+                k as u32,
+                DVec2::new(rng.random::<f64>(), rng.random::<f64>()),
+            ),
         })
         .collect();
     let mut sequential = batched.clone();
@@ -231,7 +219,7 @@ fn a_batch_equals_its_edits_one_by_one_and_a_bad_batch_changes_nothing() {
 #[test]
 fn random_batches_equal_their_edits_one_by_one() {
     for seed in 1..=6u64 {
-        let mut rng = Rng(seed * 0x1234_5678_9ABC_DEF1);
+        let mut rng = Rng::seed_from_u64(seed * 0x1234_5678_9ABC_DEF1);
         let initial: Vec<DVec2> = {
             let mut v: Vec<DVec2> = (0..60).map(|_| point(&mut rng)).collect();
             v.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
@@ -245,17 +233,17 @@ fn random_batches_equal_their_edits_one_by_one() {
             let mut edits = Vec::new();
             let mut next_id = batched.live_points().0.iter().max().map_or(0, |m| m + 1);
             let (mut ids, _) = batched.live_points();
-            for _ in 0..1 + rng.below(25) {
-                let edit = match rng.below(if ids.len() > 1 { 4 } else { 1 }) {
+            for _ in 0..1 + rng.random_range(0..25) {
+                let edit = match rng.random_range(0..if ids.len() > 1 { 4 } else { 1 }) {
                     0 => {
                         ids.push(next_id.max(batched.len() as u32));
                         next_id += 1;
                         Edit::Insert(point(&mut rng))
                     }
-                    1 => Edit::Delete(ids.swap_remove(rng.below(ids.len()))),
-                    2 => Edit::Move(ids[rng.below(ids.len())], point(&mut rng)),
+                    1 => Edit::Delete(ids.swap_remove(rng.random_range(0..ids.len()))),
+                    2 => Edit::Move(ids[rng.random_range(0..ids.len())], point(&mut rng)),
                     _ => {
-                        let id = ids[rng.below(ids.len())];
+                        let id = ids[rng.random_range(0..ids.len())];
                         let p = batched.point(id).unwrap_or(DVec2::splat(0.5));
                         Edit::Move(id, (p + DVec2::splat(1e-6)).min(DVec2::ONE))
                     }
@@ -279,16 +267,21 @@ fn random_batches_equal_their_edits_one_by_one() {
 
 #[test]
 fn a_time_step_of_moving_points_equals_a_rebuild() {
-    let mut rng = Rng(11);
+    let mut rng = Rng::seed_from_u64(11);
     let points: Vec<DVec2> = (0..200)
-        .map(|_| DVec2::new(0.1 + 0.8 * rng.unit(), 0.1 + 0.8 * rng.unit()))
+        .map(|_| {
+            DVec2::new(
+                0.1 + 0.8 * rng.random::<f64>(),
+                0.1 + 0.8 * rng.random::<f64>(),
+            )
+        })
         .collect();
     let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
     for step in 0..3 {
         let (ids, _) = dynamic.live_points();
         let shifts: Vec<DVec2> = ids
             .iter()
-            .map(|_| DVec2::new(rng.unit() - 0.5, rng.unit() - 0.5) * 1e-3)
+            .map(|_| DVec2::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5) * 1e-3)
             .collect();
         dynamic.move_all(&ids, &shifts).unwrap();
         check(&dynamic, &format!("time step {step}"));
@@ -297,14 +290,14 @@ fn a_time_step_of_moving_points_equals_a_rebuild() {
 
 #[test]
 fn one_and_several_threads_give_the_same_mesh() {
-    let mut rng = Rng(21);
+    let mut rng = Rng::seed_from_u64(21);
     let points: Vec<DVec2> = (0..300).map(|_| point(&mut rng)).collect();
     let mut points = points;
     points.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
     points.dedup();
     let edits: Vec<Edit> = (0..60)
         .map(|k| match k % 2 {
-            0 => Edit::Insert(DVec2::new(rng.unit(), rng.unit())),
+            0 => Edit::Insert(DVec2::new(rng.random::<f64>(), rng.random::<f64>())),
             _ => Edit::Delete(k as u32),
         })
         .collect();
@@ -340,20 +333,20 @@ fn a_domain_that_is_not_square_is_refused() {
 
 #[test]
 fn the_change_between_meshes_is_local_and_turns_the_old_mesh_into_the_new() {
-    let mut rng = Rng(41);
+    let mut rng = Rng::seed_from_u64(41);
     let points: Vec<DVec2> = (0..2000)
-        .map(|_| DVec2::new(rng.unit(), rng.unit()))
+        .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
         .collect();
     let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
     let corners = |m: &Mesh, t: u32| m.triangles[t as usize].map(|v| m.vertices[v as usize]);
     for step in 0..12 {
         let before = dynamic.mesh().unwrap();
         let edit = match step % 3 {
-            0 => Edit::Insert(DVec2::new(rng.unit(), rng.unit())),
+            0 => Edit::Insert(DVec2::new(rng.random::<f64>(), rng.random::<f64>())),
             1 => Edit::Delete(some_id(&dynamic, &mut rng)),
             _ => Edit::Move(
                 some_id(&dynamic, &mut rng),
-                DVec2::new(rng.unit(), rng.unit()),
+                DVec2::new(rng.random::<f64>(), rng.random::<f64>()),
             ),
         };
         dynamic.apply(&[edit]).unwrap();

@@ -533,6 +533,8 @@ mod tests {
     use crate::balance::sides_of;
     use crate::morton::{Grid, MortonKey};
     use glam::DVec2;
+    use rand::{Rng as _, SeedableRng};
+    use rand_xoshiro::Xoshiro256PlusPlus as Rng;
 
     /// What `separate_in` builds for these keys from scratch.
     fn static_tree<K: MortonKey>(keys: &[K], on: &[u8]) -> Option<BalancedTree<K>> {
@@ -588,21 +590,6 @@ mod tests {
     }
 
     /// A tiny xorshift generator: tests need no seeds from outside.
-    struct Rng(u64);
-
-    impl Rng {
-        fn next(&mut self) -> u64 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            self.0
-        }
-
-        fn unit(&mut self) -> f64 {
-            (self.next() >> 11) as f64 / (1u64 << 53) as f64
-        }
-    }
-
     fn on_sides(p: DVec2) -> u8 {
         sides_of(p, DVec2::ZERO, DVec2::ONE)
     }
@@ -611,17 +598,20 @@ mod tests {
     /// corner, or on a row of points three squares apart at one level (a row whose leaves
     /// each rest on the next one's).
     fn point(rng: &mut Rng) -> DVec2 {
-        match rng.next() % 10 {
-            0 | 1 => DVec2::new(0.3 + rng.unit() * 1e-3, 0.6 + rng.unit() * 1e-3),
-            2 => DVec2::new(rng.unit(), 0.0),
-            3 => DVec2::new(1.0, rng.unit()),
-            4 => DVec2::new(rng.unit(), 1.0),
-            5 => [DVec2::ZERO, DVec2::ONE, DVec2::X][(rng.next() % 3) as usize],
+        match rng.random_range(0..10) {
+            0 | 1 => DVec2::new(
+                0.3 + rng.random::<f64>() * 1e-3,
+                0.6 + rng.random::<f64>() * 1e-3,
+            ),
+            2 => DVec2::new(rng.random::<f64>(), 0.0),
+            3 => DVec2::new(1.0, rng.random::<f64>()),
+            4 => DVec2::new(rng.random::<f64>(), 1.0),
+            5 => [DVec2::ZERO, DVec2::ONE, DVec2::X][rng.random_range(0..3)],
             6 | 7 => {
-                let k = (rng.next() % 40) as f64;
-                DVec2::new(0.1 + k * 3.0 / 256.0 + rng.unit() * 1e-4, 0.25)
+                let k = f64::from(rng.random_range(0..40u8));
+                DVec2::new(0.1 + k * 3.0 / 256.0 + rng.random::<f64>() * 1e-4, 0.25)
             }
-            _ => DVec2::new(rng.unit(), rng.unit()),
+            _ => DVec2::new(rng.random::<f64>(), rng.random::<f64>()),
         }
     }
 
@@ -652,13 +642,14 @@ mod tests {
     /// against the static build.
     fn random_edits<K: MortonKey>(seeds: std::ops::RangeInclusive<u64>, key: impl Fn(DVec2) -> K) {
         for seed in seeds {
-            let mut rng = Rng(seed * 0x9E37_79B9_7F4A_7C15);
+            let mut rng = Rng::seed_from_u64(seed * 0x9E37_79B9_7F4A_7C15);
             let mut points = SeparatedPoints::<K>::new(Vec::new(), Vec::new());
             let mut live: Vec<K> = Vec::new();
             for step in 0..400 {
-                let delete = !live.is_empty() && (rng.next() % 5 < 2 || (150..220).contains(&step));
+                let delete =
+                    !live.is_empty() && (rng.random_range(0..5) < 2 || (150..220).contains(&step));
                 if delete {
-                    let key = live.swap_remove((rng.next() % live.len() as u64) as usize);
+                    let key = live.swap_remove(rng.random_range(0..live.len()));
                     points.remove(key);
                 } else {
                     let p = point(&mut rng);
@@ -677,17 +668,17 @@ mod tests {
     #[test]
     fn moves_within_a_leaf_keep_the_static_tree() {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
-        let mut rng = Rng(31);
+        let mut rng = Rng::seed_from_u64(31);
         let pairs = random_keys(&mut rng, 300, &grid);
         let (mut keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
         let mut points = SeparatedPoints::new(keys.clone(), on.clone());
         let mut moved = 0;
         for _ in 0..2000 {
-            let i = (rng.next() % keys.len() as u64) as usize;
+            let i = rng.random_range(0..keys.len());
             // A small step in grid units, often within the leaf, sometimes out of it.
             let (x, y) = keys[i].decode();
             let step = |c: u64, r: u64| c.wrapping_add(r % (1 << 22)).wrapping_sub(1 << 21);
-            let to = u64::encode(step(x, rng.next()), step(y, rng.next()));
+            let to = u64::encode(step(x, rng.random::<u64>()), step(y, rng.random::<u64>()));
             if points.contains(to) || !points.move_within_leaf(keys[i], to, on[i]) {
                 continue;
             }
@@ -702,14 +693,14 @@ mod tests {
     #[test]
     fn batches_of_insertions_and_removals_give_the_static_tree() {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
-        let mut rng = Rng(57);
+        let mut rng = Rng::seed_from_u64(57);
         let mut points = SeparatedPoints::<u64>::new(Vec::new(), Vec::new());
         let mut live: Vec<u64> = Vec::new();
         for round in 0..30 {
-            let size = 1 + (rng.next() % 40) as usize;
+            let size = 1 + rng.random_range(0..40usize);
             if round % 3 == 2 && !live.is_empty() {
                 let mut gone: Vec<u64> = (0..size.min(live.len()))
-                    .map(|_| live.swap_remove((rng.next() % live.len() as u64) as usize))
+                    .map(|_| live.swap_remove(rng.random_range(0..live.len())))
                     .collect();
                 gone.sort_unstable();
                 points.remove_many(&gone);
@@ -745,7 +736,7 @@ mod tests {
     #[test]
     fn a_built_tree_edits_like_one_grown_point_by_point() {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
-        let mut rng = Rng(77);
+        let mut rng = Rng::seed_from_u64(77);
         let pairs = random_keys(&mut rng, 400, &grid);
         let (keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
         let mut points = SeparatedPoints::new(keys, on);
