@@ -589,7 +589,7 @@ mod tests {
         }
     }
 
-    /// A tiny xorshift generator: tests need no seeds from outside.
+    /// The sides of the unit square `p` lies on.
     fn on_sides(p: DVec2) -> u8 {
         sides_of(p, DVec2::ZERO, DVec2::ONE)
     }
