@@ -27,9 +27,11 @@ pub enum Error {
         /// Its y coordinate.
         y: f64,
     },
-    /// The bounding box is too large for f64 arithmetic on its extent.
+    /// The bounding box is too large for f64 arithmetic on its extent, or (in the quadtree
+    /// modes) so small that its mesh's areas underflow.
     #[error(
-        "coordinates span [{lo:?}, {hi:?}], too wide to compute with in f64; rescale the input"
+        "coordinates span [{lo:?}, {hi:?}], too wide or too narrow for f64 to measure the mesh's \
+         areas; rescale the input"
     )]
     CoordinateRange {
         /// Lower-left corner of the bounding box.

@@ -208,8 +208,9 @@ fn a_point_a_subnormal_distance_from_a_grid_line() {
     mesh_checked(&near, None);
 }
 
-/// Points so small that the triangles' areas underflow f64 are refused by name, as the warp
-/// mode refuses them, never meshed into degenerate triangles.
+/// Points so small that the triangles' areas underflow f64 are refused, as in the warp mode,
+/// never meshed into degenerate triangles: a square of area below 1e-240 outright, and a
+/// triangle f64 cannot orient, near a point, by name.
 #[test]
 fn points_at_a_scale_whose_areas_underflow_are_refused() {
     let points = [
@@ -217,9 +218,19 @@ fn points_at_a_scale_whose_areas_underflow_are_refused() {
         DVec2::new(3e-200, 1e-200),
         DVec2::new(2.5e-200, 2.7e-200),
     ];
-    match mesh_points(&points, &nonobtuse(None)) {
-        Err(quadmesh::Error::Unresolvable { .. }) => {}
-        Ok((mesh, _)) => mesh.validate_nonobtuse(&points).unwrap(),
-        Err(e) => panic!("unexpected error {e}"),
+    let refused = mesh_points(&points, &nonobtuse(None));
+    assert!(
+        matches!(refused, Err(quadmesh::Error::CoordinateRange { .. })),
+        "{refused:?}"
+    );
+    // Points 1e-21 apart in a square of side 1e-110: areas down to 1e-262, still normal.
+    let close = [
+        DVec2::ZERO,
+        DVec2::new(1e-110, 1e-110),
+        DVec2::new(5e-111, 5e-111 + 1e-131),
+    ];
+    match mesh_points(&close, &nonobtuse(None)) {
+        Ok((mesh, _)) => mesh.validate_nonobtuse(&close).unwrap(),
+        Err(e) => assert!(matches!(e, quadmesh::Error::Unresolvable { .. }), "{e}"),
     }
 }

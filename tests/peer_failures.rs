@@ -404,3 +404,35 @@ fn a_warped_mesh_whose_areas_overflow_is_refused() {
         }
     }
 }
+
+#[test]
+fn a_warped_mesh_whose_areas_underflow_is_refused() {
+    // Found by the `point_sets` fuzz target: two points 1e-158 apart gave a warped mesh whose
+    // triangles' areas underflow f64, so their sum could not be checked against the square's.
+    let points = vec![
+        DVec2::new(4.180_672_277_983_657_4e-178, 4.180_672_277_983_657_4e-178),
+        DVec2::new(4.203_566_516_702_135e-178, 7.711_979_156_801_684e-159),
+    ];
+    for options in [Options::default().warp(), Options::default().nonobtuse()] {
+        match within_limit(&Input::points(points.clone()), options) {
+            Ok(mesh) => panic!("a mesh of area {}", mesh.domain.area()),
+            Err(e) => assert!(matches!(e, Error::CoordinateRange { .. }), "{e}"),
+        }
+    }
+    // Points 1e-100 apart still mesh, with areas f64 measures.
+    let small = vec![DVec2::ZERO, DVec2::new(1e-100, 3e-101)];
+    let mesh = within_limit(&Input::points(small.clone()), Options::default().warp()).unwrap();
+    mesh.validate(&small, Options::default().warp().angle_bounds())
+        .unwrap();
+}
+
+#[test]
+fn split_points_near_the_end_of_a_long_segment_are_in_order() {
+    // Found by the `poly_file` fuzz target (at 20°): a segment 8e13 long, nearly horizontal,
+    // whose last pieces end at points whose fractions of the way along round to the same f64.
+    // The check orders them by their coordinates instead, and the mesh passes it.
+    let text =
+        "4 2 0 0\n1 0 0\n2 04 05 0\n7 1e30 0592e9\n4 0 1e3 0\n4 0\n0 1 2\n2 2 3\n3 3 4\n4 4 1\n0\n";
+    let input = quadmesh::io::parse_poly_input(text, "long.poly").unwrap();
+    meshes_or_stops_at_the_budget(&input);
+}

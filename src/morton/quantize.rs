@@ -33,6 +33,17 @@ pub struct Grid {
     far_line: [Option<u128>; 2],
 }
 
+/// The least area of a root square: its smallest triangles, at the wide grid's finest leaves
+/// (2^-60 of the side, halved by a template, then cut 2^-40 thin by a nonobtuse strip: 2^-163
+/// of the root's area), still have normal f64 areas (above 2^-1022) for orientation and sums.
+const MIN_ROOT_AREA: f64 = 1e-240;
+
+/// Whether a root square of side `side` has a finite area its mesh's areas can be measured
+/// against: not above f64's range, and at least [`MIN_ROOT_AREA`].
+fn side_measurable(side: f64) -> bool {
+    side.is_finite() && (side * side).is_finite() && side * side >= MIN_ROOT_AREA
+}
+
 impl Grid {
     /// The grid for points with bounding box `[lo, hi]`, at `axis_bits` (32 or 64) bits per axis.
     pub fn around(lo: DVec2, hi: DVec2, axis_bits: u32) -> Result<Grid, Error> {
@@ -46,8 +57,7 @@ impl Grid {
         };
         let side = 2.0 * half;
         let origin = centre - DVec2::splat(half);
-        // The mesh's areas are squares of lengths up to the side: they must stay finite.
-        if !(side.is_finite() && (side * side).is_finite() && origin.is_finite()) {
+        if !(side_measurable(side) && origin.is_finite()) {
             return Err(Error::CoordinateRange {
                 lo: lo.into(),
                 hi: hi.into(),
@@ -66,8 +76,7 @@ impl Grid {
     pub fn on_domain(lo: DVec2, hi: DVec2, axis_bits: u32) -> Result<Grid, Error> {
         let extent = hi - lo;
         let side = extent.max_element();
-        let areas_finite = (side * side).is_finite();
-        if !(lo.is_finite() && hi.is_finite() && side.is_finite() && areas_finite && side > 0.0) {
+        if !(lo.is_finite() && hi.is_finite() && side_measurable(side)) {
             return Err(Error::CoordinateRange {
                 lo: lo.into(),
                 hi: hi.into(),
@@ -272,8 +281,12 @@ mod tests {
 
     #[test]
     fn tiny_and_huge_extents_work() {
-        let g = Grid::around(DVec2::ZERO, DVec2::new(5e-324, 0.0), 32).unwrap();
-        assert_ne!(g.quantize(DVec2::ZERO), g.quantize(DVec2::new(5e-324, 0.0)));
+        let g = Grid::around(DVec2::ZERO, DVec2::new(1e-110, 0.0), 32).unwrap();
+        assert_ne!(g.quantize(DVec2::ZERO), g.quantize(DVec2::new(1e-110, 0.0)));
+        // A square whose area underflows toward f64's smallest normal number is refused: the
+        // areas of its smallest triangles could not be computed.
+        let r = Grid::around(DVec2::ZERO, DVec2::new(1e-150, 0.0), 32);
+        assert!(matches!(r, Err(Error::CoordinateRange { .. })));
         let g = Grid::around(DVec2::splat(1e150), DVec2::splat(1e150), 64).unwrap();
         assert!((g.side() * g.side()).is_finite());
         // A square whose area overflows f64 is refused: nothing could measure the mesh's areas.

@@ -466,20 +466,41 @@ pub(super) fn segment_pieces(
             },
         })
         .collect();
-    let mut pieces: Vec<(SubSegment, f64)> = found
+    let mut pieces: Vec<(SubSegment, [f64; 2])> = found
         .into_iter()
         .filter(|(s, _)| s.segment != NONE)
         .map(|(mut s, _)| {
             let [i, j] = input.segments[s.segment as usize].ends;
-            let (p, q) = (input.points[i as usize], input.points[j as usize]);
-            let [a, b] = s.vertices.map(|v| t.vertices[v as usize]);
-            if (b - a).dot(q - p) < 0.0 {
+            let d = input.points[j as usize] - input.points[i as usize];
+            let [a, b] = s.vertices.map(|v| along(t.vertices[v as usize], d));
+            // Each piece runs forward, and is ordered by where it starts.
+            let start = if by_key(b, a).is_lt() {
                 s.vertices.swap(0, 1);
-            }
-            let along = ((a + b) * 0.5 - p).dot(q - p);
-            (s, along)
+                b
+            } else {
+                a
+            };
+            (s, start)
         })
         .collect();
-    pieces.par_sort_unstable_by(|(s, x), (r, y)| s.segment.cmp(&r.segment).then(x.total_cmp(y)));
+    pieces.par_sort_unstable_by(|(s, x), (r, y)| s.segment.cmp(&r.segment).then(by_key(*x, *y)));
     (pieces.into_iter().map(|(s, _)| s).collect(), boundary)
+}
+
+/// Where a point on a segment of direction `d` lies along it, as a key that orders the points
+/// of the segment exactly: its coordinate along the axis `d` changes most on, then along the
+/// other, each signed to grow with `d`. (A fraction of the way along, a rounded quotient, ties
+/// for distinct points near the ends of a long segment.)
+fn along(p: DVec2, d: DVec2) -> [f64; 2] {
+    let sign = |c: f64| if c < 0.0 { -1.0 } else { 1.0 };
+    if d.x.abs() >= d.y.abs() {
+        [p.x * sign(d.x), p.y * sign(d.y)]
+    } else {
+        [p.y * sign(d.y), p.x * sign(d.x)]
+    }
+}
+
+/// The order of two [`along`] keys.
+fn by_key(a: [f64; 2], b: [f64; 2]) -> std::cmp::Ordering {
+    a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1]))
 }
