@@ -428,9 +428,12 @@ fn a_warped_mesh_whose_areas_underflow_is_refused() {
 
 #[test]
 fn split_points_near_the_end_of_a_long_segment_are_in_order() {
-    // Found by the `poly_file` fuzz target (at 20°): a segment 8e13 long, nearly horizontal,
-    // whose last pieces end at points whose fractions of the way along round to the same f64.
-    // The check orders them by their coordinates instead, and the mesh passes it.
+    // Found by the `poly_file` fuzz target (at 20°): a segment 1e30 long, nearly horizontal,
+    // split near its end (x about 8e13) at points whose fractions of the way along round to
+    // the same f64. The mesher listed the pieces by that fraction, out of order, and the check
+    // ordered them the same way. Both order them by their coordinates now. Split vertices near
+    // the far end, rounded off the line by 1e-4, move the area by 5e-8 of this thin domain's;
+    // the check allows what that rounding explains.
     let text =
         "4 2 0 0\n1 0 0\n2 04 05 0\n7 1e30 0592e9\n4 0 1e3 0\n4 0\n0 1 2\n2 2 3\n3 3 4\n4 4 1\n0\n";
     let input = quadmesh::io::parse_poly_input(text, "long.poly").unwrap();
