@@ -440,22 +440,33 @@ fn split_points_near_the_end_of_a_long_segment_are_in_order() {
     meshes_or_stops_at_the_budget(&input);
 }
 
-/// Ignored: exposes a bug, found by the `point_sets` fuzz target (Delaunay mode, 29°, the
-/// square around the points). Two points 4e-178 apart near the origin, a third 134 051 away:
-/// refinement splits toward the tiny gap, where the exact predicates' products underflow f64,
-/// and stops at the vertex budget with a partial mesh that fails the Delaunay check (at 20° as
-/// well). The Delaunay mode should refuse points closer together than its predicates resolve,
-/// as it refuses extents below 1e-70, or mesh them exactly.
+/// Ignored: exposes a bug, found twice by the `point_sets` fuzz target (Delaunay mode, 29°,
+/// the square around the points). Points 4e-178 apart near the origin with a third 134 051
+/// away, and points 1.7e-115 and 4.9e-313 from the origin in an extent of 2.8e-23: refinement
+/// splits toward the tiny gap, where the exact predicates' products underflow f64. The first
+/// stops at the vertex budget with a partial mesh that fails the Delaunay check, the second
+/// fails the angle check. The Delaunay mode should refuse points closer together than its
+/// predicates resolve, as it refuses extents below 1e-70, or mesh them exactly.
 #[test]
-#[ignore = "exposes a bug: the predicates underflow at a 4e-178 gap"]
+#[ignore = "exposes a bug: the predicates underflow at gaps below 1e-100"]
 fn points_4e_minus_178_apart_are_refused_or_meshed_exactly() {
-    let points = vec![
-        DVec2::new(4.925_663_354_239_428e-198, 1.119_055_691_525_303e-309),
-        DVec2::new(4.179_403_526_067_301_6e-178, 1.744_012_190_584_675_8e-307),
-        DVec2::new(1.999_502_279_906_807e-184, 134_051.388_326_198_36),
+    let inputs = [
+        vec![
+            DVec2::new(4.925_663_354_239_428e-198, 1.119_055_691_525_303e-309),
+            DVec2::new(4.179_403_526_067_301_6e-178, 1.744_012_190_584_675_8e-307),
+            DVec2::new(1.999_502_279_906_807e-184, 134_051.388_326_198_36),
+        ],
+        vec![
+            DVec2::new(2.829_930_847_549_25e-23, 1.33e-322),
+            DVec2::new(4.880_590_319_2e-313, 0.0),
+            DVec2::new(1.731_451_335_505_099_3e-115, 2.110_658_851_827_719_5e-177),
+        ],
     ];
-    let input = Input::points(points.clone());
-    for angle in [20.0, 29.0] {
+    for (points, angle) in inputs
+        .iter()
+        .flat_map(|p| [20.0, 29.0].map(|a| (p.clone(), a)))
+    {
+        let input = Input::points(points.clone());
         let options = Options::default()
             .min_angle(angle)
             .region(Region::Square)
