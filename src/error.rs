@@ -68,6 +68,24 @@ pub enum Error {
         /// Its coordinates.
         pb: [f64; 2],
     },
+    /// Two distinct points closer together than the Delaunay mode's exact predicates resolve:
+    /// within 1e-70 in both coordinates, where the in-circle test's products underflow f64.
+    #[error(
+        "points {a} ({:?}) and {b} ({:?}) are distinct but within 1e-70 of each other, closer \
+         than the Delaunay mode computes exactly; merge or move them",
+        pa,
+        pb
+    )]
+    TooClose {
+        /// Input index of the first point.
+        a: usize,
+        /// Its coordinates.
+        pa: [f64; 2],
+        /// Input index of the second point.
+        b: usize,
+        /// Its coordinates.
+        pb: [f64; 2],
+    },
     /// A point given twice: an edit of a dynamic mesh that puts a point where a live one is, or
     /// a dynamic mesh's initial points with one repeated.
     #[error("point {id} ({x}, {y}) is already point {existing}")]

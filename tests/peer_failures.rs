@@ -440,16 +440,14 @@ fn split_points_near_the_end_of_a_long_segment_are_in_order() {
     meshes_or_stops_at_the_budget(&input);
 }
 
-/// Ignored: exposes a bug, found twice by the `point_sets` fuzz target (Delaunay mode, 29°,
-/// the square around the points). Points 4e-178 apart near the origin with a third 134 051
-/// away, and points 1.7e-115 and 4.9e-313 from the origin in an extent of 2.8e-23: refinement
-/// splits toward the tiny gap, where the exact predicates' products underflow f64. The first
-/// stops at the vertex budget with a partial mesh that fails the Delaunay check, the second
-/// fails the angle check. The Delaunay mode should refuse points closer together than its
-/// predicates resolve, as it refuses extents below 1e-70, or mesh them exactly.
+/// Found twice by the `point_sets` fuzz target (Delaunay mode, 29°, the square around the
+/// points): points 4e-178 apart near the origin with a third 134 051 away, and points 1.7e-115
+/// and 4.9e-313 from the origin in an extent of 2.8e-23. Refinement split toward the tiny gap,
+/// where the exact predicates' products underflow f64: the first stopped at the vertex budget
+/// with a partial mesh that failed the Delaunay check, the second failed the angle check. Points
+/// within 1e-70 of each other are refused now, by name, as extents below 1e-70 are.
 #[test]
-#[ignore = "exposes a bug: the predicates underflow at gaps below 1e-100"]
-fn points_4e_minus_178_apart_are_refused_or_meshed_exactly() {
+fn points_closer_than_1e_minus_70_are_refused_by_name() {
     let inputs = [
         vec![
             DVec2::new(4.925_663_354_239_428e-198, 1.119_055_691_525_303e-309),
@@ -472,12 +470,22 @@ fn points_4e_minus_178_apart_are_refused_or_meshed_exactly() {
             .region(Region::Square)
             .max_vertices(20_000);
         match within_limit(&input, options) {
-            Ok(mesh) => {
-                mesh.validate(&points, options.angle_bounds()).unwrap();
-                mesh.check_delaunay().unwrap();
+            Err(Error::TooClose { a, pa, b, pb }) => {
+                assert!(a < b);
+                let gap = (DVec2::from(pa) - DVec2::from(pb)).abs().max_element();
+                assert!(gap < 1e-70 && gap > 0.0, "{gap}");
             }
-            Err(Error::VertexBudget(partial)) => partial.mesh.check_delaunay().unwrap(),
-            Err(e) => assert!(matches!(e, Error::ScaleRange { .. }), "{e}"),
+            other => panic!("{:?}", other.map(|m| m.triangles.len())),
         }
+    }
+    // The same gap 1e-60 wide meshes, and so do points 1e-19 apart at a coordinate of 1.
+    for points in [
+        vec![DVec2::ZERO, DVec2::new(1e-60, 0.0), DVec2::new(1.0, 1.0)],
+        vec![DVec2::ONE, DVec2::new(1.0 + 1e-15, 1.0), DVec2::ZERO],
+    ] {
+        let options = Options::default().region(Region::Square);
+        let mesh = within_limit(&Input::points(points.clone()), options).unwrap();
+        mesh.validate(&points, options.angle_bounds()).unwrap();
+        mesh.check_delaunay().unwrap();
     }
 }

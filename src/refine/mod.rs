@@ -167,6 +167,7 @@ pub fn refine_points(
     let mut times = StageTimes::default();
     let order = times.time("morton", || float_morton_order(points))?;
     check_scale(points)?;
+    check_gaps(points, &order.order)?;
     if let RefineDomain::Rectangle(domain) = options.domain {
         domain.check_holds(points)?;
     }
@@ -215,6 +216,7 @@ pub fn refine_pslg(
     let points = &clean.points[..];
     let morton = times.time("morton", || float_morton_order(points))?;
     check_scale(points)?;
+    check_gaps(points, &morton.order)?;
     let square = square_around(points);
     let distinct = morton.order.len();
     let capacity = 2 * options.expected_vertices(distinct);
@@ -333,6 +335,90 @@ fn check_scale(points: &[DVec2]) -> Result<(), Error> {
             lo: lo.to_array(),
             hi: hi.to_array(),
         });
+    }
+    Ok(())
+}
+
+/// The smallest gap between distinct points, in either coordinate, the Delaunay mode accepts:
+/// as [`MIN_EXTENT`], and for the same reason (products of four differences stay normal f64).
+const MIN_GAP: f64 = MIN_EXTENT;
+
+/// Where a coordinate lies, for finding points within [`MIN_GAP`] of each other: a cell of
+/// side [`MIN_GAP`] where f64's spacing is finer than the gap, else its exact value (where
+/// f64's spacing is at least the gap, two values that close are equal).
+#[derive(Clone, Copy, PartialEq, Eq, Hash)]
+enum GapKey {
+    Cell(i64),
+    Exact(u64),
+}
+
+impl GapKey {
+    /// Twice the magnitude above which f64's spacing is at least [`MIN_GAP`] (2^52 gaps).
+    const FINE: f64 = MIN_GAP * 9_007_199_254_740_992.0;
+
+    fn of(c: f64) -> GapKey {
+        if c.abs() < Self::FINE {
+            GapKey::Cell((c / MIN_GAP).floor() as i64)
+        } else {
+            GapKey::Exact((c + 0.0).to_bits())
+        }
+    }
+
+    /// The keys a value within [`MIN_GAP`] of this one can have.
+    fn near(self) -> impl Iterator<Item = GapKey> {
+        let cells = match self {
+            GapKey::Cell(k) => [Some(k - 1), Some(k), Some(k + 1)],
+            GapKey::Exact(_) => [None; 3],
+        };
+        let exact = match self {
+            GapKey::Exact(_) => Some(self),
+            GapKey::Cell(_) => None,
+        };
+        cells.into_iter().flatten().map(GapKey::Cell).chain(exact)
+    }
+}
+
+/// Refuses two of the `distinct` points within [`MIN_GAP`] of each other in both coordinates.
+/// Such a pair differs in some coordinate where both values are tiny (elsewhere f64 cannot
+/// put two values that close), so only points with a tiny coordinate are looked at, in cells
+/// of side [`MIN_GAP`]; two distinct points in one cell are already too close, so the look
+/// ends at the first full cell and is linear.
+///
+/// # Errors
+/// [`Error::TooClose`] naming the pair.
+fn check_gaps(points: &[DVec2], distinct: &[u32]) -> Result<(), Error> {
+    let tiny = |p: DVec2| p.x.abs() < GapKey::FINE || p.y.abs() < GapKey::FINE;
+    let candidates: Vec<u32> = distinct
+        .par_iter()
+        .copied()
+        .filter(|&i| tiny(points[i as usize]))
+        .collect();
+    let key = |i: u32| {
+        let p = points[i as usize];
+        (GapKey::of(p.x), GapKey::of(p.y))
+    };
+    let mut cells: std::collections::HashMap<(GapKey, GapKey), Vec<u32>> =
+        std::collections::HashMap::new();
+    for &i in &candidates {
+        cells.entry(key(i)).or_default().push(i);
+    }
+    for &i in &candidates {
+        let p = points[i as usize];
+        let (kx, ky) = key(i);
+        for cell in kx.near().flat_map(|x| ky.near().map(move |y| (x, y))) {
+            for &j in cells.get(&cell).into_iter().flatten() {
+                let q = points[j as usize];
+                if j != i && (q - p).abs().max_element() < MIN_GAP {
+                    let (a, b) = (i.min(j) as usize, i.max(j) as usize);
+                    return Err(Error::TooClose {
+                        a,
+                        pa: points[a].to_array(),
+                        b,
+                        pb: points[b].to_array(),
+                    });
+                }
+            }
+        }
     }
     Ok(())
 }
@@ -764,4 +850,38 @@ fn angle_quality(vertices: &[DVec2], corners: &[[u32; 3]]) -> AngleQuality {
             .fold(f64::NEG_INFINITY, f64::max);
     }
     quality
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gaps(points: &[DVec2]) -> Result<(), Error> {
+        let all: Vec<u32> = (0..points.len() as u32).collect();
+        check_gaps(points, &all)
+    }
+
+    #[test]
+    fn only_points_within_the_gap_in_both_coordinates_are_refused() {
+        let big = 5.0;
+        // The same coordinate where f64's spacing is coarse, a tiny gap in the other.
+        let close = [DVec2::new(big, 1e-80), DVec2::new(big, 3e-80)];
+        assert!(matches!(
+            gaps(&close),
+            Err(Error::TooClose { a: 0, b: 1, .. })
+        ));
+        // Neighbouring cells, across zero.
+        let across = [DVec2::new(-4e-71, 0.0), DVec2::new(4e-71, 0.0)];
+        assert!(matches!(gaps(&across), Err(Error::TooClose { .. })));
+        // A tiny gap in one coordinate only, or adjacent floats where f64 is coarse: accepted.
+        let far_in_y = [DVec2::new(0.0, 0.0), DVec2::new(1e-80, 1.0)];
+        assert!(gaps(&far_in_y).is_ok());
+        let adjacent = [
+            DVec2::new(big, 0.0),
+            DVec2::new(f64::from_bits(big.to_bits() + 1), 0.0),
+        ];
+        assert!(gaps(&adjacent).is_ok());
+        let apart = [DVec2::ZERO, DVec2::new(2e-70, 0.0), DVec2::new(0.0, -2e-70)];
+        assert!(gaps(&apart).is_ok());
+    }
 }
