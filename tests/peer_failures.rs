@@ -509,3 +509,20 @@ fn a_hull_sliver_of_four_thousandths_of_a_degree_meets_the_bound() {
         Err(e) => panic!("{e}"),
     }
 }
+
+#[test]
+fn a_thin_hull_with_far_corners_keeps_its_area_in_the_check() {
+    // Found by the `point_sets` fuzz target (Delaunay mode, no angle bound, the hull): three
+    // nearly collinear points 3.6e59 apart around the origin. The check's plain cross products
+    // lost the triangles' areas (1.5e-6 in all) to cancellation and summed them to 0; it uses
+    // the adaptive determinant now, and the mesh passes.
+    let points = vec![
+        DVec2::new(3.264_657_368_216e-311, 0.0),
+        DVec2::new(3.552_594_197_366_691e59, 3.552_593_419_155_010_6e59),
+        DVec2::new(-1.226_055_464_348_490_6e-59, -1.226_056_029_646_053_8e-59),
+    ];
+    let options = Options::default().min_angle(0.0).max_vertices(20_000);
+    let mesh = within_limit(&Input::points(points.clone()), options).unwrap();
+    mesh.validate(&points, options.angle_bounds()).unwrap();
+    mesh.check_delaunay().unwrap();
+}

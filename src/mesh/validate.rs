@@ -701,7 +701,9 @@ fn check_area(mesh: &Mesh) -> Result<(), String> {
         .par_iter()
         .fold(Sum::default, |s, tri| {
             let [a, b, c] = tri.map(|v| mesh.vertices[v as usize]);
-            s.add(0.5 * (b - a).perp_dot(c - a))
+            // The adaptive determinant: a thin triangle with far corners loses its whole area
+            // to cancellation in the plain cross product.
+            s.add(0.5 * orient_value(a, b, c))
         })
         .reduce(Sum::default, Sum::merge)
         .value();

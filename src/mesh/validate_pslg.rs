@@ -26,7 +26,7 @@ use super::validate::{
 };
 use super::{Mesh, NONE, SubSegment, angles_deg};
 use crate::options::{Input, Segment};
-use crate::predicates::{Orientation, orientation};
+use crate::predicates::{Orientation, orient_value, orientation};
 
 /// How far, in roundings of its coordinates and length, a vertex splitting a segment or a hull
 /// side may lie from its line: each split point is a rounded midpoint or shell point, and
@@ -137,9 +137,11 @@ fn centroid(mesh: &Mesh, t: usize) -> DVec2 {
     (a + b + c) / 3.0
 }
 
+/// Twice the signed area of triangle `t`, by the adaptive determinant (the plain cross product
+/// loses a thin triangle's area with far corners to cancellation).
 fn twice_area(mesh: &Mesh, t: usize) -> f64 {
     let [a, b, c] = mesh.triangles[t].map(|v| mesh.vertices[v as usize]);
-    (b - a).perp_dot(c - a)
+    orient_value(a, b, c)
 }
 
 // ---------------------------------------------------------------------------------------------
