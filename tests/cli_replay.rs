@@ -4,6 +4,8 @@
 
 mod cli_support;
 
+use std::path::{Path, PathBuf};
+
 use cli_support::{TempDir, bench_json, json_number, quadmesh, s, stderr};
 
 const POINTS: &str = "0.1 0.2\n0.8 0.3\n0.45 0.9\n0.5 0.5\n0 0.75\n";
@@ -11,13 +13,24 @@ const EDITS: &str = "# a few edits\ni 0.3 0.3\nd 1\nm 3 0.52 0.48\ni 1 1\nm 0 0.
 /// The live points after the edits, in id order: 0 (moved), 2, 3 (moved), 4, 5, 6.
 const LIVE: &str = "0.9 0.1\n0.45 0.9\n0.52 0.48\n0 0.75\n0.3 0.3\n1 1\n";
 
+/// The initial points, the edits and the live points after them, written into `dir`.
+fn written_inputs(dir: &TempDir) -> (PathBuf, PathBuf, PathBuf) {
+    let files = (dir.file("p.txt"), dir.file("e.txt"), dir.file("l.txt"));
+    for (path, text) in [(&files.0, POINTS), (&files.1, EDITS), (&files.2, LIVE)] {
+        std::fs::write(path, text).unwrap();
+    }
+    files
+}
+
+/// The bytes of the file `PREFIX.extension` a command wrote.
+fn output(prefix: &Path, extension: &str) -> Vec<u8> {
+    std::fs::read(format!("{}.{extension}", prefix.display())).unwrap()
+}
+
 #[test]
 fn replayed_files_equal_those_of_a_mesh_of_the_live_points() {
     let dir = TempDir::new("replay");
-    let (points, edits, live) = (dir.file("p.txt"), dir.file("e.txt"), dir.file("l.txt"));
-    std::fs::write(&points, POINTS).unwrap();
-    std::fs::write(&edits, EDITS).unwrap();
-    std::fs::write(&live, LIVE).unwrap();
+    let (points, edits, live) = written_inputs(&dir);
     let (replayed, meshed) = (dir.file("replayed"), dir.file("meshed"));
     let out = quadmesh(&[
         "replay",
@@ -67,17 +80,15 @@ fn replayed_files_equal_those_of_a_mesh_of_the_live_points() {
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(String::from_utf8(out.stdout).unwrap().lines().count(), 4);
     for extension in ["node", "ele", "neigh", "edge"] {
-        let read = |prefix: &std::path::Path| {
-            std::fs::read(format!("{}.{extension}", prefix.display())).unwrap()
-        };
+        let mesh = output(&meshed, extension);
         assert_eq!(
-            read(&replayed),
-            read(&meshed),
+            output(&replayed, extension),
+            mesh,
             "the .{extension} files differ"
         );
         assert_eq!(
-            read(&batched),
-            read(&meshed),
+            output(&batched, extension),
+            mesh,
             "the batched .{extension} files differ"
         );
     }
@@ -130,10 +141,7 @@ fn a_bad_edit_is_named_and_nothing_is_written() {
 #[test]
 fn a_nonobtuse_replay_equals_a_nonobtuse_mesh_of_the_live_points() {
     let dir = TempDir::new("replay-nonobtuse");
-    let (points, edits, live) = (dir.file("p.txt"), dir.file("e.txt"), dir.file("l.txt"));
-    std::fs::write(&points, POINTS).unwrap();
-    std::fs::write(&edits, EDITS).unwrap();
-    std::fs::write(&live, LIVE).unwrap();
+    let (points, edits, live) = written_inputs(&dir);
     let (replayed, meshed) = (dir.file("replayed"), dir.file("meshed"));
     let replay = [
         "replay",
@@ -163,12 +171,9 @@ fn a_nonobtuse_replay_equals_a_nonobtuse_mesh_of_the_live_points() {
     let out = quadmesh(&mesh);
     assert!(out.status.success(), "{}", stderr(&out));
     for extension in ["node", "ele", "neigh", "edge"] {
-        let read = |prefix: &std::path::Path| {
-            std::fs::read(format!("{}.{extension}", prefix.display())).unwrap()
-        };
         assert_eq!(
-            read(&replayed),
-            read(&meshed),
+            output(&replayed, extension),
+            output(&meshed, extension),
             "the .{extension} files differ"
         );
     }
@@ -184,15 +189,13 @@ fn a_nonobtuse_replay_equals_a_nonobtuse_mesh_of_the_live_points() {
         "0,0,1,1",
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
-    let ele =
-        |prefix: &std::path::Path| std::fs::read(format!("{}.ele", prefix.display())).unwrap();
-    assert_ne!(ele(&replayed), ele(&warped));
+    assert_ne!(output(&replayed, "ele"), output(&warped, "ele"));
 }
 
 /// The number of triangles in `PREFIX.ele` (the first field of its first line that is not a
 /// comment).
-fn triangle_count(prefix: &std::path::Path) -> i64 {
-    let text = std::fs::read_to_string(format!("{}.ele", prefix.display())).unwrap();
+fn triangle_count(prefix: &Path) -> i64 {
+    let text = String::from_utf8(output(prefix, "ele")).unwrap();
     let header = text.lines().find(|l| !l.starts_with('#')).unwrap();
     header.split_whitespace().next().unwrap().parse().unwrap()
 }
@@ -200,9 +203,7 @@ fn triangle_count(prefix: &std::path::Path) -> i64 {
 #[test]
 fn the_triangles_each_edit_changes_add_up_to_the_final_mesh() {
     let dir = TempDir::new("replay-changes");
-    let (points, edits) = (dir.file("p.txt"), dir.file("e.txt"));
-    std::fs::write(&points, POINTS).unwrap();
-    std::fs::write(&edits, EDITS).unwrap();
+    let (points, edits, _) = written_inputs(&dir);
     let (first, last) = (dir.file("first"), dir.file("last"));
     let out = quadmesh(&[
         "mesh",

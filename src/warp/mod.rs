@@ -101,7 +101,7 @@ pub fn warp<K: MortonKey>(
     if !(quality.min >= ANGLE_BOUNDS.0 - ROUNDING_SLACK_DEG
         && quality.max <= ANGLE_BOUNDS.1 + ROUNDING_SLACK_DEG)
     {
-        let bent = bent_leaf(&geometry, &offsets, (&triangles, &vertices), ANGLE_BOUNDS);
+        let bent = bent_leaf(&geometry, &offsets, (&triangles, &vertices));
         return Err(point_near(&geometry, bent, order, points));
     }
     let mesh = leaf_mesh(
@@ -354,9 +354,11 @@ fn bent_leaf<K: MortonKey>(
     geometry: &LeafGeometry<K>,
     offsets: &[u32],
     (triangles, vertices): (&[[u32; 3]], &[DVec2]),
-    bounds: (f64, f64),
 ) -> usize {
-    let (lo, hi) = (bounds.0 - ROUNDING_SLACK_DEG, bounds.1 + ROUNDING_SLACK_DEG);
+    let (lo, hi) = (
+        ANGLE_BOUNDS.0 - ROUNDING_SLACK_DEG,
+        ANGLE_BOUNDS.1 + ROUNDING_SLACK_DEG,
+    );
     (0..geometry.leaves())
         .into_par_iter()
         .position_first(|leaf| {
