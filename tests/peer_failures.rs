@@ -550,3 +550,27 @@ fn a_thin_hull_with_far_corners_keeps_its_area_in_the_check() {
     mesh.validate(&points, options.angle_bounds()).unwrap();
     mesh.check_delaunay().unwrap();
 }
+
+#[test]
+fn a_point_8e_minus_90_inside_a_hull_side() {
+    // Found by the `point_sets` fuzz target (Delaunay mode, 26°, the hull): a point near the
+    // origin lies 7.8e-90 inside the hull side from (-4e-16, 0) to (131 060, -2.6e-69). The
+    // boundary bent only through points nearer a side than f64 resolves at their magnitude, so
+    // refinement split the side toward the point, down to edges near 1e-81 whose squared
+    // lengths' products underflow f64: both sides of the angle test came out as the smallest
+    // subnormal, and a 23.7° triangle stayed. A point within 1e-70 of a side (where points
+    // within 1e-70 of each other are refused) now bends the boundary through it.
+    let points = vec![
+        DVec2::new(-3.988_095_257_084_783e-16, 482_131_132.737_254_86),
+        DVec2::new(-3.878_752_941_027_104_5e-270, 2.505_65e-319),
+        DVec2::new(-3.988_095_257_084_792e-16, 7.876_760_780_058_298e-306),
+        DVec2::new(131_060.062_499_046_33, -2.563_716_015_901_356_6e-69),
+    ];
+    for angle in [20.0, 26.0] {
+        let options = Options::default().min_angle(angle).max_vertices(20_000);
+        let mesh = within_limit(&Input::points(points.clone()), options).unwrap();
+        mesh.validate(&points, options.angle_bounds()).unwrap();
+        mesh.check_delaunay().unwrap();
+        assert!(mesh.outline.as_ref().unwrap().contains(&points[1]));
+    }
+}

@@ -51,8 +51,8 @@ pub struct Mesh {
     pub domain: Domain,
     /// The polygon the triangles cover exactly when it is not the rectangle `domain`: the
     /// points' convex hull, its corners counter-clockwise, every input point on its sides
-    /// included, and bent through any point within 1e-11 of a side's length inside it (see
-    /// [`crate::refine`]).
+    /// included, and bent through any point inside it within 1e-11 of a side's length, or
+    /// within 1e-70 of a side (see [`crate::refine`]).
     pub outline: Option<Vec<DVec2>>,
     /// The pieces of the input's segments (planar straight-line graphs), each once, in the
     /// order of their segments and along each from its first end; empty for a point set.

@@ -14,6 +14,7 @@ use std::collections::{HashMap, HashSet, VecDeque};
 use glam::DVec2;
 use rayon::prelude::*;
 
+use super::MIN_GAP;
 use super::delaunay::{NEXT, PREV, Triangulation, beyond};
 use crate::error::Error;
 use crate::mesh::NONE;
@@ -166,7 +167,7 @@ pub(super) fn cut_to_hull(
 /// than f64 places them near the point.
 const NEAR_SIDE: f64 = 1e-11;
 
-/// Bends the boundary through every point that lies within [`NEAR_SIDE`] of a hull side: the
+/// Bends the boundary through every point that lies [`near_side`] a hull side: the
 /// sliver triangle between the side and such a point goes, and the outline runs through the
 /// point (an angle a hair above 180°). Returns the outline's vertices counter-clockwise.
 fn peel_slivers(t: &mut Triangulation, hull: &[u32]) -> Vec<u32> {
@@ -230,13 +231,16 @@ fn peel_slivers(t: &mut Triangulation, hull: &[u32]) -> Vec<u32> {
 /// Whether `x` lies left of `a → b`, between its ends, within [`NEAR_SIDE`] of its length or
 /// of `x`'s own magnitude, whichever is less: f64 resolves splits of the side near `x` to that
 /// magnitude, however long the side (a side from a point near the origin to one 1e55 away
-/// passes points at distance 2 that need no bend).
+/// passes points at distance 2 that need no bend). Or within [`MIN_GAP`] of the side, however
+/// finely f64 resolves there: the splits between them would be so short that the exact
+/// predicates' products, and the angle test's, underflow.
 fn near_side(a: DVec2, b: DVec2, x: DVec2) -> bool {
     let d = b - a;
     let along = (x - a).dot(d) / d.length_squared();
+    let reach = NEAR_SIDE * d.length().min(x.abs().max_element());
     orientation(a, b, x) == Orientation::Left
         && (0.0..=1.0).contains(&along)
-        && d.perp_dot(x - a) <= NEAR_SIDE * d.length() * d.length().min(x.abs().max_element())
+        && d.perp_dot(x - a) <= reach.max(MIN_GAP) * d.length()
 }
 
 /// Removes the triangles `removed` (already unlinked from their neighbours), keeping the
