@@ -574,3 +574,26 @@ fn a_point_8e_minus_90_inside_a_hull_side() {
         assert!(mesh.outline.as_ref().unwrap().contains(&points[1]));
     }
 }
+
+/// Found by the `point_sets` fuzz target (Delaunay mode, 20°, the hull): a hull 8.2e62 tall
+/// and 1.1e59 wide with a 0.007° corner at the top, whose left side runs on, bent by 3e-117
+/// radians at a hull corner, to a right-angled corner at the origin. Refinement took that
+/// corner for a point on the narrow corner's side, as it lies on the side's line, and left the
+/// 16.5° triangle on the bottom side, which joins it to the narrow corner's other side, as one
+/// it cannot improve (Shewchuk's rule); the check, which goes by the outline's sides, did not
+/// exempt it. A point on a side now also lies no further out than the side's far end.
+#[test]
+fn a_hull_corner_in_line_with_the_side_of_a_narrow_one() {
+    let points = vec![
+        DVec2::new(7.605_332_331_225_54e-310, 3.552_593_556_086_262e59),
+        DVec2::new(1.054_184_527_482_481_1e59, 1.112_578_345_627_666_4e-307),
+        DVec2::new(2.400_594_055_870_013_2e-211, 8.229_510_678_521_401e62),
+        DVec2::new(1.075_337_771_657_209_4e-57, 8.046_680_848_777_6e-58),
+    ];
+    for angle in [20.0, 30.0] {
+        let options = Options::default().min_angle(angle).max_vertices(20_000);
+        let mesh = within_limit(&Input::points(points.clone()), options).unwrap();
+        mesh.validate(&points, options.angle_bounds()).unwrap();
+        mesh.check_delaunay().unwrap();
+    }
+}

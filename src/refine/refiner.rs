@@ -202,12 +202,16 @@ impl Bounds {
             let (c, [a, b]) = (corner.at, corner.sides);
             // On a side: within 1e-9 radians of it, and within a thousandth of the corner's
             // own angle, so that a corner far narrower than 1e-9 (a point 1e55 away) does not
-            // take every point far from it for one on both its sides.
+            // take every point far from it for one on both its sides; and no further out than
+            // its far end, beyond which a corner of nearly 180° can continue it in line.
             let sin_corner = a.perp_dot(b).abs() / (a.length() * b.length());
             let tolerance = 1e-9f64.min(1e-3 * sin_corner);
             let on = |x: DVec2, d: DVec2| {
                 let r = x - c;
-                r.perp_dot(d).abs() <= tolerance * r.length() * d.length() && r.dot(d) > 0.0
+                let along = r.dot(d);
+                r.perp_dot(d).abs() <= tolerance * r.length() * d.length()
+                    && along > 0.0
+                    && along <= d.length_squared()
             };
             let spans = (on(p, a) && on(q, b)) || (on(p, b) && on(q, a));
             spans && apex.distance(c) <= 1.001 * p.distance(c).max(q.distance(c))
