@@ -131,15 +131,24 @@ fn deleting_down_to_one_point_and_back() {
 fn points_closer_than_the_narrow_grid_move_the_tree_to_the_wide_one_and_back() {
     let points = [DVec2::new(0.25, 0.25), DVec2::new(0.75, 0.6)];
     let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    dynamic.track_changes(true);
+    let first = dynamic.mesh().unwrap();
     assert!(!dynamic.is_wide());
     let close = dynamic
         .insert(DVec2::new(0.25 + 1e-11, 0.25))
         .expect("a close point goes on the wide grid");
     assert!(close.rebuilt && dynamic.is_wide());
     check(&dynamic, "with a point 1e-11 from another");
+    let (wide, _) = check_changes(&mut dynamic, &first, "onto the wide grid");
+    // On the wide grid, an edit's changes are found locally again.
+    let far = dynamic.insert(DVec2::new(0.8, 0.2)).unwrap();
+    let (wide, _) = check_changes(&mut dynamic, &wide, "an insertion on the wide grid");
+    dynamic.delete(far.id).unwrap();
+    let (wide, _) = check_changes(&mut dynamic, &wide, "a deletion on the wide grid");
     let back = dynamic.delete(close.id).unwrap();
     assert!(back.rebuilt && !dynamic.is_wide());
     check(&dynamic, "after deleting it");
+    check_changes(&mut dynamic, &wide, "back onto the narrow grid");
 }
 
 #[test]
@@ -376,4 +385,176 @@ fn the_change_between_meshes_is_local_and_turns_the_old_mesh_into_the_new() {
             after.triangles.len()
         );
     }
+}
+
+/// A mesh's triangles by their corners' bits, each from its least corner on.
+fn triangle_set(mesh: &Mesh) -> Vec<[[u64; 2]; 3]> {
+    let mut all: Vec<[[u64; 2]; 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| bits(t.map(|v| mesh.vertices[v as usize])))
+        .collect();
+    all.sort_unstable();
+    all
+}
+
+fn bits(corners: [DVec2; 3]) -> [[u64; 2]; 3] {
+    let mut b = corners.map(|p| [p.x.to_bits(), p.y.to_bits()]);
+    let least = (0..3).min_by_key(|&i| b[i]).unwrap();
+    b.rotate_left(least);
+    b
+}
+
+/// The tracked changes since the last take turn `before` into the dynamic mesh as it is:
+/// every removed triangle was in `before`, every added one is new, and what is left with them
+/// is the mesh. Returns the mesh and the leaves the changes took. Nonobtuse: the changes of
+/// the nonobtuse mesh, taken from a copy (the warped mesh's are taken from `dynamic`).
+fn check_changes_in(
+    dynamic: &mut DynamicMesh,
+    before: &Mesh,
+    what: &str,
+    nonobtuse: bool,
+) -> (Mesh, usize) {
+    let (changes, after) = if nonobtuse {
+        let mut copy = dynamic.clone();
+        let changes = copy.take_nonobtuse_changes().expect("changes are tracked");
+        (
+            changes,
+            dynamic.mesh_nonobtuse().expect("the dynamic mesh splits"),
+        )
+    } else {
+        let changes = dynamic.take_changes().expect("changes are tracked");
+        (changes, dynamic.mesh().expect("the dynamic mesh warps"))
+    };
+    let mut expected = triangle_set(before);
+    let mut removed: Vec<_> = changes.removed.iter().map(|&t| bits(t)).collect();
+    removed.sort_unstable();
+    // Take out each removed triangle once: all of them must be there.
+    let mut kept = Vec::with_capacity(expected.len());
+    let mut r = 0;
+    for t in expected.drain(..) {
+        if r < removed.len() && removed[r] == t {
+            r += 1;
+        } else {
+            kept.push(t);
+        }
+    }
+    assert_eq!(
+        r,
+        removed.len(),
+        "{what}: a removed triangle was not in the mesh"
+    );
+    kept.extend(changes.added.iter().map(|&t| bits(t)));
+    kept.sort_unstable();
+    assert!(
+        kept == triangle_set(&after),
+        "{what}: the mesh less {} removed and with {} added triangles is not the new mesh",
+        changes.removed.len(),
+        changes.added.len()
+    );
+    (after, changes.leaves)
+}
+
+fn check_changes(dynamic: &mut DynamicMesh, before: &Mesh, what: &str) -> (Mesh, usize) {
+    check_changes_in(dynamic, before, what, false)
+}
+
+#[test]
+fn tracked_changes_turn_the_old_mesh_into_the_new_after_every_edit() {
+    for seed in 1..=3u64 {
+        let mut rng = Rng::seed_from_u64(seed * 0x9E37_79B9_7F4A_7C15);
+        let mut initial: Vec<DVec2> = (0..60).map(|_| point(&mut rng)).collect();
+        initial.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+        initial.dedup();
+        let mut dynamic = DynamicMesh::new(&initial, unit()).unwrap();
+        dynamic.track_changes(true);
+        let mut mesh = dynamic.mesh().unwrap();
+        let mut split = dynamic.mesh_nonobtuse().unwrap();
+        for step in 0..150 {
+            let edit = match rng.random_range(0..if dynamic.len() > 1 { 3 } else { 1 }) {
+                0 => Edit::Insert(point(&mut rng)),
+                1 => Edit::Delete(some_id(&dynamic, &mut rng)),
+                _ => Edit::Move(some_id(&dynamic, &mut rng), point(&mut rng)),
+            };
+            match dynamic.apply(&[edit]) {
+                Ok(_) => {}
+                Err((_, e)) => assert!(matches!(e, Error::DuplicatePoint { .. }), "{e}"),
+            }
+            let what = format!("seed {seed} step {step}: {edit:?}");
+            split = check_changes_in(&mut dynamic, &split, &what, true).0;
+            mesh = check_changes(&mut dynamic, &mesh, &what).0;
+        }
+    }
+}
+
+#[test]
+fn tracked_changes_of_batches_and_rebuilds_turn_the_old_mesh_into_the_new() {
+    let mut rng = Rng::seed_from_u64(77);
+    let initial: Vec<DVec2> = (0..400)
+        .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
+        .collect();
+    let mut dynamic = DynamicMesh::new(&initial, unit()).unwrap();
+    dynamic.track_changes(true);
+    let mut mesh = dynamic.mesh().unwrap();
+    for step in 0..8 {
+        // Small batches stay local; every third moves all points, which builds anew.
+        let count = if step % 3 == 2 { dynamic.len() } else { 5 };
+        let (ids, _) = dynamic.live_points();
+        let mut edits: Vec<Edit> = Vec::new();
+        for &id in ids.iter().take(count) {
+            let p = dynamic.point(id).unwrap();
+            let d = DVec2::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5) * 1e-3;
+            edits.push(Edit::Move(id, (p + d).clamp(DVec2::ZERO, DVec2::ONE)));
+        }
+        edits.push(Edit::Insert(DVec2::new(rng.random(), rng.random())));
+        dynamic.apply_batch(&edits).unwrap();
+        mesh = check_changes(&mut dynamic, &mesh, &format!("batch {step}")).0;
+    }
+}
+
+#[test]
+fn the_changes_of_one_edit_among_many_points_take_few_leaves() {
+    let mut rng = Rng::seed_from_u64(5);
+    let points: Vec<DVec2> = (0..20_000)
+        .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
+        .collect();
+    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    dynamic.track_changes(true);
+    let mut mesh = dynamic.mesh().unwrap();
+    let total = mesh.triangles.len();
+    let mut leaves = Vec::new();
+    for step in 0..9 {
+        let edit = match step % 3 {
+            0 => Edit::Insert(DVec2::new(rng.random::<f64>(), rng.random::<f64>())),
+            1 => Edit::Delete(some_id(&dynamic, &mut rng)),
+            _ => Edit::Move(
+                some_id(&dynamic, &mut rng),
+                DVec2::new(rng.random::<f64>(), rng.random::<f64>()),
+            ),
+        };
+        dynamic.apply(&[edit]).unwrap();
+        let (after, taken) = check_changes(&mut dynamic, &mesh, &format!("{edit:?}"));
+        leaves.push(taken);
+        mesh = after;
+    }
+    leaves.sort_unstable();
+    // The median edit warps a small part of the tree (about 45 leaves a point in all).
+    assert!(
+        leaves[leaves.len() / 2] * 50 < total,
+        "leaves per edit {leaves:?} against {total} triangles"
+    );
+}
+
+#[test]
+fn changes_are_refused_unless_tracked() {
+    let mut dynamic = DynamicMesh::new(&[DVec2::splat(0.5)], unit()).unwrap();
+    assert!(matches!(
+        dynamic.take_changes(),
+        Err(Error::InvalidOption { .. })
+    ));
+    dynamic.track_changes(true);
+    dynamic.insert(DVec2::splat(0.25)).unwrap();
+    assert!(!dynamic.take_changes().unwrap().added.is_empty());
+    dynamic.track_changes(false);
+    assert!(dynamic.take_changes().is_err());
 }

@@ -16,7 +16,7 @@
 //! point demanded go, finest level first; and the rounds run on them with every other point
 //! held where it was, which is where the least fixed point keeps it.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
 
@@ -46,6 +46,8 @@ pub struct SeparatedPoints<K: MortonKey> {
     at_level: Vec<usize>,
     /// Split squares added and taken out by the last edit.
     touched: usize,
+    /// While on, each split square edits changed, with whether it was split before.
+    log: Option<HashMap<Cell<K>, bool>>,
 }
 
 impl<K: MortonKey> SeparatedPoints<K> {
@@ -81,6 +83,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
             set,
             at_level,
             touched: 0,
+            log: None,
         }
     }
 
@@ -127,6 +130,112 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// current keys.
     pub fn tree(&self) -> BalancedTree<K> {
         linked_tree(&self.set.preorder(), &self.keys)
+    }
+
+    /// Starts a log of the split squares edits add or take out, each with whether it was split
+    /// before its first change, so that the tree as it was can still be read (see
+    /// [`Self::was_split`]); or, with `on` false, stops it.
+    pub fn log_changes(&mut self, on: bool) {
+        self.log = on.then(HashMap::new);
+    }
+
+    /// Whether `square` was split when the log started (now, without a log).
+    pub fn was_split(&self, square: Cell<K>) -> bool {
+        match self.log.as_ref().and_then(|log| log.get(&square)) {
+            Some(&before) => before,
+            None => self.set.contains(square),
+        }
+    }
+
+    /// Whether `square` is split, now or, with `before`, when the log started.
+    pub fn is_split(&self, square: Cell<K>, before: bool) -> bool {
+        if before {
+            self.was_split(square)
+        } else {
+            self.set.contains(square)
+        }
+    }
+
+    /// The squares split now and not when the log started, or the other way round.
+    pub fn changed_squares(&self) -> Vec<Cell<K>> {
+        let Some(log) = &self.log else {
+            return Vec::new();
+        };
+        let mut changed: Vec<Cell<K>> = log
+            .iter()
+            .filter(|&(&square, &before)| before != self.set.contains(square))
+            .map(|(&square, _)| square)
+            .collect();
+        changed.sort_unstable_by_key(|c| (c.level, c.anchor));
+        changed
+    }
+
+    /// The leaf holding `key`, now or, with `before`, when the log started.
+    pub fn leaf_of(&self, key: K, before: bool) -> Cell<K> {
+        let mut cell = Cell::root();
+        while u32::from(cell.level) < K::AXIS_BITS && self.is_split(cell, before) {
+            cell = Cell::containing(key, cell.level + 1);
+        }
+        cell
+    }
+
+    /// The tree, now or, with `before`, when the log started, split only where its squares meet
+    /// one of `rects` (grid units) and where balance forces it, with the points `keys`
+    /// (sorted): a coarser tree that is the same as the whole one inside the rectangles.
+    pub fn part_within(&self, rects: &[GridRect], before: bool, keys: &[K]) -> BalancedTree<K> {
+        let mut split = Vec::new();
+        self.visit_meeting(rects, before, |cell, is_split| {
+            if is_split {
+                split.push(Squares::one(cell));
+            }
+        });
+        let mut closed = SplitSet::new();
+        closed.insert_closed(split);
+        linked_tree(&closed.preorder(), keys)
+    }
+
+    /// The leaves, now or, with `before`, when the log started, that meet `rect`.
+    pub fn leaves_meeting(&self, rect: GridRect, before: bool) -> Vec<Cell<K>> {
+        let mut leaves = Vec::new();
+        self.visit_meeting(&[rect], before, |cell, is_split| {
+            if !is_split {
+                leaves.push(cell);
+            }
+        });
+        leaves
+    }
+
+    /// The Morton positions of the points in the leaves that meet `rect` (grid units), now.
+    pub fn points_within(&self, rect: GridRect) -> Vec<usize> {
+        let mut positions = Vec::new();
+        self.visit_meeting(&[rect], false, |cell, is_split| {
+            if !is_split {
+                positions.extend(self.points_in(cell));
+            }
+        });
+        positions.sort_unstable();
+        positions
+    }
+
+    /// Calls `visit` with every square, now or as it was, that meets one of `rects` and whose
+    /// parent is split, and whether it is split itself: the split squares and the leaves there.
+    fn visit_meeting(
+        &self,
+        rects: &[GridRect],
+        before: bool,
+        mut visit: impl FnMut(Cell<K>, bool),
+    ) {
+        let mut stack = vec![Cell::<K>::root()];
+        while let Some(cell) = stack.pop() {
+            if !rects.iter().any(|r| r.meets(cell)) {
+                continue;
+            }
+            let split = u32::from(cell.level) < K::AXIS_BITS && self.is_split(cell, before);
+            visit(cell, split);
+            if split {
+                stack.extend((0..4).map(|q| cell.child(q)));
+            }
+        }
     }
 
     /// Adds a point with key `key`, not one of the points yet, lying on the domain sides `on`;
@@ -291,6 +400,11 @@ impl<K: MortonKey> SeparatedPoints<K> {
                 demands_of(&self.set, &self.keys, m, &mut demanded);
             }
             let added = self.set.insert_closed(demanded);
+            if let Some(log) = &mut self.log {
+                for square in added.iter().flat_map(|squares| squares.cells()) {
+                    log.entry(square).or_insert(false);
+                }
+            }
             self.touched += added
                 .iter()
                 .map(|s| s.mask().count_ones() as usize)
@@ -463,6 +577,9 @@ impl<K: MortonKey> SeparatedPoints<K> {
             for square in squares {
                 if !self.demanded_by_others(square, held_back) {
                     self.set.remove(square);
+                    if let Some(log) = &mut self.log {
+                        log.entry(square).or_insert(true);
+                    }
                     self.touched += 1;
                 }
             }
@@ -491,6 +608,29 @@ impl<K: MortonKey> SeparatedPoints<K> {
         on_a_path
             || forcing_candidates(square)
                 .any(|finer| self.set.contains(finer) && forced_by(finer).contains(&Some(square)))
+    }
+}
+
+/// A rectangle of the grid, in finest grid units: columns `x0..x1`, rows `y0..y1`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GridRect {
+    /// First column.
+    pub x0: u128,
+    /// Past the last column.
+    pub x1: u128,
+    /// First row.
+    pub y0: u128,
+    /// Past the last row.
+    pub y1: u128,
+}
+
+impl GridRect {
+    /// Whether the square `cell` meets the rectangle's interior.
+    pub fn meets<K: MortonKey>(&self, cell: Cell<K>) -> bool {
+        let (x, y) = { cell.anchor }.decode();
+        let (x, y) = (u128::from(x), u128::from(y));
+        let side = 1u128 << (K::AXIS_BITS - u32::from(cell.level));
+        x < self.x1 && self.x0 < x + side && y < self.y1 && self.y0 < y + side
     }
 }
 

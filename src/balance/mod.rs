@@ -13,8 +13,8 @@ mod split_set;
 use std::collections::HashSet;
 
 pub use closure::{balance_closure, balance_closure_with_points, forced_by};
-pub use incremental::SeparatedPoints;
 pub(crate) use incremental::remove_positions;
+pub use incremental::{GridRect, SeparatedPoints};
 use links::cross_links_by;
 pub use links::{Links, across, cross_links, point_leaves};
 pub use separate::{

@@ -152,9 +152,10 @@ enum Command {
         /// Build the final mesh from scratch too and compare the two.
         #[arg(long)]
         verify: bool,
-        /// With `--json`: also mesh after every edit or batch and print how many triangles it
-        /// removed and added (`triangles_removed`, `triangles_added`, from
-        /// `Mesh::changes_from`); a whole mesh and comparison each, not in `seconds`.
+        /// With `--json`: also print how many triangles each edit or batch removed and added
+        /// (`triangles_removed`, `triangles_added`), found by warping the tree only around the
+        /// change (`DynamicMesh::take_changes`), in `changes_seconds`, apart from `seconds`,
+        /// with the leaves it warped (`changes_leaves`).
         #[arg(long, requires = "json")]
         changes: bool,
         /// Apply the edits in batches of N (one tree update per batch, its moves in
@@ -591,10 +592,7 @@ fn replay(
             Mode::Nonobtuse => dynamic.mesh_nonobtuse(),
             _ => dynamic.mesh(),
         };
-        let mut previous = match changes {
-            true => Some(mesh_of(&dynamic).map_err(|e| anyhow::anyhow!("the first mesh: {e}"))?),
-            false => None,
-        };
+        dynamic.track_changes(changes);
         for (b, group) in edits.chunks(batch).enumerate() {
             // A single edit takes the single-edit path, which updates the arrays in place.
             let (done, time) = timed(|| match group {
@@ -612,15 +610,19 @@ fn replay(
             })?;
             seconds.push(time.as_secs_f64());
             let mut triangles = String::new();
-            if let Some(before) = previous.as_mut() {
-                let now = mesh_of(&dynamic).map_err(|e| anyhow::anyhow!("the mesh: {e}"))?;
-                let change = now.changes_from(before);
+            if changes {
+                let (found, time) = timed(|| match mode {
+                    Mode::Nonobtuse => dynamic.take_nonobtuse_changes(),
+                    _ => dynamic.take_changes(),
+                });
+                let change = found.map_err(|e| anyhow::anyhow!("the changes: {e}"))?;
                 triangles = format!(
-                    ",\"triangles_removed\":{},\"triangles_added\":{}",
+                    ",\"triangles_removed\":{},\"triangles_added\":{},\"changes_seconds\":{},\"changes_leaves\":{}",
                     change.removed.len(),
-                    change.added.len()
+                    change.added.len(),
+                    time.as_secs_f64(),
+                    change.leaves
                 );
-                *before = now;
             }
             if json {
                 writeln!(
@@ -897,22 +899,32 @@ fn bench_dynamic(
             .collect();
         let mut ids: Vec<u32> = (0..initial.len() as u32).collect();
         ids.sort_by_key(|&id| (u64::from(id) ^ seed).wrapping_mul(0x9E37_79B9_7F4A_7C15) % n.max(1));
-        let mut timings: [Vec<(f64, usize)>; 3] = Default::default();
-        let mut run = |kind: usize, edit: Edit| {
+        // Per kind: seconds and squares touched per edit, and seconds and leaves warped to
+        // find the triangles it changed.
+        let mut timings: [Vec<(f64, usize, f64, usize)>; 3] = Default::default();
+        dynamic.track_changes(true);
+        let mut run = |kind: usize, edit: Edit| -> Result<()> {
             let (done, time) = timed(|| dynamic.apply(&[edit]));
             // A random place can repeat a live point's: that edit is refused and not counted.
             if let Ok(reports) = done {
-                timings[kind].push((time.as_secs_f64(), reports[0].cells));
+                let (changes, changes_time) = timed(|| dynamic.take_changes());
+                timings[kind].push((
+                    time.as_secs_f64(),
+                    reports[0].cells,
+                    changes_time.as_secs_f64(),
+                    changes?.leaves,
+                ));
             }
+            Ok(())
         };
         for &p in &places[..edits] {
-            run(0, Edit::Insert(p));
+            run(0, Edit::Insert(p))?;
         }
         for &id in ids.iter().take(edits) {
-            run(1, Edit::Delete(id));
+            run(1, Edit::Delete(id))?;
         }
         for (&id, &p) in ids.iter().skip(edits).zip(&places[edits..]) {
-            run(2, Edit::Move(id, p));
+            run(2, Edit::Move(id, p))?;
         }
         let (_, live) = dynamic.live_points();
         let (rebuilt, rebuild) = timed(|| DynamicMesh::new(&live, domain));
@@ -922,17 +934,22 @@ fn bench_dynamic(
         let mut out = io::stdout().lock();
         let mut fields = String::new();
         for (kind, name) in ["insert", "delete", "move"].into_iter().enumerate() {
-            let mut seconds: Vec<f64> = timings[kind].iter().map(|t| t.0).collect();
-            let mut cells: Vec<f64> = timings[kind].iter().map(|t| t.1 as f64).collect();
-            let (seconds, cells) = (median(&mut seconds), median(&mut cells));
+            let column = |f: fn(&(f64, usize, f64, usize)) -> f64| {
+                median(&mut timings[kind].iter().map(f).collect::<Vec<f64>>())
+            };
+            let (seconds, cells) = (column(|t| t.0), column(|t| t.1 as f64));
+            let (changes, leaves) = (column(|t| t.2), column(|t| t.3 as f64));
             writeln!(
                 out,
-                "{:<24}{} median, {cells} squares touched ({} edits)",
+                "{:<24}{} median, {cells} squares touched ({} edits); its triangles {} median, {leaves} leaves warped",
                 name,
                 millis(Duration::from_secs_f64(seconds)),
-                timings[kind].len()
+                timings[kind].len(),
+                millis(Duration::from_secs_f64(changes)),
             )?;
-            fields += &format!(",\"{name}_s\":{seconds},\"{name}_cells\":{cells}");
+            fields += &format!(
+                ",\"{name}_s\":{seconds},\"{name}_cells\":{cells},\"{name}_changes_s\":{changes},\"{name}_changes_leaves\":{leaves}"
+            );
         }
         writeln!(out, "{:<24}{}", "tree from scratch", millis(rebuild))?;
         writeln!(out, "{:<24}{}", "mesh()", millis(mesh))?;

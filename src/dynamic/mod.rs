@@ -10,6 +10,10 @@
 //! Points keep their ids across edits: the initial points are `0..n` in the order given, and
 //! each insertion takes the next id; a deleted id is never given out again.
 
+mod changes;
+
+pub use changes::TriangleChanges;
+
 use glam::DVec2;
 
 use crate::balance::{SeparatedPoints, remove_positions, sides_of};
@@ -88,6 +92,8 @@ pub struct DynamicMesh {
     live: Vec<bool>,
     live_count: usize,
     tree: Tracked,
+    /// While changes are tracked, what edits changed since they were last taken.
+    log: Option<changes::ChangeLog>,
 }
 
 /// The tree on the grid width the live points need: the narrow grid unless two of them share
@@ -139,6 +145,7 @@ impl DynamicMesh {
             live: vec![true; points.len()],
             live_count: points.len(),
             tree: Tracked::Narrow(Keyed::empty(&domain, u64::AXIS_BITS)?),
+            log: None,
         };
         mesh.rebuild()?;
         Ok(mesh)
@@ -193,6 +200,7 @@ impl DynamicMesh {
         if let Some(existing) = self.live_at(p) {
             return Err(duplicate(id, existing, p));
         }
+        self.note_point(id as u32);
         self.points.push(p);
         self.live.push(true);
         self.live_count += 1;
@@ -215,6 +223,7 @@ impl DynamicMesh {
         let p = self
             .point(id)
             .ok_or(Error::UnknownPoint { id: id as usize })?;
+        self.note_point(id);
         let cells = self.tree.remove(p);
         self.live[id as usize] = false;
         self.live_count -= 1;
@@ -241,6 +250,7 @@ impl DynamicMesh {
         if let Some(existing) = self.live_at(p) {
             return Err(duplicate(id as usize, existing, p));
         }
+        self.note_point(id);
         let on = sides_of(p, self.domain.lo, self.domain.hi);
         let within = match &mut self.tree {
             Tracked::Narrow(k) => k.move_within_leaf(old, p, on),
@@ -342,6 +352,9 @@ impl DynamicMesh {
     pub fn apply_batch(&mut self, edits: &[Edit]) -> Result<BatchReport, (usize, Error)> {
         let plan = self.plan(edits)?;
         let first_new = self.points.len() as u32;
+        for &id in plan.ends.keys() {
+            self.note_point(id);
+        }
         // The points as they are now, and where the batch leaves each it touched.
         let mut leaving: Vec<DVec2> = Vec::new();
         let mut arriving: Vec<(u32, DVec2)> = Vec::new();
@@ -573,6 +586,14 @@ impl DynamicMesh {
         }
     }
 
+    /// Notes, while changes are tracked, where point `id` is before an edit changes it.
+    fn note_point(&mut self, id: u32) {
+        let now = self.point(id);
+        if let Some(log) = &mut self.log {
+            log.note_point(id, now);
+        }
+    }
+
     /// The id of the live point at exactly `p`, if any.
     fn live_at(&self, p: DVec2) -> Option<usize> {
         let id = match &self.tree {
@@ -632,6 +653,9 @@ impl DynamicMesh {
     /// Builds the tree of the live points from scratch, on the narrow grid if that resolves
     /// them, on the wide one otherwise.
     fn rebuild(&mut self) -> Result<(), Error> {
+        if let Some(log) = &mut self.log {
+            log.note_rebuild(&self.tree);
+        }
         let ids: Vec<u32> = (0..self.points.len() as u32)
             .filter(|&id| self.live[id as usize])
             .collect();
