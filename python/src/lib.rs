@@ -427,6 +427,41 @@ impl PyDynamicMesh {
         Ok(())
     }
 
+    fn track_changes(&mut self, on: bool) {
+        self.inner.track_changes(on);
+    }
+
+    /// The triangles taken out and put in since the last call, each as three corners: arrays
+    /// of shape (k, 3, 2), and the leaves warped to find them.
+    #[pyo3(signature = (nonobtuse = false))]
+    fn take_changes<'py>(
+        &mut self,
+        py: Python<'py>,
+        nonobtuse: bool,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, usize)> {
+        let inner = &mut self.inner;
+        let found = py.detach(|| match nonobtuse {
+            true => inner.take_nonobtuse_changes(),
+            false => inner.take_changes(),
+        });
+        let changes = found.map_err(|e| raise(&e))?;
+        let corners = |triangles: &[[DVec2; 3]]| -> PyResult<Bound<'py, PyAny>> {
+            let flat: Vec<f64> = triangles
+                .iter()
+                .flat_map(|t| t.iter().flat_map(|p| [p.x, p.y]))
+                .collect();
+            Ok(flat
+                .into_pyarray(py)
+                .reshape([triangles.len(), 3, 2])?
+                .into_any())
+        };
+        Ok((
+            corners(&changes.removed)?,
+            corners(&changes.added)?,
+            changes.leaves,
+        ))
+    }
+
     /// The ids of the live points, in increasing order.
     fn live_ids<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
         self.inner.live_points().0.into_pyarray(py).into_any()

@@ -207,6 +207,48 @@ def test_a_dynamic_mesh_after_edits_is_a_fresh_one_of_its_live_points():
     np.testing.assert_array_equal(mesh.vertices[[vertex_of[k] for k in range(len(live))]], points)
 
 
+def _triangle_rows(vertices, triangles):
+    """Each triangle as its corners from the least one on (orientation kept), as tuples."""
+    rows = []
+    for t in triangles:
+        corners = [tuple(vertices[v]) for v in t]
+        k = corners.index(min(corners))
+        rows.append(tuple(corners[k:] + corners[:k]))
+    return rows
+
+
+def _corner_row(corners):
+    """A (3, 2) array of corners as a row of ``_triangle_rows``."""
+    k = min(range(3), key=lambda i: tuple(corners[i]))
+    return tuple(tuple(p) for p in np.roll(corners, -k, axis=0))
+
+
+def test_tracked_changes_turn_the_old_mesh_into_the_new():
+    rng = np.random.default_rng(8)
+    dynamic = quadmesh.DynamicMesh(rng.random((500, 2)), (0, 0, 1, 1))
+    dynamic.track_changes()
+    for nonobtuse in (False, True):
+        before = dynamic.mesh(nonobtuse=nonobtuse)
+        dynamic.take_changes(nonobtuse)  # from here on
+        x, y = rng.random(2)
+        new = dynamic.insert(x, y)
+        dynamic.move_to(int(dynamic.live_ids()[7]), *rng.random(2))
+        removed, added = dynamic.take_changes(nonobtuse)
+        assert removed.shape[1:] == (3, 2) and added.shape[1:] == (3, 2)
+        after = dynamic.mesh(nonobtuse=nonobtuse)
+        rows = _triangle_rows(before.vertices, before.triangles)
+        for t in removed:
+            rows.remove(_corner_row(t))
+        rows += [_corner_row(t) for t in added]
+        assert sorted(rows) == sorted(_triangle_rows(after.vertices, after.triangles))
+        # Far fewer than the whole mesh changed.
+        assert len(removed) + len(added) < len(after.triangles) // 10
+        dynamic.delete(new)
+    dynamic.track_changes(False)
+    with pytest.raises(quadmesh.QuadmeshError):
+        dynamic.take_changes()
+
+
 def test_bad_dynamic_edits_raise_and_change_nothing():
     dynamic = quadmesh.DynamicMesh([[0.2, 0.3], [0.7, 0.8]], (0, 0, 1, 1))
     before = dynamic.mesh()

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
-from typing import Any, Dict, Optional
+from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
@@ -206,6 +206,21 @@ class DynamicMesh:
         """The current mesh: the warped one, or with ``nonobtuse=True`` the nonobtuse mesh of
         the same quadtree (every angle at most 90°), as ``mesh(..., mode="nonobtuse")`` gives."""
         return _mesh_of(self._inner.mesh(nonobtuse))
+
+    def track_changes(self, on: bool = True) -> None:
+        """Starts (or with ``on=False`` stops) recording what edits change, for
+        ``take_changes``."""
+        self._inner.track_changes(bool(on))
+
+    def take_changes(self, nonobtuse: bool = False) -> Tuple[np.ndarray, np.ndarray]:
+        """The triangles of ``mesh()`` (or ``mesh(nonobtuse=True)``) that the edits since
+        ``track_changes`` or the last call took out and put in, as two arrays of shape
+        (k, 3, 2): each triangle's corners, counter-clockwise. Taking ``removed`` out of the
+        mesh as it was and putting ``added`` in gives the mesh as it is. Found by re-meshing
+        only around the change, in time that does not grow with the number of points (a large
+        ``move_all`` that rebuilds the tree costs two whole meshes)."""
+        removed, added, _ = self._inner.take_changes(bool(nonobtuse))
+        return removed, added
 
 
 # Switches of Triangle's option string this mesher supports, and those it refuses by name.
