@@ -459,6 +459,17 @@ fn check_changes(dynamic: &mut DynamicMesh, before: &Mesh, what: &str) -> (Mesh,
     check_changes_in(dynamic, before, what, false)
 }
 
+/// A dynamic mesh of `n` uniform points of the unit square that tracks changes, and its mesh.
+fn tracked_uniform(rng: &mut Rng, n: usize) -> (DynamicMesh, Mesh) {
+    let points: Vec<DVec2> = (0..n)
+        .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
+        .collect();
+    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    dynamic.track_changes(true);
+    let mesh = dynamic.mesh().unwrap();
+    (dynamic, mesh)
+}
+
 #[test]
 fn tracked_changes_turn_the_old_mesh_into_the_new_after_every_edit() {
     for seed in 1..=3u64 {
@@ -490,12 +501,7 @@ fn tracked_changes_turn_the_old_mesh_into_the_new_after_every_edit() {
 #[test]
 fn tracked_changes_of_batches_and_rebuilds_turn_the_old_mesh_into_the_new() {
     let mut rng = Rng::seed_from_u64(77);
-    let initial: Vec<DVec2> = (0..400)
-        .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
-        .collect();
-    let mut dynamic = DynamicMesh::new(&initial, unit()).unwrap();
-    dynamic.track_changes(true);
-    let mut mesh = dynamic.mesh().unwrap();
+    let (mut dynamic, mut mesh) = tracked_uniform(&mut rng, 400);
     for step in 0..8 {
         // Small batches stay local; every third moves all points, which builds anew.
         let count = if step % 3 == 2 { dynamic.len() } else { 5 };
@@ -515,12 +521,7 @@ fn tracked_changes_of_batches_and_rebuilds_turn_the_old_mesh_into_the_new() {
 #[test]
 fn the_changes_of_one_edit_among_many_points_take_few_leaves() {
     let mut rng = Rng::seed_from_u64(5);
-    let points: Vec<DVec2> = (0..20_000)
-        .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
-        .collect();
-    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
-    dynamic.track_changes(true);
-    let mut mesh = dynamic.mesh().unwrap();
+    let (mut dynamic, mut mesh) = tracked_uniform(&mut rng, 20_000);
     let total = mesh.triangles.len();
     let mut leaves = Vec::new();
     for step in 0..9 {

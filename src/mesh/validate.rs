@@ -570,15 +570,7 @@ fn check_outline(mesh: &Mesh, outline: &[DVec2]) -> Result<(), String> {
         return Err(format!("the outline has {} corners", outline.len()));
     }
     let tolerance = outline_tolerance(outline);
-    let mut next = vec![NONE; mesh.vertices.len()];
-    for e in &mesh.boundary {
-        next[e.vertices[0] as usize] = e.vertices[1];
-    }
-    let Some(start) = mesh
-        .vertices
-        .iter()
-        .position(|&p| same_point(p, outline[0]))
-    else {
+    let Some((next, start)) = boundary_loop(mesh, outline) else {
         return Err(format!(
             "no vertex lies on the outline's first corner {}",
             pt(outline[0])
@@ -617,6 +609,20 @@ fn check_outline(mesh: &Mesh, outline: &[DVec2]) -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// The next vertex along the boundary from each vertex (`NONE` off it), and the vertex on the
+/// outline's first corner, where a walk along the outline starts; `None` if no vertex is.
+fn boundary_loop(mesh: &Mesh, outline: &[DVec2]) -> Option<(Vec<u32>, usize)> {
+    let mut next = vec![NONE; mesh.vertices.len()];
+    for e in &mesh.boundary {
+        next[e.vertices[0] as usize] = e.vertices[1];
+    }
+    let start = mesh
+        .vertices
+        .iter()
+        .position(|&p| same_point(p, outline[0]))?;
+    Some((next, start))
 }
 
 fn same_point(p: DVec2, q: DVec2) -> bool {
@@ -658,15 +664,7 @@ fn narrow_corners(outline: &[DVec2], min_deg: f64) -> Vec<usize> {
 /// [`check_outline`].
 fn outline_sides(mesh: &Mesh, outline: &[DVec2]) -> Vec<u32> {
     let mut side_of = vec![NONE; mesh.vertices.len()];
-    let mut next = vec![NONE; mesh.vertices.len()];
-    for e in &mesh.boundary {
-        next[e.vertices[0] as usize] = e.vertices[1];
-    }
-    let Some(start) = mesh
-        .vertices
-        .iter()
-        .position(|&p| same_point(p, outline[0]))
-    else {
+    let Some((next, start)) = boundary_loop(mesh, outline) else {
         return side_of;
     };
     let (mut v, mut side) = (start as u32, 0u32);
