@@ -597,3 +597,33 @@ fn a_hull_corner_in_line_with_the_side_of_a_narrow_one() {
         mesh.check_delaunay().unwrap();
     }
 }
+
+#[test]
+fn a_point_3e_minus_17_inside_the_end_of_a_hull_side_8e49_long() {
+    // Found by the `point_sets` fuzz target (Delaunay mode, 20°, the hull): a hull sliver from
+    // (-5.6e49, -5.6e49) to the origin, 98 304 wide there, with a point 2.9e-17 inside its long
+    // side next to the origin. Measured from the side's far end, the point rounded onto the
+    // near one, so the boundary bent through it, 1e10 times further out than f64 needs; and
+    // refinement, measuring from the sliver's far corner, took all three points at the wide
+    // end for points on both its sides and left a triangle of 2e-19° there (Shewchuk's rule).
+    // Both measure with the exact determinant now. Refinement then has to split the long side
+    // where f64 cannot tell it from the other (58 000 apart at coordinates of 2e49), and says
+    // so.
+    let points = vec![
+        DVec2::new(2.634_172_311_275_772_3e-178, 98_303.999_999_624_14),
+        DVec2::new(-3.988_095_257_061_079_7e-16, -3.571_761_622_850_442e-16),
+        DVec2::new(7.738_694_5e-317, 1.295_163e-318),
+        DVec2::new(-5.630_506_713_171_445e49, -5.630_506_717_317_518e49),
+    ];
+    for angle in [20.0, 30.0] {
+        let options = Options::default().min_angle(angle).max_vertices(20_000);
+        match within_limit(&Input::points(points.clone()), options) {
+            Ok(mesh) => {
+                mesh.validate(&points, options.angle_bounds()).unwrap();
+                mesh.check_delaunay().unwrap();
+            }
+            Err(Error::RefinementResolution { .. }) => {}
+            Err(e) => panic!("{e}"),
+        }
+    }
+}

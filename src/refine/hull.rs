@@ -18,7 +18,7 @@ use super::MIN_GAP;
 use super::delaunay::{NEXT, PREV, Triangulation, beyond};
 use crate::error::Error;
 use crate::mesh::NONE;
-use crate::predicates::{Orientation, orientation};
+use crate::predicates::{Orientation, orient_value, orientation};
 
 /// A hull corner narrower than this (degrees) has its boundary edges split on concentric
 /// circles around it, so that splits on its two sides do not encroach on each other forever.
@@ -236,11 +236,14 @@ fn peel_slivers(t: &mut Triangulation, hull: &[u32]) -> Vec<u32> {
 /// predicates' products, and the angle test's, underflow.
 fn near_side(a: DVec2, b: DVec2, x: DVec2) -> bool {
     let d = b - a;
-    let along = (x - a).dot(d) / d.length_squared();
     let reach = NEAR_SIDE * d.length().min(x.abs().max_element());
-    orientation(a, b, x) == Orientation::Left
-        && (0.0..=1.0).contains(&along)
-        && d.perp_dot(x - a) <= reach.max(MIN_GAP) * d.length()
+    // The distance from the determinant, each end's test from that end: measured from a far
+    // end, a point near the other rounds onto it and seems to lie on the side.
+    let cross = orient_value(a, b, x);
+    cross > 0.0
+        && (x - a).dot(d) >= 0.0
+        && (x - b).dot(d) <= 0.0
+        && cross <= reach.max(MIN_GAP) * d.length()
 }
 
 /// Removes the triangles `removed` (already unlinked from their neighbours), keeping the
@@ -582,6 +585,20 @@ mod tests {
                 .enumerate()
                 .all(|(k, &i)| map.of(i) == k as u32)
         );
+    }
+
+    #[test]
+    fn a_point_near_the_end_of_a_long_side_is_measured_from_that_end() {
+        // From the far end, the point rounds onto the near one and seems on the side; it lies
+        // 2.9e-17 inside, 1e10 times further than NEAR_SIDE of its magnitude.
+        let far = DVec2::new(-5.630_506_713_171_445e49, -5.630_506_717_317_518e49);
+        let near = DVec2::new(7.738_694_5e-317, 1.295_163e-318);
+        let x = DVec2::new(-3.988_095_257_061_079_7e-16, -3.571_761_622_850_442e-16);
+        assert!(!near_side(far, near, x));
+        // 1e-40 inside, it is near.
+        let (far, near) = (DVec2::new(-1e50, 0.0), DVec2::ZERO);
+        assert!(near_side(far, near, DVec2::new(-1e-16, 1e-40)));
+        assert!(!near_side(far, near, DVec2::new(1e-16, 1e-40)));
     }
 
     #[test]

@@ -20,7 +20,7 @@ use super::segments::Walls;
 use crate::error::Error;
 use crate::mesh::NONE;
 use crate::morton::interleave::interleave32;
-use crate::predicates::{Orientation, orientation};
+use crate::predicates::{Orientation, orient_value, orientation};
 
 /// An encroached boundary edge as it was when queued: the edge opposite `corner` of `triangle`,
 /// live while that slot still has these ends there.
@@ -79,9 +79,9 @@ struct AcuteCorner {
     vertex: u32,
     /// Whether it is narrower than the angle bound.
     narrow: bool,
-    /// Its position and the directions of its two sides.
+    /// Its position and the far ends of its two sides.
     at: DVec2,
-    sides: [DVec2; 2],
+    ends: [DVec2; 2],
 }
 
 impl AcuteCorner {
@@ -89,7 +89,7 @@ impl AcuteCorner {
         vertex: NONE,
         narrow: false,
         at: DVec2::ZERO,
-        sides: [DVec2::ZERO; 2],
+        ends: [DVec2::ZERO; 2],
     };
 }
 
@@ -182,7 +182,7 @@ impl Bounds {
                     vertex,
                     narrow: angle.to_radians().sin().powi(2) < self.sin2,
                     at,
-                    sides: [next - at, prev - at],
+                    ends: [next, prev],
                 };
             }
         }
@@ -199,21 +199,23 @@ impl Bounds {
             if corner.vertex == NONE || !corner.narrow {
                 return false;
             }
-            let (c, [a, b]) = (corner.at, corner.sides);
+            let (c, [e, f]) = (corner.at, corner.ends);
             // On a side: within 1e-9 radians of it, and within a thousandth of the corner's
             // own angle, so that a corner far narrower than 1e-9 (a point 1e55 away) does not
             // take every point far from it for one on both its sides; and no further out than
-            // its far end, beyond which a corner of nearly 180° can continue it in line.
-            let sin_corner = a.perp_dot(b).abs() / (a.length() * b.length());
+            // its far end, beyond which a corner of nearly 180° can continue it in line. The
+            // angles come from the determinants, which differences to a far corner would lose:
+            // from there, points near each other round to one direction.
+            let (a, b) = (e - c, f - c);
+            let sin_corner = orient_value(c, e, f).abs() / (a.length() * b.length());
             let tolerance = 1e-9f64.min(1e-3 * sin_corner);
-            let on = |x: DVec2, d: DVec2| {
-                let r = x - c;
-                let along = r.dot(d);
-                r.perp_dot(d).abs() <= tolerance * r.length() * d.length()
-                    && along > 0.0
-                    && along <= d.length_squared()
+            let on = |x: DVec2, end: DVec2| {
+                let d = end - c;
+                orient_value(c, end, x).abs() <= tolerance * x.distance(c) * d.length()
+                    && (x - c).dot(d) > 0.0
+                    && (x - end).dot(d) <= 0.0
             };
-            let spans = (on(p, a) && on(q, b)) || (on(p, b) && on(q, a));
+            let spans = (on(p, e) && on(q, f)) || (on(p, f) && on(q, e));
             spans && apex.distance(c) <= 1.001 * p.distance(c).max(q.distance(c))
         })
     }
@@ -705,4 +707,49 @@ fn circumcenter(p: DVec2, q: DVec2, r: DVec2) -> DVec2 {
     let d = 2.0 * b.perp_dot(c);
     let (b2, c2) = (b.length_squared(), c.length_squared());
     p + DVec2::new(c.y * b2 - b.y * c2, b.x * c2 - c.x * b2) / d
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::interior_angles_deg;
+
+    fn bounds_of(outline: &[DVec2]) -> Bounds {
+        let angles = interior_angles_deg(outline);
+        let corners: Vec<(u32, DVec2, f64)> = (0..outline.len())
+            .map(|k| (k as u32, outline[k], angles[k]))
+            .collect();
+        let options = RefineOptions {
+            min_angle_deg: 20.0,
+            ..RefineOptions::default()
+        };
+        let (lo, hi) = crate::morton::bounding_box(outline);
+        Bounds::new(&options, lo, hi).with_corners(&corners)
+    }
+
+    #[test]
+    fn a_point_is_on_a_narrow_corners_side_between_its_ends() {
+        let outline = [DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(1.0, 0.01)];
+        let bounds = bounds_of(&outline);
+        let (p, q) = (DVec2::new(0.5, 0.0), DVec2::new(0.5, 0.005));
+        assert!(bounds.spans_narrow_corner(p, q, DVec2::new(0.4, 0.002)));
+        // Beyond a side's far end, in line with it: not on it.
+        let beyond = DVec2::new(2.0, 0.0);
+        assert!(!bounds.spans_narrow_corner(beyond, q, DVec2::new(0.4, 0.002)));
+    }
+
+    #[test]
+    fn points_near_each_other_far_from_a_narrow_corner_are_not_on_both_its_sides() {
+        // Seen from a corner 8e49 away, differences round the three other corners to one
+        // direction.
+        let outline = [
+            DVec2::new(-5.630_506_713_171_445e49, -5.630_506_717_317_518e49),
+            DVec2::new(-3.988_095_257_061_079_7e-16, -3.571_761_622_850_442e-16),
+            DVec2::new(7.738_694_5e-317, 1.295_163e-318),
+            DVec2::new(2.634_172_311_275_772_3e-178, 98_303.999_999_624_14),
+        ];
+        let bounds = bounds_of(&outline);
+        assert!(bounds.in_narrow_corner(0));
+        assert!(!bounds.spans_narrow_corner(outline[1], outline[2], outline[3]));
+    }
 }
