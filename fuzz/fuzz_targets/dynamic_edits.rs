@@ -1,10 +1,11 @@
 //! Any bytes as initial points and a sequence of edits of a dynamic warped mesh on the unit
-//! square: after every edit the mesh equals a build from scratch of the live points, and a
-//! refused edit leaves it as it was.
+//! square: after every edit the mesh equals a build from scratch of the live points, the
+//! triangles the tracked changes report turn the mesh before into the mesh after, and a refused
+//! edit leaves it as it was.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use quadmesh::dynamic::{DynamicMesh, Edit};
+use quadmesh::dynamic::{DynamicMesh, Edit, TriangleChanges};
 use quadmesh::mesh::Domain;
 use quadmesh::{DVec2, Input, Options, Region};
 
@@ -23,6 +24,37 @@ fn coordinate(b: &[u8]) -> f64 {
 
 fn point(b: &[u8]) -> DVec2 {
     DVec2::new(coordinate(&b[..2]), coordinate(&b[2..4]))
+}
+
+/// A mesh's triangles by their corners' bits, each from its least corner on, sorted.
+fn triangle_set(mesh: &quadmesh::Mesh) -> Vec<[[u64; 2]; 3]> {
+    let mut all: Vec<_> = mesh
+        .triangles
+        .iter()
+        .map(|t| bits(t.map(|v| mesh.vertices[v as usize])))
+        .collect();
+    all.sort_unstable();
+    all
+}
+
+fn bits(corners: [DVec2; 3]) -> [[u64; 2]; 3] {
+    let mut b = corners.map(|p| [p.x.to_bits(), p.y.to_bits()]);
+    let least = (0..3).min_by_key(|&i| b[i]).unwrap();
+    b.rotate_left(least);
+    b
+}
+
+/// `before` less the removed triangles and with the added ones, or `None` if a removed one is
+/// not there.
+fn changed(before: &quadmesh::Mesh, changes: &TriangleChanges) -> Option<Vec<[[u64; 2]; 3]>> {
+    let mut all = triangle_set(before);
+    for t in &changes.removed {
+        let at = all.binary_search(&bits(*t)).ok()?;
+        all.remove(at);
+    }
+    all.extend(changes.added.iter().map(|t| bits(*t)));
+    all.sort_unstable();
+    Some(all)
 }
 
 fn rebuilt(dynamic: &DynamicMesh) -> Option<quadmesh::Mesh> {
@@ -50,6 +82,7 @@ fuzz_target!(|data: &[u8]| {
     let Ok(mut dynamic) = DynamicMesh::new(&initial, domain) else {
         return;
     };
+    dynamic.track_changes(true);
     for chunk in tail.chunks_exact(5).take(32) {
         let (ids, _) = dynamic.live_points();
         let pick = |b: u8| {
@@ -68,6 +101,13 @@ fuzz_target!(|data: &[u8]| {
             Ok(_) => {
                 let mesh = dynamic.mesh().ok();
                 assert!(mesh == rebuilt(&dynamic), "{edit:?}: not the rebuilt mesh");
+                let changes = dynamic.take_changes();
+                if let (Some(before), Some(after), Ok(changes)) = (&before, &mesh, &changes) {
+                    assert!(
+                        changed(before, changes) == Some(triangle_set(after)),
+                        "{edit:?}: the changes do not turn the old mesh into the new"
+                    );
+                }
                 if let Some(mesh) = mesh {
                     let (_, points) = dynamic.live_points();
                     mesh.validate(&points, Options::default().warp().angle_bounds())
@@ -76,6 +116,13 @@ fuzz_target!(|data: &[u8]| {
             }
             Err((_, e)) => {
                 assert!(!e.to_string().is_empty());
+                // A refused edit changes no triangle.
+                if let Ok(changes) = dynamic.take_changes() {
+                    assert!(
+                        changes.removed.is_empty() && changes.added.is_empty(),
+                        "{edit:?} refused but reported changes"
+                    );
+                }
                 assert!(dynamic.mesh().ok() == before, "{edit:?} refused but changed the mesh");
             }
         }
