@@ -92,10 +92,11 @@ impl DynamicMesh {
     }
 
     /// The triangles of [`Self::mesh`] that the edits since tracking started, or since the
-    /// last call, took out and put in; tracking starts again from here. Removing `removed`
-    /// from the mesh as it was and adding `added` gives the mesh as it is. Found by warping the
-    /// tree only around what changed, in time that grows with the leaves there; an edit that
-    /// built the tree anew (a large batch, a change of grid) costs two whole warps.
+    /// last call, took out and put in; tracking starts again from here (after an error, the
+    /// changes are kept for the next call). Removing `removed` from the mesh as it was and
+    /// adding `added` gives the mesh as it is. Found by warping the tree only around what
+    /// changed, in time that grows with the leaves there; an edit that built the tree anew (a
+    /// large batch, a change of grid) costs two whole warps.
     ///
     /// # Errors
     /// [`Error::InvalidOption`] when changes are not tracked; what the warp refuses.
@@ -118,9 +119,17 @@ impl DynamicMesh {
                 message: "changes are not tracked: call track_changes(true) first".into(),
             });
         };
-        let found = self.changes_since(&log, nonobtuse);
-        self.track_changes(true);
-        found
+        match self.changes_since(&log, nonobtuse) {
+            Ok(changes) => {
+                self.track_changes(true);
+                Ok(changes)
+            }
+            Err(e) => {
+                // Nothing is lost: the next call finds the same changes and any since.
+                self.log = Some(log);
+                Err(e)
+            }
+        }
     }
 
     fn changes_since(&self, log: &ChangeLog, nonobtuse: bool) -> Result<TriangleChanges, Error> {
