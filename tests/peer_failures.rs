@@ -627,3 +627,31 @@ fn a_point_3e_minus_17_inside_the_end_of_a_hull_side_8e49_long() {
         }
     }
 }
+
+#[test]
+fn a_hull_corner_1e_minus_78_from_the_opposite_side() {
+    // Found by the `point_sets` fuzz target (Delaunay mode, 23°, the hull): three nearly
+    // collinear points make a hull 0.124 long whose corner near the origin lies 1.07e-78 from
+    // the opposite side. Refinement split the sides until split points lay one f64 step apart
+    // (3e-73 along, 4e-79 across), where the exact in-circle products underflow: at the vertex
+    // budget, the partial mesh failed the Delaunay check. Refinement now stops with
+    // `RefinementResolution` rather than put a vertex within 1e-70 of others, the gap at which
+    // input points are refused as `TooClose`.
+    let points = vec![
+        DVec2::new(-1.071_054_237_770_489_6e-78, 1.254_806_211_341_005_5e-250),
+        DVec2::new(1.224_167_783_418_391e-250, -0.124_019_566_003_014_06),
+        DVec2::new(8.196_267_093_326_839e-308, 3.328_175_055_833_161e-57),
+    ];
+    for angle in [20.0, 23.0] {
+        let options = Options::default().min_angle(angle).max_vertices(20_000);
+        match within_limit(&Input::points(points.clone()), options) {
+            Ok(mesh) => {
+                mesh.validate(&points, options.angle_bounds()).unwrap();
+                mesh.check_delaunay().unwrap();
+            }
+            Err(Error::VertexBudget(partial)) => partial.mesh.check_delaunay().unwrap(),
+            Err(Error::RefinementResolution { .. }) => {}
+            Err(e) => panic!("{e}"),
+        }
+    }
+}

@@ -341,6 +341,7 @@ fn check_scale(points: &[DVec2]) -> Result<(), Error> {
 
 /// The smallest gap between distinct points, in either coordinate, the Delaunay mode accepts:
 /// as [`MIN_EXTENT`], and for the same reason (products of four differences stay normal f64).
+/// Refinement stops with [`Error::RefinementResolution`] rather than go below it.
 const MIN_GAP: f64 = MIN_EXTENT;
 
 /// Where a coordinate lies, for finding points within [`MIN_GAP`] of each other: a cell of

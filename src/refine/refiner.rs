@@ -10,13 +10,13 @@ use std::sync::Arc;
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::RefineOptions;
 use super::delaunay::{
     Cavity, Location, MARK, NEXT, PREV, Split, Store, Triangulation, is_wall, locate,
 };
 use super::hull::ACUTE_CORNER_DEG;
 use super::queue::{Queued, SizeQueue};
 use super::segments::Walls;
+use super::{MIN_GAP, RefineOptions};
 use crate::error::Error;
 use crate::mesh::NONE;
 use crate::morton::interleave::interleave32;
@@ -362,7 +362,9 @@ impl<'w, S: Store> Refiner<'w, S> {
         };
         debug_assert_eq!(class, SizeQueue::class_of(shortest2));
         let p = self.steiner_point(q.triangle, corner);
-        if !p.is_finite() {
+        // A shortest edge below [`MIN_GAP`] stops refinement too: the new point's triangles
+        // would have exact in-circle products that underflow f64.
+        if !p.is_finite() || shortest2 < MIN_GAP * MIN_GAP {
             let c = self.s.corners(q.triangle).map(|v| self.s.point(v));
             let at = (c[0] + c[1] + c[2]) / 3.0;
             return Err(Error::RefinementResolution { x: at.x, y: at.y });
@@ -505,7 +507,8 @@ impl<'w, S: Store> Refiner<'w, S> {
         } else if a.y == b.y {
             m.y = a.y;
         }
-        if m == a || m == b {
+        // A piece shorter than [`MIN_GAP`] would underflow the in-circle products too.
+        if m == a || m == b || m.distance(a).min(m.distance(b)) < MIN_GAP {
             return Err(Error::RefinementResolution { x: m.x, y: m.y });
         }
         let interior = self.s.across(e.triangle)[e.corner as usize] != NONE;
