@@ -655,3 +655,31 @@ fn a_hull_corner_1e_minus_78_from_the_opposite_side() {
         }
     }
 }
+
+#[test]
+fn a_hull_sliver_6e37_long_and_2e_minus_35_wide() {
+    // Found by the `point_sets` fuzz target (Delaunay mode, 29°, the hull): five points make a
+    // hull from -6.3e37 on the x axis to a cluster 1.8e-35 wide at the origin, its top side
+    // at y = 1.7e-218. Refinement near the wide end made rectangles 5e-23 by 1.8e-35 with a
+    // corner one step of 2e-234 off; their exact in-circle determinant, -4e-326, lies below
+    // f64's range, and the check read it as 5e-324: at the vertex budget, the partial mesh was
+    // not Delaunay. A determinant that small is now recomputed on the points scaled by a power
+    // of two.
+    let points = vec![
+        DVec2::new(3.035e-320, -1.805_774_942_692_359e-35),
+        DVec2::new(5.006_758_791_663_446_4e-226, -1.805_559_323_337_826_5e-35),
+        DVec2::new(-1.859_844_112_962_183_4e-35, 1.699_710_172_822_999_8e-218),
+        DVec2::new(6.756_127_006_185_585e-305, -2.490_185_727_705_79e-69),
+        DVec2::new(-6.321_912_601_123_859e37, 7.195_711_188_979_87e-175),
+    ];
+    let options = Options::default().min_angle(29.0).max_vertices(20_000);
+    match within_limit(&Input::points(points.clone()), options) {
+        Ok(mesh) => {
+            mesh.validate(&points, options.angle_bounds()).unwrap();
+            mesh.check_delaunay().unwrap();
+        }
+        Err(Error::VertexBudget(partial)) => partial.mesh.check_delaunay().unwrap(),
+        Err(Error::RefinementResolution { .. }) => {}
+        Err(e) => panic!("{e}"),
+    }
+}
