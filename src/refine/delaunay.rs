@@ -130,6 +130,11 @@ pub(crate) trait Store {
     /// Notes that vertex `v` lies on input segment `segment`, where segments are kept.
     #[inline]
     fn set_segment_of(&mut self, _v: u32, _segment: u32) {}
+    /// Whether in-circle ties are broken by [`perturbed_inside`].
+    #[inline]
+    fn canonical(&self) -> bool {
+        false
+    }
 
     /// Triangle `t` (outside a cavity search).
     #[inline]
@@ -152,6 +157,9 @@ pub(crate) struct Triangulation {
     pub regions: Vec<u32>,
     /// Per vertex, the input segment it was put on; empty where segments are not kept.
     pub segment_of: Vec<u32>,
+    /// Whether cocircular points are told apart by [`perturbed_inside`], so that the
+    /// triangulation of a point set is one and the same whatever the order of insertion.
+    pub canonical: bool,
 }
 
 impl Triangulation {
@@ -164,6 +172,7 @@ impl Triangulation {
             across: vec![[NONE, 1, NONE], [NONE, NONE, 0]],
             regions: Vec::new(),
             segment_of: Vec::new(),
+            canonical: false,
         }
     }
 
@@ -328,6 +337,10 @@ impl Store for Triangulation {
             *slot = segment;
         }
     }
+    #[inline]
+    fn canonical(&self) -> bool {
+        self.canonical
+    }
 }
 
 impl<S: Store> Store for &mut S {
@@ -394,6 +407,10 @@ impl<S: Store> Store for &mut S {
     #[inline]
     fn set_segment_of(&mut self, v: u32, segment: u32) {
         (**self).set_segment_of(v, segment);
+    }
+    #[inline]
+    fn canonical(&self) -> bool {
+        (**self).canonical()
     }
 }
 
@@ -488,12 +505,43 @@ fn locate_by_scan<S: Store>(s: &S, p: DVec2) -> Location {
     }
 }
 
-/// Whether `p` lies strictly inside the circumcircle of triangle `t`; exact.
+/// Whether `p` lies strictly inside the circumcircle of triangle `t`; exact. In a canonical
+/// store, a point on the circle counts as inside or not by [`perturbed_inside`].
 #[inline]
-fn in_circumcircle<S: Store>(s: &S, t: u32, p: DVec2) -> bool {
+pub(crate) fn in_circumcircle<S: Store>(s: &S, t: u32, p: DVec2) -> bool {
     let v = s.corners(t);
     let (a, b, c) = (s.point(v[0]), s.point(v[1]), s.point(v[2]));
-    in_circle(a, b, c, p) == InCircle::Inside
+    match in_circle(a, b, c, p) {
+        InCircle::Inside => true,
+        InCircle::Outside => false,
+        InCircle::On => s.canonical() && perturbed_inside(a, b, c, p),
+    }
+}
+
+/// Whether `d`, on the circle through `a`, `b`, `c` (counter-clockwise), counts as inside it
+/// once each point's lift onto the paraboloid is raised by an infinitesimal that is larger the
+/// earlier the point comes in (x, y) order (simulation of simplicity). Raising `d` puts it
+/// outside; raising a corner tips the circle's plane up over `d` when `d` lies on that
+/// corner's side of the opposite edge. The earliest of the four points decides, and four
+/// distinct cocircular points have no three in line, so it always does. Every triangulation
+/// built with this rule is the Delaunay triangulation of the raised points: one for a set of
+/// points, whatever the order they came in.
+pub(crate) fn perturbed_inside(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> bool {
+    let earlier = |p: DVec2, q: DVec2| (p.x, p.y) < (q.x, q.y);
+    let first = [a, b, c]
+        .into_iter()
+        .enumerate()
+        .fold(
+            (3, d),
+            |(k, m), (i, p)| if earlier(p, m) { (i, p) } else { (k, m) },
+        )
+        .0;
+    match first {
+        0 => orientation(b, c, d) == Orientation::Left,
+        1 => orientation(c, a, d) == Orientation::Left,
+        2 => orientation(a, b, d) == Orientation::Left,
+        _ => false,
+    }
 }
 
 /// The scratch space of insertions: the cavity of the point being inserted, its rim, and the
@@ -797,6 +845,28 @@ enum Step {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cocircular_ties_pick_one_diagonal_whatever_the_corner_order() {
+        // Four points of one circle, counter-clockwise: a quadrilateral with two Delaunay
+        // diagonals. The tie must keep exactly one, and not depend on which corner comes first.
+        let circles = [
+            [(1.0, 0.0), (0.0, 1.0), (-1.0, 0.0), (0.0, -1.0)],
+            [(0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (0.0, 1.0)],
+            [(3.0, 4.0), (-4.0, 3.0), (-3.0, -4.0), (5.0, 0.0)],
+        ];
+        for circle in circles {
+            let [a, b, c, d] = circle.map(|(x, y)| DVec2::new(x, y));
+            for [a, b, c, d] in [[a, b, c, d], [b, c, d, a], [c, d, a, b], [d, a, b, c]] {
+                assert_eq!(in_circle(a, b, c, d), InCircle::On);
+                let ac = !perturbed_inside(a, b, c, d) && !perturbed_inside(c, d, a, b);
+                let bd = perturbed_inside(a, b, c, d) && perturbed_inside(c, d, a, b);
+                assert!(ac || bd, "{a} {b} {c} {d}");
+                assert_eq!(perturbed_inside(a, b, c, d), perturbed_inside(b, c, a, d));
+                assert_eq!(perturbed_inside(a, b, c, d), perturbed_inside(c, a, b, d));
+            }
+        }
+    }
 
     fn is_delaunay(t: &Triangulation) -> bool {
         (0..t.len() as u32).all(|id| {

@@ -39,9 +39,12 @@ mod delaunay;
 mod hull;
 mod queue;
 mod refiner;
+mod rounds;
 mod segments;
 mod strips;
 mod tiles;
+
+pub use rounds::refine_points_in_rounds;
 
 use glam::DVec2;
 use rayon::prelude::*;

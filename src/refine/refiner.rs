@@ -156,7 +156,7 @@ impl Bounds {
 
     /// Whether a wall link may be split: a segment always, the boundary unless forbidden.
     #[inline]
-    fn splits(&self, link: u32) -> bool {
+    pub fn splits(&self, link: u32) -> bool {
         link != NONE || self.boundary_steiner
     }
 
@@ -468,25 +468,8 @@ impl<'w, S: Store> Refiner<'w, S> {
         is_live(&self.s, e)
     }
 
-    /// Üngör's off-center of triangle `id` whose shortest edge is opposite `corner`, or its
-    /// circumcenter when that is nearer the edge.
     fn steiner_point(&self, id: u32, corner: usize) -> DVec2 {
-        let tri = self.s.corners(id);
-        let (p, q, r) = (
-            self.s.point(tri[NEXT[corner]]),
-            self.s.point(tri[PREV[corner]]),
-            self.s.point(tri[corner]),
-        );
-        let d = q - p;
-        let midpoint = p * 0.5 + q * 0.5;
-        let centre = circumcenter(p, q, r);
-        // Both lie on the edge's bisector, the apex's side: compare their heights over the edge.
-        let height = (centre - midpoint).dot(d.perp()) / d.length_squared();
-        if height > self.bounds.offset {
-            midpoint + d.perp() * self.bounds.offset
-        } else {
-            centre
-        }
+        steiner_point(&self.s, self.bounds, id, corner)
     }
 
     /// Splits a wall (a boundary edge or a segment): at its midpoint, which on an
@@ -558,6 +541,27 @@ impl<'w, S: Store> Refiner<'w, S> {
     }
 }
 
+/// Üngör's off-center of triangle `id` whose shortest edge is opposite `corner`, or its
+/// circumcenter when that is nearer the edge.
+pub(super) fn steiner_point<S: Store>(s: &S, bounds: &Bounds, id: u32, corner: usize) -> DVec2 {
+    let tri = s.corners(id);
+    let (p, q, r) = (
+        s.point(tri[NEXT[corner]]),
+        s.point(tri[PREV[corner]]),
+        s.point(tri[corner]),
+    );
+    let d = q - p;
+    let midpoint = p * 0.5 + q * 0.5;
+    let centre = circumcenter(p, q, r);
+    // Both lie on the edge's bisector, the apex's side: compare their heights over the edge.
+    let height = (centre - midpoint).dot(d.perp()) / d.length_squared();
+    if height > bounds.offset {
+        midpoint + d.perp() * bounds.offset
+    } else {
+        centre
+    }
+}
+
 /// Whether the entry's triangle is still in its slot.
 pub(super) fn is_current<S: Store>(s: &S, q: &Queued) -> bool {
     newest(s.corners(q.triangle)) == q.newest
@@ -619,7 +623,7 @@ fn inspection<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Inspection {
 /// the lens makes no triangle on the edge worse than the bound; the lens is narrower than the
 /// diametral circle, so fewer splits are made. Without an angle bound, the circle: 90° or more.
 #[inline]
-fn encroaches<S: Store>(s: &S, bounds: &Bounds, p: DVec2, (a, b): (u32, u32)) -> bool {
+pub(super) fn encroaches<S: Store>(s: &S, bounds: &Bounds, p: DVec2, (a, b): (u32, u32)) -> bool {
     let (u, v) = (s.point(a) - p, s.point(b) - p);
     let dot = u.dot(v);
     dot <= 0.0 && dot * dot >= bounds.lens * u.length_squared() * v.length_squared()

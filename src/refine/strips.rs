@@ -265,6 +265,7 @@ fn glue(
         across,
         regions: Vec::new(),
         segment_of: Vec::new(),
+        canonical: false,
     };
     (t, vertex_input, seam_edges)
 }

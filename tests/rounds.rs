@@ -1,0 +1,241 @@
+//! Refinement in rounds (`refine_points_in_rounds`): every mesh passes `Mesh::validate` with the
+//! angle bound and the exact `Mesh::check_delaunay`; it is a function of the points alone (the
+//! same triangles in any input order, the same bytes on 1 and 2 threads), within 15 % of the
+//! static refinement's size; bad input is a typed error.
+
+mod common;
+
+use common::{FAMILIES, on_threads};
+use quadmesh::generate::{self, Distribution2d};
+use quadmesh::mesh::{AngleBounds, Domain};
+use quadmesh::refine::{RefineDomain, RefineOptions, refine_points, refine_points_in_rounds};
+use quadmesh::{DVec2, Error, Mesh};
+
+fn options(min_angle_deg: f64) -> RefineOptions {
+    RefineOptions {
+        min_angle_deg,
+        domain: RefineDomain::Square,
+        ..RefineOptions::default()
+    }
+}
+
+fn refined(points: &[DVec2], options: &RefineOptions) -> Mesh {
+    let (mesh, report) = refine_points_in_rounds(points, options)
+        .unwrap_or_else(|e| panic!("{} points with {options:?}: {e}", points.len()));
+    let a = options.min_angle_deg;
+    let bounds = AngleBounds {
+        min_deg: a,
+        max_deg: 180.0 - 2.0 * a,
+    };
+    if let Err(fault) = mesh.validate(points, bounds) {
+        panic!("{} points with {options:?}: {fault}", points.len());
+    }
+    if let Err(fault) = mesh.check_delaunay() {
+        panic!(
+            "{} points with {options:?}: not Delaunay: {fault}",
+            points.len()
+        );
+    }
+    assert_eq!(report.triangles, mesh.triangles.len());
+    assert!(report.min_angle >= a - 1e-9, "{}", report.min_angle);
+    mesh
+}
+
+/// Each triangle by its corners' coordinates, corners and triangles sorted: the mesh apart
+/// from its numbering.
+fn shape(mesh: &Mesh) -> Vec<[(u64, u64); 3]> {
+    let mut triangles: Vec<[(u64, u64); 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let mut c = t.map(|v| {
+                let p = mesh.vertices[v as usize];
+                (p.x.to_bits(), p.y.to_bits())
+            });
+            c.sort_unstable();
+            c
+        })
+        .collect();
+    triangles.sort_unstable();
+    triangles
+}
+
+#[test]
+fn every_family_meets_the_bound() {
+    for dist in FAMILIES {
+        let points = generate::points(dist, 3000, 11);
+        for angle in [20.0, 30.0, 33.0] {
+            refined(&points, &options(angle));
+        }
+    }
+}
+
+#[test]
+fn meshes_are_within_fifteen_percent_of_the_static_refinement() {
+    for dist in [
+        Distribution2d::Uniform,
+        Distribution2d::Cluster,
+        Distribution2d::Kuzmin,
+    ] {
+        let points = generate::points(dist, 20_000, 3);
+        let rounds = refined(&points, &options(30.0));
+        let (static_mesh, _) = refine_points(&points, &options(30.0)).expect("a mesh");
+        let ratio = rounds.triangles.len() as f64 / static_mesh.triangles.len() as f64;
+        assert!(ratio <= 1.15, "{dist:?}: {ratio}");
+    }
+}
+
+#[test]
+fn the_same_points_in_another_order_give_the_same_triangles() {
+    // Lattice points and points on the square's sides are full of cocircular quadruples.
+    let mut families: Vec<Vec<DVec2>> = FAMILIES
+        .iter()
+        .map(|&d| generate::points(d, 2000, 5))
+        .collect();
+    families.push(
+        (0..=20)
+            .flat_map(|i| (0..=20).map(move |j| DVec2::new(i as f64, j as f64)))
+            .collect(),
+    );
+    let domain = Domain {
+        lo: DVec2::new(0.0, 0.0),
+        hi: DVec2::new(20.0, 20.0),
+    };
+    for (k, points) in families.iter().enumerate() {
+        let mut options = options(28.0);
+        if k == FAMILIES.len() {
+            options.domain = RefineDomain::Rectangle(domain);
+        }
+        let mesh = refined(points, &options);
+        let mut reversed = points.clone();
+        reversed.reverse();
+        let mut interleaved: Vec<DVec2> = points.iter().step_by(2).copied().collect();
+        interleaved.extend(points.iter().skip(1).step_by(2));
+        for other in [reversed, interleaved] {
+            assert!(
+                shape(&refined(&other, &options)) == shape(&mesh),
+                "family {k}"
+            );
+        }
+    }
+}
+
+#[test]
+fn cocircular_points_have_one_triangulation() {
+    // Without bounds the mesh is the Delaunay triangulation of the points and the corners: on a
+    // lattice, every cell's four corners are cocircular, and each must be split the same way
+    // whatever order the points come in.
+    let lattice: Vec<DVec2> = (0..12)
+        .flat_map(|i| (0..12).map(move |j| DVec2::new(i as f64 * 0.5, j as f64 * 0.5)))
+        .collect();
+    let options = RefineOptions {
+        min_angle_deg: 0.0,
+        domain: RefineDomain::Rectangle(Domain {
+            lo: DVec2::new(-1.0, -1.0),
+            hi: DVec2::new(7.0, 7.0),
+        }),
+        ..RefineOptions::default()
+    };
+    let first = shape(&refined(&lattice, &options));
+    for stride in [5usize, 7, 11, 13] {
+        let shuffled: Vec<DVec2> = (0..lattice.len())
+            .map(|k| lattice[(k * stride) % lattice.len()])
+            .collect();
+        assert!(
+            shape(&refined(&shuffled, &options)) == first,
+            "stride {stride}"
+        );
+    }
+}
+
+#[test]
+fn one_and_two_threads_give_the_same_bytes() {
+    for dist in FAMILIES {
+        let points = generate::points(dist, 5000, 9);
+        let one = on_threads(1, || refined(&points, &options(30.0)));
+        let two = on_threads(2, || refined(&points, &options(30.0)));
+        assert_eq!(one, two, "{dist:?}");
+    }
+}
+
+#[test]
+fn an_area_bound_is_met() {
+    let points = generate::points(Distribution2d::Cluster, 500, 2);
+    let options = RefineOptions {
+        max_area: Some(1e-3),
+        ..options(25.0)
+    };
+    let mesh = refined(&points, &options);
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
+        assert!(0.5 * (b - a).perp_dot(c - a) <= 1e-3);
+    }
+}
+
+#[test]
+fn bad_input_is_refused_by_name() {
+    let points = generate::points(Distribution2d::Uniform, 100, 1);
+    let hull = RefineOptions {
+        domain: RefineDomain::ConvexHull,
+        ..options(30.0)
+    };
+    assert!(matches!(
+        refine_points_in_rounds(&points, &hull),
+        Err(Error::InvalidOption {
+            option: "domain",
+            ..
+        })
+    ));
+    let mut bad = points.clone();
+    bad[7] = DVec2::new(f64::NAN, 0.5);
+    assert!(matches!(
+        refine_points_in_rounds(&bad, &options(30.0)),
+        Err(Error::NonFinite { .. })
+    ));
+    let small = RefineOptions {
+        domain: RefineDomain::Rectangle(Domain {
+            lo: DVec2::ZERO,
+            hi: DVec2::splat(0.5),
+        }),
+        ..options(30.0)
+    };
+    assert!(matches!(
+        refine_points_in_rounds(&points, &small),
+        Err(Error::OutsideDomain { .. })
+    ));
+    assert!(matches!(
+        refine_points_in_rounds(&[], &options(30.0)),
+        Err(Error::Empty)
+    ));
+}
+
+#[test]
+fn a_vertex_budget_stops_with_a_valid_partial_mesh() {
+    let points = generate::points(Distribution2d::Kuzmin, 2000, 4);
+    let options = RefineOptions {
+        max_vertices: Some(2500),
+        ..options(30.0)
+    };
+    match refine_points_in_rounds(&points, &options) {
+        Err(Error::VertexBudget(incomplete)) => {
+            let any_angle = AngleBounds {
+                min_deg: 0.0,
+                max_deg: 180.0,
+            };
+            incomplete
+                .mesh
+                .validate(&points, any_angle)
+                .expect("a valid partial mesh");
+            incomplete
+                .mesh
+                .check_delaunay()
+                .expect("a Delaunay partial mesh");
+            assert!(!incomplete.unmet.is_empty());
+            assert!(incomplete.mesh.vertices.len() <= 2500 + 100);
+        }
+        other => panic!(
+            "expected the budget to stop it, got {:?}",
+            other.map(|_| ())
+        ),
+    }
+}
