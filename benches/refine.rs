@@ -6,13 +6,18 @@
 //! default to 1e4 and 1e5 (`QUADMESH_BENCH_REFINE_SIZES`), angles to 20 and 30
 //! (`QUADMESH_BENCH_REFINE_ANGLES`); threads come from `QUADMESH_BENCH_THREADS` like the other
 //! benches. Triangle counts are printed to stderr.
+//!
+//! Group `rounds/<dist>/t<threads>` puts refinement in rounds (`refine_points_in_rounds`, whose
+//! mesh depends only on the points near each triangle) beside `refine_points` on the same
+//! square domain, ids `static/a<angle>` and `rounds/a<angle>`, at 30° by default
+//! (`QUADMESH_BENCH_ROUNDS_ANGLES`), sizes from `QUADMESH_BENCH_ROUNDS_SIZES` (1e4, 1e5).
 
 mod common;
 
 use common::{DISTRIBUTIONS, SEED, configure, env_counts, pools};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use quadmesh::generate::points;
-use quadmesh::refine::{RefineOptions, refine_points};
+use quadmesh::refine::{RefineDomain, RefineOptions, refine_points, refine_points_in_rounds};
 
 fn refine_benches(c: &mut Criterion) {
     let angles = env_counts("QUADMESH_BENCH_REFINE_ANGLES", "20,30");
@@ -45,5 +50,43 @@ fn refine_benches(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, refine_benches);
+fn rounds_benches(c: &mut Criterion) {
+    let angles = env_counts("QUADMESH_BENCH_ROUNDS_ANGLES", "30");
+    for n in env_counts("QUADMESH_BENCH_ROUNDS_SIZES", "10000,100000") {
+        for (dist_name, dist) in DISTRIBUTIONS {
+            let pts = points(dist, n, SEED);
+            for (threads, pool) in pools() {
+                let group_name = format!("rounds/{dist_name}/t{threads}");
+                let mut group = c.benchmark_group(&group_name);
+                configure(&mut group, n);
+                for &angle in &angles {
+                    let options = RefineOptions {
+                        min_angle_deg: angle as f64,
+                        domain: RefineDomain::Square,
+                        ..RefineOptions::default()
+                    };
+                    let ways = [
+                        ("static", refine_points as fn(&_, &_) -> _),
+                        ("rounds", refine_points_in_rounds),
+                    ];
+                    for (way, refine) in ways {
+                        let run = || pool.install(|| refine(&pts, &options).expect("a mesh"));
+                        let (_, report) = run();
+                        eprintln!(
+                            "{group_name} {way} {angle}°: {n} points, {} triangles ({:.2} per point)",
+                            report.triangles,
+                            report.triangles as f64 / n as f64
+                        );
+                        group.bench_function(BenchmarkId::new(format!("{way}/a{angle}"), n), |b| {
+                            b.iter_with_large_drop(run)
+                        });
+                    }
+                }
+                group.finish();
+            }
+        }
+    }
+}
+
+criterion_group!(benches, refine_benches, rounds_benches);
 criterion_main!(benches);
