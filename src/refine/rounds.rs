@@ -5,11 +5,11 @@
 //! lands depends on work done far away. Here every round looks at the Delaunay triangulation
 //! as it stands and, for each bad triangle, proposes its Steiner point (the off-center, or the
 //! midpoint of a boundary edge it would encroach on) with the point's insertion radius, its
-//! distance to the nearest vertex. A proposal is taken unless a proposal of smaller radius
-//! (ties by position) conflicts with it: their cavities share a triangle, or one lies within
-//! the other's insertion radius. The proposals taken are inserted, smallest first, and the
-//! next round looks again. Smaller radii go first, as in Har-Peled and Üngör's order, but only
-//! against the proposals around them.
+//! distance to the nearest vertex. Proposals are ordered: boundary splits and triangles with
+//! an angle below about 14.5° first, then by the bad triangle's shortest edge (Har-Peled and
+//! Üngör's order), then by position. A proposal is taken unless a smaller one conflicts with
+//! it: its cavity holds a triangle that asked for it, or one lies within the other's insertion
+//! radius. The proposals taken are inserted, smallest first, and the next round looks again.
 //!
 //! Cocircular points are told apart by a symbolic perturbation
 //! ([`super::delaunay::perturbed_inside`]), so each round's triangulation is the Delaunay
@@ -35,7 +35,9 @@ use crate::mesh::{Domain, Mesh, MeshReport, NONE, StageTimes, report_of};
 use crate::morton::float_morton_order;
 
 /// The refined Delaunay mesh of `points` in a rectangle, made in rounds as the module says,
-/// with its report. The same points give the same mesh, byte for byte, in any order and on
+/// with its report. Where points lie along curves, a round can take only the few proposals
+/// that no huge circumcircle of the first triangulation joins: a thousand points on a
+/// parabola take 0.8 s, against 6 ms for [`super::refine_points`]. The same points give the same mesh, byte for byte, in any order and on
 /// any number of threads: the input points are numbered in input order after the rectangle's
 /// corners, then the Steiner points in (x, y) order; triangles start at their smallest vertex
 /// and are sorted.
@@ -88,6 +90,12 @@ pub fn refine_points_in_rounds(
 struct Proposal {
     /// Its distance to the nearest vertex.
     radius: f64,
+    /// What orders proposals: the shortest edge of the bad triangle, or half the boundary
+    /// edge a split halves.
+    size: f64,
+    /// Whether it splits a boundary edge or fixes a very thin triangle (see [`very_thin`]):
+    /// those go first.
+    urgent: bool,
     at: DVec2,
     /// The triangle it lies in (on its boundary edge, for a split).
     located: u32,
@@ -96,10 +104,12 @@ struct Proposal {
 }
 
 impl Proposal {
-    /// Smaller radii first, then (x, y): a total order on distinct points.
+    /// Urgent ones first, then smaller sizes, then (x, y): a total order on distinct points.
     fn cmp(&self, other: &Proposal) -> std::cmp::Ordering {
-        self.radius
-            .total_cmp(&other.radius)
+        other
+            .urgent
+            .cmp(&self.urgent)
+            .then(self.size.total_cmp(&other.size))
             .then(self.at.x.total_cmp(&other.at.x))
             .then(self.at.y.total_cmp(&other.at.y))
     }
@@ -133,6 +143,7 @@ fn refine_in_rounds(
     loop {
         candidates.par_sort_unstable();
         candidates.dedup();
+        turn_to_least_corner(t, &candidates);
         let Round { reached, asked } = proposals(t, bounds, &candidates)?;
         if reached.is_empty() {
             return Ok(Finish::Done);
@@ -237,7 +248,9 @@ fn proposals_of(t: &Triangulation, bounds: &Bounds, id: u32) -> Result<Vec<Reach
             }
         }
         Location::Inside(located) => {
-            let (reached, walls) = reach(t, bounds, p, located);
+            let (mut reached, walls) = reach(t, bounds, p, located);
+            reached.proposal.size = shortest2.sqrt();
+            reached.proposal.urgent = very_thin(tri.v.map(|v| t.point(v)), corner);
             if walls.is_empty() {
                 out.push(reached);
             }
@@ -250,6 +263,38 @@ fn proposals_of(t: &Triangulation, bounds: &Bounds, id: u32) -> Result<Vec<Reach
         }
     }
     Ok(out)
+}
+
+/// Whether the triangle with these corners has its smallest angle, at `corner`, below
+/// arcsin(1/4), about 14.5°. Such triangles are fixed before the merely bad ones: along
+/// curves of points, the first triangulation is full of slivers between distant parts of the
+/// curve, and fixing the smallest triangles first there lays rows of off-centers of one size
+/// across the gaps instead of graded ones (3.5 times the triangles on a spiral).
+fn very_thin(v: [DVec2; 3], corner: usize) -> bool {
+    let (p, q) = (v[NEXT[corner]], v[PREV[corner]]);
+    let apex = v[corner];
+    let area2 = (q - p).perp_dot(apex - p);
+    16.0 * area2 * area2 < apex.distance_squared(p) * apex.distance_squared(q)
+}
+
+/// Turns each candidate triangle to start at its least corner in (x, y) order, so that what
+/// is computed from its corners in turn (its shortest edge among equal ones, its
+/// circumcenter's rounding) depends on the triangle alone, not on how insertions left it.
+fn turn_to_least_corner(t: &mut Triangulation, candidates: &[u32]) {
+    for &id in candidates {
+        let c = t.corners[id as usize].map(|v| t.vertices[v as usize]);
+        let least = (0..3)
+            .min_by(|&i, &j| {
+                (c[i].x, c[i].y)
+                    .partial_cmp(&(c[j].x, c[j].y))
+                    .expect("finite")
+            })
+            .expect("three corners");
+        let at = [least, NEXT[least], PREV[least]];
+        let (corners, across) = (t.corners[id as usize], t.across[id as usize]);
+        t.corners[id as usize] = at.map(|i| corners[i]);
+        t.across[id as usize] = at.map(|i| across[i]);
+    }
 }
 
 /// The split of the boundary edge opposite corner `edge` of `triangle` at its midpoint, which
@@ -273,6 +318,8 @@ fn split_of(
     }
     let (mut reached, _) = reach(t, bounds, m, triangle);
     reached.proposal.split = true;
+    reached.proposal.urgent = true;
+    reached.proposal.size = pa.distance(pb) / 2.0;
     Ok(reached)
 }
 
@@ -309,6 +356,8 @@ fn reach(t: &Triangulation, bounds: &Bounds, p: DVec2, start: u32) -> (Reached, 
     }
     let proposal = Proposal {
         radius: nearest2.sqrt(),
+        size: nearest2.sqrt(),
+        urgent: false,
         at: p,
         located: start,
         split: false,
