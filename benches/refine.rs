@@ -7,17 +7,17 @@
 //! (`QUADMESH_BENCH_REFINE_ANGLES`); threads come from `QUADMESH_BENCH_THREADS` like the other
 //! benches. Triangle counts are printed to stderr.
 //!
-//! Group `rounds/<dist>/t<threads>` puts refinement in rounds (`refine_points_in_rounds`, whose
+//! Group `ordered/<dist>/t<threads>` puts refinement in order (`refine_points_in_order`, whose
 //! mesh depends only on the points near each triangle) beside `refine_points` on the same
-//! square domain, ids `static/a<angle>` and `rounds/a<angle>`, at 30° by default
-//! (`QUADMESH_BENCH_ROUNDS_ANGLES`), sizes from `QUADMESH_BENCH_ROUNDS_SIZES` (1e4, 1e5).
+//! square domain, ids `default/a<angle>` and `ordered/a<angle>`, at 30° by default
+//! (`QUADMESH_BENCH_ORDERED_ANGLES`), sizes from `QUADMESH_BENCH_ORDERED_SIZES` (1e4, 1e5).
 
 mod common;
 
 use common::{DISTRIBUTIONS, SEED, configure, env_counts, pools};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use quadmesh::generate::points;
-use quadmesh::refine::{RefineDomain, RefineOptions, refine_points, refine_points_in_rounds};
+use quadmesh::refine::{RefineDomain, RefineOptions, refine_points, refine_points_in_order};
 
 fn refine_benches(c: &mut Criterion) {
     let angles = env_counts("QUADMESH_BENCH_REFINE_ANGLES", "20,30");
@@ -50,13 +50,13 @@ fn refine_benches(c: &mut Criterion) {
     }
 }
 
-fn rounds_benches(c: &mut Criterion) {
-    let angles = env_counts("QUADMESH_BENCH_ROUNDS_ANGLES", "30");
-    for n in env_counts("QUADMESH_BENCH_ROUNDS_SIZES", "10000,100000") {
+fn ordered_benches(c: &mut Criterion) {
+    let angles = env_counts("QUADMESH_BENCH_ORDERED_ANGLES", "30");
+    for n in env_counts("QUADMESH_BENCH_ORDERED_SIZES", "10000,100000") {
         for (dist_name, dist) in DISTRIBUTIONS {
             let pts = points(dist, n, SEED);
             for (threads, pool) in pools() {
-                let group_name = format!("rounds/{dist_name}/t{threads}");
+                let group_name = format!("ordered/{dist_name}/t{threads}");
                 let mut group = c.benchmark_group(&group_name);
                 configure(&mut group, n);
                 for &angle in &angles {
@@ -66,8 +66,8 @@ fn rounds_benches(c: &mut Criterion) {
                         ..RefineOptions::default()
                     };
                     let ways = [
-                        ("static", refine_points as fn(&_, &_) -> _),
-                        ("rounds", refine_points_in_rounds),
+                        ("default", refine_points as fn(&_, &_) -> _),
+                        ("ordered", refine_points_in_order),
                     ];
                     for (way, refine) in ways {
                         let run = || pool.install(|| refine(&pts, &options).expect("a mesh"));
@@ -88,5 +88,5 @@ fn rounds_benches(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, refine_benches, rounds_benches);
+criterion_group!(benches, refine_benches, ordered_benches);
 criterion_main!(benches);

@@ -37,14 +37,14 @@
 
 mod delaunay;
 mod hull;
+mod ordered;
 mod queue;
 mod refiner;
-mod rounds;
 mod segments;
 mod strips;
 mod tiles;
 
-pub use rounds::refine_points_in_rounds;
+pub use ordered::refine_points_in_order;
 
 use glam::DVec2;
 use rayon::prelude::*;
