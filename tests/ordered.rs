@@ -273,3 +273,51 @@ fn a_vertex_budget_stops_with_a_valid_partial_mesh() {
         ),
     }
 }
+
+#[test]
+fn few_collinear_duplicate_and_boundary_points_are_meshed() {
+    let on = |x: f64, y: f64| DVec2::new(x, y);
+    let unit = RefineOptions {
+        domain: RefineDomain::Rectangle(Domain {
+            lo: DVec2::ZERO,
+            hi: DVec2::ONE,
+        }),
+        ..options(30.0)
+    };
+    let cases: Vec<(Vec<DVec2>, RefineOptions)> = vec![
+        (vec![on(0.3, 0.4)], options(30.0)),
+        (vec![on(0.3, 0.4), on(0.7, 0.1)], options(30.0)),
+        (
+            (0..50).map(|k| on(k as f64 * 0.02, 0.5)).collect(),
+            options(30.0),
+        ),
+        (
+            (0..50).map(|k| on(k as f64, 2.0 * k as f64)).collect(),
+            options(30.0),
+        ),
+        (
+            vec![on(0.5, 0.5), on(0.5, 0.5), on(0.25, 0.75)],
+            options(30.0),
+        ),
+        (
+            vec![
+                on(0.0, 0.0),
+                on(1.0, 1.0),
+                on(0.5, 0.0),
+                on(1.0, 0.3),
+                on(0.0, 0.999),
+                on(0.5, 0.5),
+            ],
+            unit,
+        ),
+    ];
+    for (points, options) in cases {
+        let mesh = refined(&points, &options);
+        let mut reversed = points.clone();
+        reversed.reverse();
+        assert!(
+            shape(&refined(&reversed, &options)) == shape(&mesh),
+            "{points:?}"
+        );
+    }
+}

@@ -1,10 +1,63 @@
 //! Any bytes as up to 64 points (raw f64 bits) and options: every mode answers with a mesh that
 //! passes `validate` (`validate_nonobtuse` in the nonobtuse mode; in the Delaunay mode, the exact
-//! Delaunay check too) or a typed error.
+//! Delaunay check too) or a typed error. On the square, the Delaunay mode is also refined by
+//! `refine_points_in_order`, whose mesh must pass the same checks and have the same triangles
+//! for the points in reverse order.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use quadmesh::{DVec2, Error, Input, Mode, Options, Region};
+use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
+use quadmesh::{DVec2, Error, Input, Mesh, Mode, Options, Region};
+
+/// Each triangle by its corners' coordinates, sorted: the mesh apart from its numbering.
+fn shape(mesh: &Mesh) -> Vec<[(u64, u64); 3]> {
+    let mut triangles: Vec<[(u64, u64); 3]> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let mut c = t.map(|v| {
+                let p = mesh.vertices[v as usize];
+                (p.x.to_bits(), p.y.to_bits())
+            });
+            c.sort_unstable();
+            c
+        })
+        .collect();
+    triangles.sort_unstable();
+    triangles
+}
+
+/// Refinement in order on the square: valid, Delaunay, and the same triangles for the points
+/// reversed.
+fn check_in_order(points: &[DVec2], options: &Options) {
+    let refine = RefineOptions {
+        min_angle_deg: options.min_angle_deg(),
+        domain: RefineDomain::Square,
+        max_vertices: Some(20_000),
+        ..RefineOptions::default()
+    };
+    let mut reversed = points.to_vec();
+    reversed.reverse();
+    match (
+        refine_points_in_order(points, &refine),
+        refine_points_in_order(&reversed, &refine),
+    ) {
+        (Ok((mesh, _)), Ok((other, _))) => {
+            mesh.validate(points, options.angle_bounds())
+                .unwrap_or_else(|e| panic!("in order: invalid mesh: {e}"));
+            mesh.check_delaunay().unwrap_or_else(|e| panic!("in order: not Delaunay: {e}"));
+            assert!(shape(&mesh) == shape(&other), "in order: depends on the input order");
+        }
+        (Err(Error::VertexBudget(partial)), Err(_)) => {
+            partial
+                .mesh
+                .check_delaunay()
+                .unwrap_or_else(|e| panic!("in order: partial: {e}"));
+        }
+        (Ok(_), Err(e)) | (Err(e), Ok(_)) => panic!("in order: one order fails with {e}"),
+        _ => {}
+    }
+}
 
 fuzz_target!(|data: &[u8]| {
     let Some((&choice, rest)) = data.split_first() else {
@@ -30,6 +83,9 @@ fuzz_target!(|data: &[u8]| {
     };
     if choice & 0x40 != 0 {
         options = options.region(Region::Square);
+        if choice & 1 == 0 {
+            check_in_order(&points, &options);
+        }
     }
     match quadmesh::mesh(&Input::points(points.clone()), &options) {
         Ok((mesh, _)) => {
