@@ -100,10 +100,28 @@ fn ordered(v: f64) -> u64 {
     }
 }
 
-/// What waits in the queue: its key (not urgent first, size, x, y), then where it is: the
-/// triangle's slot and corners as queued, and for a boundary split the corner facing the edge
-/// (3 for a bad triangle).
-type Entry = Reverse<(bool, u64, u64, u64, u32, [u32; 3], u8)>;
+/// What waits in the queue, 32 bytes: its key (urgency and size in one word, see
+/// [`rank`], then x, y), the triangle's slot, and its newest corner with, in the top two bits,
+/// the corner facing the boundary edge a split halves (3 for a bad triangle). A slot reused
+/// holds a triangle with a newer vertex (every triangle an insertion makes has it), so the
+/// newest corner tells whether the slot still holds the triangle queued.
+type Entry = Reverse<(u64, u64, u64, u32, u32)>;
+
+/// The first word of a key: urgent entries first, then by size (the lowest bit of its order
+/// dropped; ties go on to the position).
+fn rank(urgent: bool, size: f64) -> u64 {
+    (u64::from(!urgent) << 63) | (ordered(size) >> 1)
+}
+
+/// The entry for the triangle in `slot` with corners `corners`, and `edge`.
+fn entry(key: (u64, u64, u64), slot: u32, corners: [u32; 3], edge: u32) -> Entry {
+    debug_assert!(newest(corners) < 1 << 30);
+    Reverse((key.0, key.1, key.2, slot, newest(corners) | edge << 30))
+}
+
+fn newest(corners: [u32; 3]) -> u32 {
+    corners[0].max(corners[1]).max(corners[2])
+}
 
 /// Refines `t` one insertion at a time in the order the module gives, until nothing is bad,
 /// or past `budget` vertices.
@@ -116,8 +134,9 @@ fn refine_in_order(t: &mut Triangulation, bounds: &Bounds, budget: usize) -> Res
         queue_triangle(t, bounds, id, &mut queue);
     }
     let mut cavity = Cavity::default();
-    while let Some(Reverse((_, _, _, _, slot, corners, edge))) = queue.pop() {
-        if t.corners[slot as usize] != corners {
+    while let Some(Reverse((_, _, _, slot, stamp))) = queue.pop() {
+        let edge = stamp >> 30;
+        if newest(t.corners[slot as usize]) != stamp & ((1 << 30) - 1) {
             continue;
         }
         if t.vertices.len() > budget {
@@ -146,12 +165,11 @@ fn queue_triangle(t: &mut Triangulation, bounds: &Bounds, id: u32, queue: &mut B
             let (pa, pb) = (t.point(a), t.point(b));
             let m = midpoint(pa, pb);
             let key = (
-                false,
-                ordered(pa.distance(pb) / 2.0),
+                rank(true, pa.distance(pb) / 2.0),
                 ordered(m.x),
                 ordered(m.y),
             );
-            queue.push(Reverse((key.0, key.1, key.2, key.3, id, tri.v, i as u8)));
+            queue.push(entry(key, id, tri.v, i as u32));
         }
     }
     if let Some((corner, shortest2)) = badness(t, bounds, id) {
@@ -163,8 +181,8 @@ fn queue_triangle(t: &mut Triangulation, bounds: &Bounds, id: u32, queue: &mut B
         } else {
             shortest2.sqrt()
         };
-        let key = (!urgent, ordered(size), ordered(p.x), ordered(p.y));
-        queue.push(Reverse((key.0, key.1, key.2, key.3, id, tri.v, 3)));
+        let key = (rank(urgent, size), ordered(p.x), ordered(p.y));
+        queue.push(entry(key, id, tri.v, 3));
     }
 }
 
