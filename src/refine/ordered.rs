@@ -30,7 +30,7 @@ use glam::DVec2;
 use super::delaunay::{
     Cavity, Location, NEXT, PREV, Store, Triangulation, beyond, is_wall, locate,
 };
-use super::refiner::{Bounds, Finish, badness, encroaches, steiner_point};
+use super::refiner::{Bounds, Finish, badness, encroaches, place, steiner_point};
 use super::{
     MIN_GAP, RefineDomain, RefineOptions, boundary_edges, check_gaps, check_scale, insert_in_order,
     square_around, unmet_triangles, within_budget,
@@ -107,10 +107,14 @@ fn ordered(v: f64) -> u64 {
 /// newest corner tells whether the slot still holds the triangle queued.
 type Entry = Reverse<(u64, u64, u64, u32, u32)>;
 
-/// The first word of a key: urgent entries first, then by size (the lowest bit of its order
-/// dropped; ties go on to the position).
-fn rank(urgent: bool, size: f64) -> u64 {
-    (u64::from(!urgent) << 63) | (ordered(size) >> 1)
+/// The first word of a key: urgent entries first, then by size class (a factor of √2 each),
+/// then by the Morton key of the position (its top 45 bits), so that consecutive fixes touch
+/// nearby memory; ties go on to the exact position.
+fn rank(bounds: &Bounds, urgent: bool, size: f64, at: DVec2) -> u64 {
+    let class = (2.0 * size.abs().log2()).floor().clamp(-4000.0, 4000.0) as i64;
+    let class = if size < 0.0 { -class } else { class };
+    let class = (class + 8192) as u64 & 0x3FFF;
+    (u64::from(!urgent) << 63) | (class << 49) | (place(bounds, at) >> 15)
 }
 
 /// The entry for the triangle in `slot` with corners `corners`, and `edge`.
@@ -165,7 +169,7 @@ fn queue_triangle(t: &mut Triangulation, bounds: &Bounds, id: u32, queue: &mut B
             let (pa, pb) = (t.point(a), t.point(b));
             let m = midpoint(pa, pb);
             let key = (
-                rank(true, pa.distance(pb) / 2.0),
+                rank(bounds, true, pa.distance(pb) / 2.0, m),
                 ordered(m.x),
                 ordered(m.y),
             );
@@ -181,7 +185,7 @@ fn queue_triangle(t: &mut Triangulation, bounds: &Bounds, id: u32, queue: &mut B
         } else {
             shortest2.sqrt()
         };
-        let key = (rank(urgent, size), ordered(p.x), ordered(p.y));
+        let key = (rank(bounds, urgent, size, p), ordered(p.x), ordered(p.y));
         queue.push(entry(key, id, tri.v, 3));
     }
 }

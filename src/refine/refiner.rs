@@ -630,7 +630,7 @@ pub(super) fn encroaches<S: Store>(s: &S, bounds: &Bounds, p: DVec2, (a, b): (u3
 }
 
 /// The Morton key of point `p` on a 2^32 grid over the domain.
-fn place(bounds: &Bounds, p: DVec2) -> u64 {
+pub(super) fn place(bounds: &Bounds, p: DVec2) -> u64 {
     let g = (p - bounds.origin) * bounds.scale;
     interleave32(g.x as u32, g.y as u32)
 }
