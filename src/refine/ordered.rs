@@ -11,7 +11,8 @@
 //!   cavity small (1e5 points on a parabola: 2.3 s, against 111 s by the shortest edge);
 //! - then boundary splits, the shortest edge first;
 //! - then the other bad triangles by their shortest edge, as Har-Peled and Üngör order them;
-//! - ties by the Steiner point's position.
+//! - sizes in classes of a factor √2, and within a class the Morton order of the Steiner
+//!   point, so that consecutive fixes touch nearby memory; ties by the exact position.
 //!
 //! The smallest live entry is fixed next: its off-center (or circumcenter) is inserted, or,
 //! where that would lie beyond the boundary or encroach on boundary edges, the first of those
