@@ -80,6 +80,19 @@ fn some_id(dynamic: &DynamicMesh, rng: &mut Rng) -> u32 {
     ids[rng.random_range(0..ids.len())]
 }
 
+/// Edit `step` of a cycle: an insertion at a random place, the deletion of a random live
+/// point, a move of one to a random place.
+fn cycled_edit(step: usize, dynamic: &DynamicMesh, rng: &mut Rng) -> Edit {
+    match step % 3 {
+        0 => Edit::Insert(DVec2::new(rng.random::<f64>(), rng.random::<f64>())),
+        1 => Edit::Delete(some_id(dynamic, rng)),
+        _ => Edit::Move(
+            some_id(dynamic, rng),
+            DVec2::new(rng.random::<f64>(), rng.random::<f64>()),
+        ),
+    }
+}
+
 #[test]
 fn random_edits_give_the_rebuilt_mesh_after_every_step() {
     for seed in 1..=4u64 {
@@ -350,14 +363,7 @@ fn the_change_between_meshes_is_local_and_turns_the_old_mesh_into_the_new() {
     let corners = |m: &Mesh, t: u32| m.triangles[t as usize].map(|v| m.vertices[v as usize]);
     for step in 0..12 {
         let before = dynamic.mesh().unwrap();
-        let edit = match step % 3 {
-            0 => Edit::Insert(DVec2::new(rng.random::<f64>(), rng.random::<f64>())),
-            1 => Edit::Delete(some_id(&dynamic, &mut rng)),
-            _ => Edit::Move(
-                some_id(&dynamic, &mut rng),
-                DVec2::new(rng.random::<f64>(), rng.random::<f64>()),
-            ),
-        };
+        let edit = cycled_edit(step, &dynamic, &mut rng);
         dynamic.apply(&[edit]).unwrap();
         let after = dynamic.mesh().unwrap();
         let change = after.changes_from(&before);
@@ -525,14 +531,7 @@ fn the_changes_of_one_edit_among_many_points_take_few_leaves() {
     let total = mesh.triangles.len();
     let mut leaves = Vec::new();
     for step in 0..9 {
-        let edit = match step % 3 {
-            0 => Edit::Insert(DVec2::new(rng.random::<f64>(), rng.random::<f64>())),
-            1 => Edit::Delete(some_id(&dynamic, &mut rng)),
-            _ => Edit::Move(
-                some_id(&dynamic, &mut rng),
-                DVec2::new(rng.random::<f64>(), rng.random::<f64>()),
-            ),
-        };
+        let edit = cycled_edit(step, &dynamic, &mut rng);
         dynamic.apply(&[edit]).unwrap();
         let (after, taken) = check_changes(&mut dynamic, &mesh, &format!("{edit:?}"));
         leaves.push(taken);

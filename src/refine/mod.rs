@@ -166,15 +166,29 @@ pub fn refine_points(
     points: &[DVec2],
     options: &RefineOptions,
 ) -> Result<(Mesh, MeshReport), Error> {
-    options.check()?;
     let mut times = StageTimes::default();
+    let order = checked_order(points, options, &mut times)?;
+    refine_order(order, points, options, times)
+}
+
+/// The options and the points checked as both point-set refinements need them, and the
+/// points' Morton order (timed in `times`).
+///
+/// # Errors
+/// As [`refine_points`] refuses options and points.
+fn checked_order(
+    points: &[DVec2],
+    options: &RefineOptions,
+    times: &mut StageTimes,
+) -> Result<FloatOrder, Error> {
+    options.check()?;
     let order = times.time("morton", || float_morton_order(points))?;
     check_scale(points)?;
     check_gaps(points, &order.order)?;
     if let RefineDomain::Rectangle(domain) = options.domain {
         domain.check_holds(points)?;
     }
-    refine_order(order, points, options, times)
+    Ok(order)
 }
 
 /// How a planar straight-line graph is meshed, beyond the quality bounds of

@@ -31,14 +31,16 @@ use glam::DVec2;
 use super::delaunay::{
     Cavity, Location, NEXT, PREV, Store, Triangulation, beyond, is_wall, locate,
 };
-use super::refiner::{Bounds, Finish, badness, encroaches, place, steiner_point};
+use super::refiner::{
+    Bounds, Finish, badness, encroaches, midpoint, place, resolvable_steiner_point, split_point,
+    steiner_point,
+};
 use super::{
-    MIN_GAP, RefineDomain, RefineOptions, boundary_edges, check_gaps, check_scale, insert_in_order,
-    square_around, unmet_triangles, within_budget,
+    RefineDomain, RefineOptions, boundary_edges, checked_order, insert_in_order, square_around,
+    unmet_triangles, within_budget,
 };
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, MeshReport, NONE, StageTimes, report_of};
-use crate::morton::float_morton_order;
 use rayon::prelude::*;
 
 /// The refined Delaunay mesh of `points` in a rectangle, made in the order the module gives,
@@ -54,16 +56,10 @@ pub fn refine_points_in_order(
     points: &[DVec2],
     options: &RefineOptions,
 ) -> Result<(Mesh, MeshReport), Error> {
-    options.check()?;
     let mut times = StageTimes::default();
-    let morton = times.time("morton", || float_morton_order(points))?;
-    check_scale(points)?;
-    check_gaps(points, &morton.order)?;
+    let morton = checked_order(points, options, &mut times)?;
     let domain = match options.domain {
-        RefineDomain::Rectangle(d) => {
-            d.check_holds(points)?;
-            d
-        }
+        RefineDomain::Rectangle(d) => d,
         RefineDomain::Square => square_around(points),
         RefineDomain::ConvexHull => {
             return Err(Error::InvalidOption {
@@ -159,7 +155,7 @@ fn refine_in_order(t: &mut Triangulation, bounds: &Bounds, budget: usize) -> Res
 /// Turns triangle `id` to start at its least corner (so that its key and Steiner point depend
 /// on it alone) and queues it if it is bad, and the boundary edges its corners encroach on.
 fn queue_triangle(t: &mut Triangulation, bounds: &Bounds, id: u32, queue: &mut BinaryHeap<Entry>) {
-    turn_to_least_corner(t, &[id]);
+    turn_to_least_corner(t, id);
     let tri = t.triangle(id);
     for i in 0..3 {
         let (a, b) = tri.edge(i);
@@ -191,17 +187,6 @@ fn queue_triangle(t: &mut Triangulation, bounds: &Bounds, id: u32, queue: &mut B
     }
 }
 
-/// The midpoint of a boundary edge, keeping an axis-parallel side's coordinate bit for bit.
-fn midpoint(pa: DVec2, pb: DVec2) -> DVec2 {
-    let mut m = pa * 0.5 + pb * 0.5;
-    if pa.x == pb.x {
-        m.x = pa.x;
-    } else if pa.y == pb.y {
-        m.y = pa.y;
-    }
-    m
-}
-
 /// Splits the boundary edge opposite corner `edge` of triangle `slot` at its midpoint.
 fn split(
     t: &mut Triangulation,
@@ -212,11 +197,7 @@ fn split(
     queue: &mut BinaryHeap<Entry>,
 ) -> Result<(), Error> {
     let (a, b) = t.triangle(slot).edge(edge);
-    let (pa, pb) = (t.point(a), t.point(b));
-    let m = midpoint(pa, pb);
-    if m == pa || m == pb || m.distance(pa).min(m.distance(pb)) < MIN_GAP {
-        return Err(Error::RefinementResolution { x: m.x, y: m.y });
-    }
+    let m = split_point(t.point(a), t.point(b), (false, false))?;
     cavity.dig(t, m, slot);
     cavity.commit(t, m, None);
     queue_created(t, bounds, cavity, queue);
@@ -233,15 +214,10 @@ fn fix(
     slot: u32,
     queue: &mut BinaryHeap<Entry>,
 ) -> Result<(), Error> {
-    let Some((corner, shortest2)) = badness(t, bounds, slot) else {
+    let Some(bad) = badness(t, bounds, slot) else {
         return Ok(());
     };
-    let p = steiner_point(t, bounds, slot, corner);
-    if !p.is_finite() || shortest2 < MIN_GAP * MIN_GAP {
-        let c = t.corners[slot as usize].map(|v| t.point(v));
-        let at = (c[0] + c[1] + c[2]) / 3.0;
-        return Err(Error::RefinementResolution { x: at.x, y: at.y });
-    }
+    let p = resolvable_steiner_point(t, bounds, slot, bad)?;
     let wall = match locate(t, p, slot) {
         Location::Outside { triangle, edge } => {
             if !bounds.splits(t.across[triangle as usize][edge]) {
@@ -325,24 +301,22 @@ fn circumradius(c: [DVec2; 3]) -> f64 {
     a * b * d / (2.0 * (c[1] - c[0]).perp_dot(c[2] - c[0]).abs())
 }
 
-/// Turns each candidate triangle to start at its least corner in (x, y) order, so that what
+/// Turns triangle `id` to start at its least corner in (x, y) order, so that what
 /// is computed from its corners in turn (its shortest edge among equal ones, its
 /// circumcenter's rounding) depends on the triangle alone, not on how insertions left it.
-fn turn_to_least_corner(t: &mut Triangulation, candidates: &[u32]) {
-    for &id in candidates {
-        let c = t.corners[id as usize].map(|v| t.vertices[v as usize]);
-        let least = (0..3)
-            .min_by(|&i, &j| {
-                (c[i].x, c[i].y)
-                    .partial_cmp(&(c[j].x, c[j].y))
-                    .expect("finite")
-            })
-            .expect("three corners");
-        let at = [least, NEXT[least], PREV[least]];
-        let (corners, across) = (t.corners[id as usize], t.across[id as usize]);
-        t.corners[id as usize] = at.map(|i| corners[i]);
-        t.across[id as usize] = at.map(|i| across[i]);
-    }
+fn turn_to_least_corner(t: &mut Triangulation, id: u32) {
+    let c = t.corners[id as usize].map(|v| t.vertices[v as usize]);
+    let least = (0..3)
+        .min_by(|&i, &j| {
+            (c[i].x, c[i].y)
+                .partial_cmp(&(c[j].x, c[j].y))
+                .expect("finite")
+        })
+        .expect("three corners");
+    let at = [least, NEXT[least], PREV[least]];
+    let (corners, across) = (t.corners[id as usize], t.across[id as usize]);
+    t.corners[id as usize] = at.map(|i| corners[i]);
+    t.across[id as usize] = at.map(|i| across[i]);
 }
 
 /// The mesh of the refined triangulation, numbered by the points alone: the rectangle's

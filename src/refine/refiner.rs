@@ -361,14 +361,7 @@ impl<'w, S: Store> Refiner<'w, S> {
             return Ok(());
         };
         debug_assert_eq!(class, SizeQueue::class_of(shortest2));
-        let p = self.steiner_point(q.triangle, corner);
-        // A shortest edge below [`MIN_GAP`] stops refinement too: the new point's triangles
-        // would have exact in-circle products that underflow f64.
-        if !p.is_finite() || shortest2 < MIN_GAP * MIN_GAP {
-            let c = self.s.corners(q.triangle).map(|v| self.s.point(v));
-            let at = (c[0] + c[1] + c[2]) / 3.0;
-            return Err(Error::RefinementResolution { x: at.x, y: at.y });
-        }
+        let p = resolvable_steiner_point(&self.s, self.bounds, q.triangle, (corner, shortest2))?;
         // The triangle waits for the boundary edges it encroaches on to be split. A tile may
         // have to set those splits aside; the triangle then waits for a later pass too, rather
         // than find them unsplit again and again.
@@ -468,10 +461,6 @@ impl<'w, S: Store> Refiner<'w, S> {
         is_live(&self.s, e)
     }
 
-    fn steiner_point(&self, id: u32, corner: usize) -> DVec2 {
-        steiner_point(&self.s, self.bounds, id, corner)
-    }
-
     /// Splits a wall (a boundary edge or a segment): at its midpoint, which on an
     /// axis-parallel edge keeps the side's constant coordinate bit for bit; or, on an edge from
     /// an acute corner between walls, where a circle around the corner of a power-of-two radius
@@ -480,20 +469,7 @@ impl<'w, S: Store> Refiner<'w, S> {
     fn split_wall(&mut self, e: Encroached) -> Result<(), Error> {
         let (a, b) = (self.s.point(e.ends.0), self.s.point(e.ends.1));
         let acute = |v: u32| self.bounds.is_acute(v);
-        let mut m = match (acute(e.ends.0), acute(e.ends.1)) {
-            (true, false) => on_shell(a, b),
-            (false, true) => on_shell(b, a),
-            _ => a * 0.5 + b * 0.5,
-        };
-        if a.x == b.x {
-            m.x = a.x;
-        } else if a.y == b.y {
-            m.y = a.y;
-        }
-        // A piece shorter than [`MIN_GAP`] would underflow the in-circle products too.
-        if m == a || m == b || m.distance(a).min(m.distance(b)) < MIN_GAP {
-            return Err(Error::RefinementResolution { x: m.x, y: m.y });
-        }
+        let m = split_point(a, b, (acute(e.ends.0), acute(e.ends.1)))?;
         let interior = self.s.across(e.triangle)[e.corner as usize] != NONE;
         let through = interior.then_some(e.ends);
         if !self
@@ -560,6 +536,58 @@ pub(super) fn steiner_point<S: Store>(s: &S, bounds: &Bounds, id: u32, corner: u
     } else {
         centre
     }
+}
+
+/// The Steiner point of bad triangle `id`, whose shortest edge, of squared length
+/// `shortest2`, is opposite `corner` ([`badness`]); or [`Error::RefinementResolution`] at the
+/// triangle when it is not finite or that edge is shorter than [`MIN_GAP`] (the new point's
+/// triangles would have exact in-circle products that underflow f64).
+pub(super) fn resolvable_steiner_point<S: Store>(
+    s: &S,
+    bounds: &Bounds,
+    id: u32,
+    (corner, shortest2): (usize, f64),
+) -> Result<DVec2, Error> {
+    let p = steiner_point(s, bounds, id, corner);
+    if !p.is_finite() || shortest2 < MIN_GAP * MIN_GAP {
+        let c = s.corners(id).map(|v| s.point(v));
+        let at = (c[0] + c[1] + c[2]) / 3.0;
+        return Err(Error::RefinementResolution { x: at.x, y: at.y });
+    }
+    Ok(p)
+}
+
+/// Where a wall from `a` to `b` is split: its midpoint, or, with an acute corner between walls
+/// at one end (`acute`, per end), the point on a power-of-two circle around it nearest the
+/// midpoint; on an axis-parallel wall, with the side's constant coordinate kept bit for bit.
+/// A piece shorter than [`MIN_GAP`] would underflow the in-circle products:
+/// [`Error::RefinementResolution`] there.
+pub(super) fn split_point(a: DVec2, b: DVec2, acute: (bool, bool)) -> Result<DVec2, Error> {
+    let m = match acute {
+        (true, false) => on_shell(a, b),
+        (false, true) => on_shell(b, a),
+        _ => a * 0.5 + b * 0.5,
+    };
+    let m = kept_on_axis(m, a, b);
+    if m == a || m == b || m.distance(a).min(m.distance(b)) < MIN_GAP {
+        return Err(Error::RefinementResolution { x: m.x, y: m.y });
+    }
+    Ok(m)
+}
+
+/// The midpoint of a wall from `a` to `b`, as [`split_point`] puts it without acute corners.
+pub(super) fn midpoint(a: DVec2, b: DVec2) -> DVec2 {
+    kept_on_axis(a * 0.5 + b * 0.5, a, b)
+}
+
+/// `m`, on the line from `a` to `b`, with the constant coordinate of an axis-parallel line.
+fn kept_on_axis(mut m: DVec2, a: DVec2, b: DVec2) -> DVec2 {
+    if a.x == b.x {
+        m.x = a.x;
+    } else if a.y == b.y {
+        m.y = a.y;
+    }
+    m
 }
 
 /// Whether the entry's triangle is still in its slot.
