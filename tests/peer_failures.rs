@@ -659,8 +659,8 @@ fn a_hull_sliver_6e37_long_and_2e_minus_35_wide() {
     // at y = 1.7e-218. Refinement near the wide end made rectangles 5e-23 by 1.8e-35 with a
     // corner one step of 2e-234 off; their exact in-circle determinant, -4e-326, lies below
     // f64's range, and the check read it as 5e-324: at the vertex budget, the partial mesh was
-    // not Delaunay. A determinant that small is now recomputed on the points scaled by a power
-    // of two.
+    // not Delaunay. Where coordinates leave the range in which the adaptive predicates are
+    // exact, they are now recomputed on the points scaled by a power of two.
     let points = vec![
         DVec2::new(3.035e-320, -1.805_774_942_692_359e-35),
         DVec2::new(5.006_758_791_663_446_4e-226, -1.805_559_323_337_826_5e-35),
@@ -670,4 +670,50 @@ fn a_hull_sliver_6e37_long_and_2e_minus_35_wide() {
     ];
     let options = Options::default().min_angle(29.0).max_vertices(20_000);
     meshes_or_stops(&points, options, true);
+}
+
+#[test]
+fn huge_and_tiny_coordinates_in_one_hull() {
+    // Found three times by the `point_sets` fuzz target (Delaunay mode, 20° and 29°, the
+    // hull): points with x up to 1.7e40 or 2.7e42 beside y near 1e-306. At the vertex budget,
+    // the partial mesh had triangles with corners near 5e12 in x and 1e-6 or 1e-300 in y whose
+    // in-circle products fell below f64's range, so the adaptive test read 5e-324 and the
+    // triangulation was not Delaunay. No power of two brings such a mixture into range; the
+    // predicates now decide it in integers.
+    let cases: [(f64, &[(f64, f64)]); 3] = [
+        (
+            20.0,
+            &[
+                (-0.001_815_496_706_484_509_6, -1.832_550_647_212_064e-6),
+                (-0.122_112_259_210_324_74, 4.378_247_291_155_157e-305),
+                (1.652_571_306_654_006_5e40, 2.736_752_922_471_602_2e-306),
+                (1.780_059_086_818_712_7e-307, 2.187_337_306_634_809_3e-303),
+            ],
+        ),
+        (
+            20.0,
+            &[
+                (-0.120_098_039_215_008_61, 2.784_641_362_005e-310),
+                (2.535_835_848_624_214_6e-153, -1.832_549_970_284_820_6e-6),
+                (-0.124_004_289_215_686_26, -1.145_489_966_767_375_8e-7),
+                (2.700_734_407_608_94e42, -1.169_603_529_244_374_1e-306),
+                (4.384_157_988_265_719e-193, -3.051_757_812_500_001e-5),
+            ],
+        ),
+        (
+            29.0,
+            &[
+                (3.035e-320, -1.805_774_942_692_495_8e-35),
+                (5.006_758_791_663_446_4e-226, -1.805_559_323_337_826_5e-35),
+                (-1.859_844_112_962_183_4e-35, -1.859_844_112_962_183_4e-35),
+                (1.699_710_172_822_999_8e-218, 6.756_127_006_185_585e-305),
+                (-2.284_495_008_020_583_3e37, 1.085_268_860_110_754e-309),
+            ],
+        ),
+    ];
+    for (angle, coordinates) in cases {
+        let points: Vec<DVec2> = coordinates.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
+        let options = Options::default().min_angle(angle).max_vertices(20_000);
+        meshes_or_stops(&points, options, true);
+    }
 }
