@@ -308,3 +308,56 @@ fn few_collinear_duplicate_and_boundary_points_are_meshed() {
         );
     }
 }
+
+/// The farthest corner of a triangle `change` adds to `after` or removes from `before`, from
+/// `at`.
+fn reach_of_change(before: &Mesh, after: &Mesh, at: DVec2) -> f64 {
+    let change = after.changes_from(before);
+    let corners_of =
+        |mesh: &Mesh, t: u32| mesh.triangles[t as usize].map(|v| mesh.vertices[v as usize]);
+    let removed = change.removed.iter().map(|&t| corners_of(before, t));
+    let added = change.added.iter().map(|&t| corners_of(after, t));
+    removed
+        .chain(added)
+        .flatten()
+        .map(|p| p.distance(at))
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn one_edit_changes_the_mesh_only_near_it() {
+    // The property a dynamic mesh replays: inserting or deleting one point changes triangles
+    // within a few input spacings of it (measured on 2e4 points: at most 5.6), where the
+    // default refinement's global order moves Steiner points across the whole square.
+    let n = 4000;
+    let points = generate::points(Distribution2d::Uniform, n, 5);
+    let extra = generate::points(Distribution2d::Uniform, 8, 6);
+    let options = RefineOptions {
+        min_angle_deg: 30.0,
+        domain: RefineDomain::Rectangle(Domain {
+            lo: DVec2::splat(-0.01),
+            hi: DVec2::splat(1.01),
+        }),
+        ..RefineOptions::default()
+    };
+    let spacing = (1.0 / n as f64).sqrt();
+    let before = refined(&points, &options);
+    for (k, &new) in extra.iter().enumerate() {
+        let mut inserted = points.clone();
+        inserted.push(new);
+        let after = refined(&inserted, &options);
+        let reach = reach_of_change(&before, &after, new) / spacing;
+        assert!(
+            reach > 0.0 && reach < 12.0,
+            "insertion {k}: {reach} spacings"
+        );
+        let mut deleted = points.clone();
+        let at = deleted.remove(k * 499);
+        let after = refined(&deleted, &options);
+        let reach = reach_of_change(&before, &after, at) / spacing;
+        assert!(
+            reach > 0.0 && reach < 12.0,
+            "deletion {k}: {reach} spacings"
+        );
+    }
+}

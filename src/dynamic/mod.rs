@@ -11,8 +11,10 @@
 //! each insertion takes the next id; a deleted id is never given out again.
 
 mod changes;
+mod refined;
 
 pub use changes::TriangleChanges;
+pub use refined::{DynamicDelaunay, RefinedEdit};
 
 use glam::DVec2;
 

@@ -673,6 +673,12 @@ impl Cavity {
         }
     }
 
+    /// The triangles of the cavity [`Self::dig`] last found (the first corner of each carries
+    /// [`MARK`] until the cavity is committed or abandoned).
+    pub fn dug(&self) -> &[u32] {
+        &self.triangles
+    }
+
     /// The boundary of the cavity [`Self::dig`] last found.
     pub fn rim(&self) -> &[RimEdge] {
         &self.rim

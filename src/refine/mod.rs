@@ -40,11 +40,15 @@ mod hull;
 mod ordered;
 mod queue;
 mod refiner;
+mod replay;
 mod segments;
 mod strips;
 mod tiles;
 
 pub use ordered::refine_points_in_order;
+pub(crate) use ordered::{Stamp, canonical_delaunay, run_in_order};
+pub(crate) use refiner::Bounds;
+pub(crate) use replay::{Window, replay};
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -57,7 +61,7 @@ use crate::mesh::{
 use crate::morton::{FloatOrder, SortAlgorithm, bounding_box, float_morton_order};
 use crate::options::Input;
 use delaunay::{Cavity, Location, MAX_VERTICES, NEXT, PREV, Triangulation, locate};
-use refiner::{Bounds, Finish, Refiner, Work};
+use refiner::{Finish, Refiner, Work};
 
 /// The largest angle bound for which off-center refinement is proven to terminate,
 /// arcsin(1/(2√2)), in degrees.
@@ -359,7 +363,7 @@ fn check_scale(points: &[DVec2]) -> Result<(), Error> {
 /// The smallest gap between distinct points, in either coordinate, the Delaunay mode accepts:
 /// as [`MIN_EXTENT`], and for the same reason (products of four differences stay normal f64).
 /// Refinement stops with [`Error::RefinementResolution`] rather than go below it.
-const MIN_GAP: f64 = MIN_EXTENT;
+pub(crate) const MIN_GAP: f64 = MIN_EXTENT;
 
 /// Where a coordinate lies, for finding points within [`MIN_GAP`] of each other: a cell of
 /// side [`MIN_GAP`] where f64's spacing is finer than the gap, else its exact value (where

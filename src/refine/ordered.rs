@@ -56,6 +56,24 @@ pub fn refine_points_in_order(
     points: &[DVec2],
     options: &RefineOptions,
 ) -> Result<(Mesh, MeshReport), Error> {
+    run_in_order(points, options, false).map(|run| (run.mesh, run.report))
+}
+
+/// What a run of refinement in order made: the mesh and its report, the bounds it ran under,
+/// and, when asked for, the stamp of every Steiner point in insertion order.
+pub(crate) struct InOrder {
+    pub mesh: Mesh,
+    pub report: MeshReport,
+    pub bounds: Bounds,
+    pub stamps: Vec<Stamp>,
+}
+
+/// Refinement in order of `points`, with the Steiner points' stamps when `stamps` is set.
+pub(crate) fn run_in_order(
+    points: &[DVec2],
+    options: &RefineOptions,
+    stamps: bool,
+) -> Result<InOrder, Error> {
     let mut times = StageTimes::default();
     let morton = checked_order(points, options, &mut times)?;
     let domain = match options.domain {
@@ -77,14 +95,56 @@ pub fn refine_points_in_order(
     })?;
     let bounds = Bounds::new(options, domain.lo, domain.hi);
     let budget = options.budget(distinct);
-    let finish = times.time("refine", || refine_in_order(&mut t, &bounds, budget))?;
+    let (finish, stamps) =
+        times.time("refine", || refine_in_order(&mut t, &bounds, budget, stamps))?;
     let unmet = (finish == Finish::OutOfBudget).then(|| unmet_triangles(&t, &bounds));
     let mesh = times.time("mesh", || canonical_mesh(t, vertex_input, domain));
     let quality = times.time("angles", || {
         super::angle_quality(&mesh.vertices, &mesh.triangles)
     });
     let report = report_of(&mesh, distinct, morton.duplicates.count, &quality, times);
-    within_budget(mesh, report, unmet, budget)
+    let (mesh, report) = within_budget(mesh, report, unmet, budget)?;
+    Ok(InOrder {
+        mesh,
+        report,
+        bounds,
+        stamps,
+    })
+}
+
+/// The mesh refinement in order makes of `points` in `domain` when it inserts the Steiner
+/// points `steiner`: their Delaunay triangulation (unique, ties broken as refinement breaks
+/// them), numbered as [`refine_points_in_order`] numbers it.
+pub(crate) fn canonical_delaunay(
+    points: &[DVec2],
+    steiner: &[DVec2],
+    options: &RefineOptions,
+) -> Result<Mesh, Error> {
+    let RefineDomain::Rectangle(domain) = options.domain else {
+        return Err(Error::InvalidOption {
+            option: "domain",
+            message: "a dynamic mesh needs a fixed rectangle".into(),
+        });
+    };
+    let morton = checked_order(points, options, &mut StageTimes::default())?;
+    let mut t = Triangulation::rectangle(domain.lo, domain.hi);
+    t.canonical = true;
+    t.reserve(4 + morton.order.len() + steiner.len(), 0);
+    let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
+    let bounds = Bounds::new(options, domain.lo, domain.hi);
+    let mut order: Vec<(u64, DVec2)> = steiner.iter().map(|&p| (place(&bounds, p), p)).collect();
+    order.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.x.total_cmp(&b.1.x)).then(a.1.y.total_cmp(&b.1.y)));
+    let mut cavity = Cavity::default();
+    let mut hint = 0;
+    for (_, p) in order {
+        let Location::Inside(start) = locate(&t, p, hint) else {
+            return Err(Error::RefinementResolution { x: p.x, y: p.y });
+        };
+        cavity.dig(&mut t, p, start);
+        cavity.commit(&mut t, p, None);
+        hint = cavity.created()[0];
+    }
+    Ok(canonical_mesh(t, vertex_input, domain))
 }
 
 /// An f64 as a u64 in the same order (total order, negatives first).
@@ -124,37 +184,223 @@ fn newest(corners: [u32; 3]) -> u32 {
     corners[0].max(corners[1]).max(corners[2])
 }
 
-/// Refines `t` one insertion at a time in the order the module gives, until nothing is bad,
-/// or past `budget` vertices.
-fn refine_in_order(t: &mut Triangulation, bounds: &Bounds, budget: usize) -> Result<Finish, Error> {
-    if bounds.unbounded() {
-        return Ok(Finish::Done);
+/// A queue key: the first word of [`rank`], then the position's x and y as ordered bits.
+pub(crate) type Key = (u64, u64, u64);
+
+/// Why a vertex was inserted: the key of the queue entry fixed, and the point its decision
+/// was taken for (the off-center tested, or the midpoint of the edge split).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Cause {
+    pub key: Key,
+    pub decision: DVec2,
+}
+
+/// Whoever runs the loop's steps: it keeps the queue, may refuse a cavity before it is
+/// committed (a replay in a window refuses what it cannot trust), and hears of every insertion.
+pub(crate) trait Watch {
+    /// A step begins on the entry with `key` for the triangle with corners `creator`.
+    fn begin(&mut self, _key: Key, _creator: [DVec2; 3]) {}
+    /// Queues the entry with `key` for the triangle in `slot` with `corners`, and `edge` (3 for
+    /// a bad triangle, else the corner facing the boundary edge to split).
+    fn queue(&mut self, t: &Triangulation, key: Key, slot: u32, corners: [u32; 3], edge: u32);
+    /// Whether the cavity just dug may be committed.
+    fn allows(&mut self, _t: &Triangulation, _cavity: &Cavity) -> bool {
+        true
     }
-    let mut queue = BinaryHeap::new();
+    /// Vertex `v` was inserted for `cause`; the cavity holds the triangles it made.
+    fn inserted(&mut self, _t: &Triangulation, _cavity: &Cavity, _v: u32, _cause: &Cause) {}
+}
+
+/// An entry of the current round: its generation, then as [`Entry`].
+type RoundEntry = Reverse<(u32, u64, u64, u64, u32, u32)>;
+
+/// The plain loop's queue, and, when asked, the cause and time of every insertion.
+struct Plain {
+    /// Entries of later rounds.
+    queue: BinaryHeap<Entry>,
+    /// Entries of the current round.
+    round: BinaryHeap<RoundEntry>,
+    time: Time,
+    stamps: Option<Vec<Stamp>>,
+    reach: Reach,
+}
+
+/// A Steiner point with what a replay needs to tell whether a change near it moves it: its
+/// cause and the time of the step that inserted it.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Stamp {
+    pub at: DVec2,
+    pub time: Time,
+    pub cause: Cause,
+    /// A box around everything the step read: the circumcircles of its triangle, of the
+    /// cavities it dug and of the triangles around them.
+    pub reach: Reach,
+}
+
+/// A box `[lo, hi]` around circles, as `[lo.x, lo.y, hi.x, hi.y]`.
+pub(crate) type Reach = [f64; 4];
+
+/// Nothing yet.
+pub(crate) const NO_REACH: Reach = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+
+/// `reach` grown to hold the circle through `c` (with a margin for its centre's rounding);
+/// NaN for corners in line, which makes the box hold everything.
+pub(crate) fn reach_around(reach: &mut Reach, c: [DVec2; 3]) {
+    let (ab, ac) = (c[1] - c[0], c[2] - c[0]);
+    let d = 2.0 * ab.perp_dot(ac);
+    let (lb, lc) = (ab.length_squared(), ac.length_squared());
+    let centre = c[0] + DVec2::new(ac.y * lb - ab.y * lc, ab.x * lc - ac.x * lb) / d;
+    let radius = centre.distance(c[0]).max(centre.distance(c[1])).max(centre.distance(c[2]));
+    let r = radius * (1.0 + 1e-9) + 1e-9 * centre.abs().max_element();
+    if !r.is_finite() {
+        *reach = [f64::NEG_INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::INFINITY];
+        return;
+    }
+    *reach = [
+        reach[0].min(centre.x - r),
+        reach[1].min(centre.y - r),
+        reach[2].max(centre.x + r),
+        reach[3].max(centre.y + r),
+    ];
+}
+
+/// `reach` grown to hold the circumcircles of the cavity just dug and of the triangles
+/// beyond its rim.
+pub(crate) fn reach_of_cavity(reach: &mut Reach, t: &Triangulation, cavity: &Cavity) {
+    let corners = |id: u32| t.corners[id as usize].map(|v| t.point(v));
+    for &id in cavity.dug() {
+        reach_around(reach, corners(id));
+    }
+    for e in cavity.rim() {
+        if !is_wall(e.outer) {
+            reach_around(reach, corners(beyond(e.outer)));
+        }
+    }
+}
+
+/// When a step runs, in the loop's order: the key of the entry that began its round (every
+/// entry the round makes with a smaller key is fixed before any other, and the round's
+/// entry itself, queued again after splitting the boundary, comes back in a next pass), the
+/// pass, and the generation within the round (an entry made by a step of generation g is of
+/// g + 1). The loop fixes entries in the order of (time, key), and what it fixes in a round
+/// is made by the round: so where a change reaches, a replay can tell when each step ran.
+pub(crate) type Time = (Key, u32, u32);
+
+/// The time of an entry with `key` queued by a step at `now`.
+pub(crate) fn time_of(now: Time, key: Key) -> Time {
+    let (round, pass, generation) = now;
+    match key.cmp(&round) {
+        std::cmp::Ordering::Less => (round, pass, generation + 1),
+        std::cmp::Ordering::Equal => (round, pass + 1, 0),
+        std::cmp::Ordering::Greater => (key, 0, 0),
+    }
+}
+
+impl Watch for Plain {
+    fn begin(&mut self, _key: Key, creator: [DVec2; 3]) {
+        if self.stamps.is_some() {
+            self.reach = NO_REACH;
+            reach_around(&mut self.reach, creator);
+        }
+    }
+
+    fn queue(&mut self, _t: &Triangulation, key: Key, slot: u32, corners: [u32; 3], edge: u32) {
+        if key < self.time.0 {
+            let stamp = newest(corners) | edge << 30;
+            let generation = self.time.2 + 1;
+            self.round
+                .push(Reverse((generation, key.0, key.1, key.2, slot, stamp)));
+        } else {
+            self.queue.push(entry(key, slot, corners, edge));
+        }
+    }
+
+    fn allows(&mut self, t: &Triangulation, cavity: &Cavity) -> bool {
+        if self.stamps.is_some() {
+            reach_of_cavity(&mut self.reach, t, cavity);
+        }
+        true
+    }
+
+    fn inserted(&mut self, t: &Triangulation, _cavity: &Cavity, v: u32, cause: &Cause) {
+        if let Some(stamps) = &mut self.stamps {
+            stamps.push(Stamp {
+                at: t.vertices[v as usize],
+                time: self.time,
+                cause: *cause,
+                reach: self.reach,
+            });
+        }
+    }
+}
+
+/// Refines `t` one insertion at a time in the order the module gives, until nothing is bad,
+/// or past `budget` vertices; with `stamps`, returns every insertion's stamp in order.
+fn refine_in_order(
+    t: &mut Triangulation,
+    bounds: &Bounds,
+    budget: usize,
+    stamps: bool,
+) -> Result<(Finish, Vec<Stamp>), Error> {
+    let mut plain = Plain {
+        queue: BinaryHeap::new(),
+        round: BinaryHeap::new(),
+        time: ((0, 0, 0), 0, 0),
+        stamps: stamps.then(Vec::new),
+        reach: NO_REACH,
+    };
+    if bounds.unbounded() {
+        return Ok((Finish::Done, Vec::new()));
+    }
     for id in 0..t.len() as u32 {
-        queue_triangle(t, bounds, id, &mut queue);
+        queue_triangle(t, bounds, id, &mut plain);
     }
     let mut cavity = Cavity::default();
-    while let Some(Reverse((_, _, _, slot, stamp))) = queue.pop() {
-        let edge = stamp >> 30;
+    loop {
+        let (generation, key, slot, stamp) = match plain.round.pop() {
+            Some(Reverse((g, k0, k1, k2, slot, stamp))) => (Some(g), (k0, k1, k2), slot, stamp),
+            None => match plain.queue.pop() {
+                Some(Reverse((k0, k1, k2, slot, stamp))) => (None, (k0, k1, k2), slot, stamp),
+                None => break,
+            },
+        };
         if newest(t.corners[slot as usize]) != stamp & ((1 << 30) - 1) {
             continue;
         }
         if t.vertices.len() > budget {
-            return Ok(Finish::OutOfBudget);
+            return Ok((Finish::OutOfBudget, plain.stamps.unwrap_or_default()));
         }
-        if edge < 3 {
-            split(t, bounds, &mut cavity, slot, edge as usize, &mut queue)?;
-        } else {
-            fix(t, bounds, &mut cavity, slot, &mut queue)?;
-        }
+        plain.time = match generation {
+            Some(g) => (plain.time.0, plain.time.1, g),
+            None => time_of(plain.time, key),
+        };
+        step(t, bounds, &mut cavity, slot, stamp >> 30, key, &mut plain)?;
     }
-    Ok(Finish::Done)
+    Ok((Finish::Done, plain.stamps.unwrap_or_default()))
+}
+
+/// Fixes the live entry for the triangle in `slot` with `key`: splits the boundary edge facing
+/// corner `edge`, or, for 3, fixes the bad triangle.
+pub(crate) fn step<W: Watch>(
+    t: &mut Triangulation,
+    bounds: &Bounds,
+    cavity: &mut Cavity,
+    slot: u32,
+    edge: u32,
+    key: Key,
+    watch: &mut W,
+) -> Result<(), Error> {
+    watch.begin(key, t.corners[slot as usize].map(|v| t.point(v)));
+    if edge < 3 {
+        split(t, bounds, cavity, slot, edge as usize, None, key, watch).map(|_| ())
+    } else {
+        fix(t, bounds, cavity, slot, key, watch)
+    }
 }
 
 /// Turns triangle `id` to start at its least corner (so that its key and Steiner point depend
 /// on it alone) and queues it if it is bad, and the boundary edges its corners encroach on.
-fn queue_triangle(t: &mut Triangulation, bounds: &Bounds, id: u32, queue: &mut BinaryHeap<Entry>) {
+pub(crate) fn queue_triangle<W: Watch>(t: &mut Triangulation, bounds: &Bounds, id: u32, watch: &mut W) {
     turn_to_least_corner(t, id);
     let tri = t.triangle(id);
     for i in 0..3 {
@@ -170,7 +416,7 @@ fn queue_triangle(t: &mut Triangulation, bounds: &Bounds, id: u32, queue: &mut B
                 ordered(m.x),
                 ordered(m.y),
             );
-            queue.push(entry(key, id, tri.v, i as u32));
+            watch.queue(t, key, id, tri.v, i as u32);
         }
     }
     if let Some((corner, shortest2)) = badness(t, bounds, id) {
@@ -183,36 +429,51 @@ fn queue_triangle(t: &mut Triangulation, bounds: &Bounds, id: u32, queue: &mut B
             shortest2.sqrt()
         };
         let key = (rank(bounds, urgent, size, p), ordered(p.x), ordered(p.y));
-        queue.push(entry(key, id, tri.v, 3));
+        watch.queue(t, key, id, tri.v, 3);
     }
 }
 
-/// Splits the boundary edge opposite corner `edge` of triangle `slot` at its midpoint.
-fn split(
+/// Splits the boundary edge opposite corner `edge` of triangle `slot` at its midpoint, for
+/// the entry with `key` that decided on `decision` (the midpoint itself where none is given).
+/// Returns whether the watch let it happen.
+#[allow(clippy::too_many_arguments)]
+fn split<W: Watch>(
     t: &mut Triangulation,
     bounds: &Bounds,
     cavity: &mut Cavity,
     slot: u32,
     edge: usize,
-    queue: &mut BinaryHeap<Entry>,
-) -> Result<(), Error> {
+    decision: Option<DVec2>,
+    key: Key,
+    watch: &mut W,
+) -> Result<bool, Error> {
     let (a, b) = t.triangle(slot).edge(edge);
     let m = split_point(t.point(a), t.point(b), (false, false))?;
     cavity.dig(t, m, slot);
-    cavity.commit(t, m, None);
-    queue_created(t, bounds, cavity, queue);
-    Ok(())
+    if !watch.allows(t, cavity) {
+        cavity.abandon(t);
+        return Ok(false);
+    }
+    let v = cavity.commit(t, m, None);
+    let cause = Cause {
+        key,
+        decision: decision.unwrap_or(m),
+    };
+    watch.inserted(t, cavity, v, &cause);
+    queue_created(t, bounds, cavity, watch);
+    Ok(true)
 }
 
 /// Inserts the Steiner point of bad triangle `slot`, or, where it would lie beyond the
 /// boundary or encroach on boundary edges, splits the first of those edges in (x, y) order
 /// of their midpoints and queues the triangle again.
-fn fix(
+fn fix<W: Watch>(
     t: &mut Triangulation,
     bounds: &Bounds,
     cavity: &mut Cavity,
     slot: u32,
-    queue: &mut BinaryHeap<Entry>,
+    key: Key,
+    watch: &mut W,
 ) -> Result<(), Error> {
     let Some(bad) = badness(t, bounds, slot) else {
         return Ok(());
@@ -243,10 +504,16 @@ fn fix(
                     )
                 })
                 .min_by(|x, y| (x.0.x, x.0.y).partial_cmp(&(y.0.x, y.0.y)).expect("finite"));
+            if !watch.allows(t, cavity) {
+                cavity.abandon(t);
+                return Ok(());
+            }
             match first {
                 None => {
-                    cavity.commit(t, p, None);
-                    queue_created(t, bounds, cavity, queue);
+                    let v = cavity.commit(t, p, None);
+                    let cause = Cause { key, decision: p };
+                    watch.inserted(t, cavity, v, &cause);
+                    queue_created(t, bounds, cavity, watch);
                     return Ok(());
                 }
                 Some((_, triangle, edge)) => {
@@ -260,22 +527,17 @@ fn fix(
         }
     };
     let corners = t.corners[slot as usize];
-    split(t, bounds, cavity, wall.0, wall.1, queue)?;
-    if t.corners[slot as usize] == corners {
-        queue_triangle(t, bounds, slot, queue);
+    let split = split(t, bounds, cavity, wall.0, wall.1, Some(p), key, watch)?;
+    if split && t.corners[slot as usize] == corners {
+        queue_triangle(t, bounds, slot, watch);
     }
     Ok(())
 }
 
 /// Queues what the last insertion made.
-fn queue_created(
-    t: &mut Triangulation,
-    bounds: &Bounds,
-    cavity: &Cavity,
-    queue: &mut BinaryHeap<Entry>,
-) {
+fn queue_created<W: Watch>(t: &mut Triangulation, bounds: &Bounds, cavity: &Cavity, watch: &mut W) {
     for &id in cavity.created() {
-        queue_triangle(t, bounds, id, queue);
+        queue_triangle(t, bounds, id, watch);
     }
 }
 

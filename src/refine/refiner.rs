@@ -46,7 +46,7 @@ struct Inspection {
 
 /// The quality bounds and the frame of the Morton keys, fixed for a whole refinement.
 #[derive(Clone, Debug)]
-pub(super) struct Bounds {
+pub(crate) struct Bounds {
     /// sin² of the angle bound.
     sin2: f64,
     /// Twice the area bound (cross products give twice the area).

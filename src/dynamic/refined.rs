@@ -1,0 +1,434 @@
+//! Quality Delaunay meshes kept current under point insertions, deletions and moves.
+//!
+//! A [`DynamicDelaunay`] keeps the Steiner points of [`crate::refine::refine_points_in_order`]
+//! for its live points, each with its stamp (when it was inserted, and by which triangle's
+//! fix). An edit replays refinement in order in a square window around the changed point,
+//! once with the points before and once after, and keeps the replay's Steiner points where
+//! the two replays show that the change reaches nothing outside the window (see
+//! `refine::replay`); otherwise the window doubles, up to the whole domain. So after any
+//! sequence of edits the mesh is byte for byte that of refinement in order of the live
+//! points in id order, and an edit costs what its window holds.
+
+use std::collections::HashMap;
+
+use glam::DVec2;
+
+use super::check_place;
+use crate::error::Error;
+use crate::mesh::{Domain, Mesh};
+use crate::refine::{
+    Bounds, RefineDomain, RefineOptions, Stamp, Window, canonical_delaunay, replay, run_in_order,
+};
+
+/// What one edit of a [`DynamicDelaunay`] did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RefinedEdit {
+    /// The point's id.
+    pub id: u32,
+    /// The side of the last window replayed (0 when nothing was replayed).
+    pub window: f64,
+    /// How many windows were replayed, each twice the side of the one before.
+    pub windows: u32,
+    /// Steiner points removed and added.
+    pub steiner_removed: usize,
+    /// Steiner points added.
+    pub steiner_added: usize,
+    /// Whether the window grew to the whole domain, which refines it all again.
+    pub rebuilt: bool,
+}
+
+/// A quality Delaunay mesh of a changing point set in a fixed rectangle.
+#[derive(Clone, Debug)]
+pub struct DynamicDelaunay {
+    options: RefineOptions,
+    domain: Domain,
+    bounds: Bounds,
+    /// The points by id; `None` once deleted.
+    points: Vec<Option<DVec2>>,
+    /// The Steiner points, by slot; `None` for a free slot.
+    steiner: Vec<Option<Stamp>>,
+    free: Vec<u32>,
+    /// Live point ids and Steiner slots (under both the point and the place its decision was
+    /// taken for) by grid cell.
+    point_cells: HashMap<(i64, i64), Vec<u32>>,
+    steiner_cells: HashMap<(i64, i64), Vec<u32>>,
+    cell: f64,
+}
+
+impl DynamicDelaunay {
+    /// The mesh of `points` in `options.domain`, which must be a rectangle: the same as
+    /// [`crate::refine::refine_points_in_order`] gives. The points take ids `0..n`.
+    ///
+    /// # Errors
+    /// As [`crate::refine::refine_points_in_order`]; [`Error::InvalidOption`] for a domain that
+    /// is not a rectangle; [`Error::DuplicatePoint`] for a point given twice.
+    pub fn new(points: &[DVec2], options: &RefineOptions) -> Result<Self, Error> {
+        let RefineDomain::Rectangle(domain) = options.domain else {
+            return Err(Error::InvalidOption {
+                option: "domain",
+                message: "a dynamic mesh needs a fixed rectangle as its domain".into(),
+            });
+        };
+        if let Some((id, existing)) = super::first_repeat(points) {
+            return Err(super::duplicate(id, existing, points[id]));
+        }
+        let run = run_in_order(points, options, true)?;
+        let mut mesh = DynamicDelaunay {
+            options: *options,
+            domain,
+            bounds: run.bounds,
+            points: points.iter().map(|&p| Some(p)).collect(),
+            steiner: Vec::new(),
+            free: Vec::new(),
+            point_cells: HashMap::new(),
+            steiner_cells: HashMap::new(),
+            cell: 1.0,
+        };
+        mesh.index(run.stamps);
+        Ok(mesh)
+    }
+
+    /// The point with this id, if it is live.
+    pub fn point(&self, id: u32) -> Option<DVec2> {
+        self.points.get(id as usize).copied().flatten()
+    }
+
+    /// The live points in id order.
+    pub fn live_points(&self) -> Vec<DVec2> {
+        self.points.iter().flatten().copied().collect()
+    }
+
+    /// How many Steiner points the mesh has.
+    pub fn steiner_count(&self) -> usize {
+        self.steiner.len() - self.free.len()
+    }
+
+    /// The mesh: byte for byte what [`crate::refine::refine_points_in_order`] makes of the
+    /// live points in id order on the same rectangle.
+    ///
+    /// # Errors
+    /// As [`crate::refine::refine_points_in_order`] for the live points (none for a mesh that
+    /// was made).
+    pub fn mesh(&self) -> Result<Mesh, Error> {
+        let steiner: Vec<DVec2> = self.steiner.iter().flatten().map(|s| s.at).collect();
+        canonical_delaunay(&self.live_points(), &steiner, &self.options)
+    }
+
+    /// Adds a point; it takes the next id.
+    ///
+    /// # Errors
+    /// [`Error::NonFinite`], [`Error::OutsideDomain`], [`Error::DuplicatePoint`], and what
+    /// refinement of the new points refuses; the mesh is then unchanged.
+    pub fn insert(&mut self, p: DVec2) -> Result<RefinedEdit, Error> {
+        let id = self.points.len() as u32;
+        self.check_new_place(p, id)?;
+        self.points.push(Some(p));
+        self.add_point_cell(id, p);
+        match self.settle(p, true) {
+            Ok(edit) => Ok(RefinedEdit { id, ..edit }),
+            Err(e) => {
+                self.remove_point_cell(id, p);
+                self.points.pop();
+                Err(e)
+            }
+        }
+    }
+
+    /// Deletes the live point with this id.
+    ///
+    /// # Errors
+    /// [`Error::UnknownPoint`] for an id not live, and what refinement of the remaining points
+    /// refuses; the mesh is then unchanged.
+    pub fn delete(&mut self, id: u32) -> Result<RefinedEdit, Error> {
+        let p = self
+            .point(id)
+            .ok_or(Error::UnknownPoint { id: id as usize })?;
+        self.points[id as usize] = None;
+        self.remove_point_cell(id, p);
+        match self.settle(p, false) {
+            Ok(edit) => Ok(RefinedEdit { id, ..edit }),
+            Err(e) => {
+                self.points[id as usize] = Some(p);
+                self.add_point_cell(id, p);
+                Err(e)
+            }
+        }
+    }
+
+    /// Moves the live point with this id to `p`: a deletion and an insertion that keeps the
+    /// id. Returns the two edits' reports.
+    ///
+    /// # Errors
+    /// [`Error::UnknownPoint`], and what [`Self::insert`] refuses at `p`; the mesh is then
+    /// unchanged.
+    pub fn move_to(&mut self, id: u32, p: DVec2) -> Result<[RefinedEdit; 2], Error> {
+        let old = self
+            .point(id)
+            .ok_or(Error::UnknownPoint { id: id as usize })?;
+        if p == old {
+            return Ok([RefinedEdit { id, ..RefinedEdit::default() }; 2]);
+        }
+        self.check_new_place(p, id)?;
+        let gone = self.delete(id)?;
+        self.points[id as usize] = Some(p);
+        self.add_point_cell(id, p);
+        match self.settle(p, true) {
+            Ok(edit) => Ok([gone, RefinedEdit { id, ..edit }]),
+            Err(e) => {
+                // Back to where it was, which was meshed before.
+                self.remove_point_cell(id, p);
+                self.points[id as usize] = Some(old);
+                self.add_point_cell(id, old);
+                self.settle(old, true)?;
+                Err(e)
+            }
+        }
+    }
+
+    fn check_new_place(&self, p: DVec2, id: u32) -> Result<(), Error> {
+        check_place(p, id as usize, &self.domain)?;
+        let (cx, cy) = self.cell_of(p);
+        for x in cx - 1..=cx + 1 {
+            for y in cy - 1..=cy + 1 {
+                for &other in self.point_cells.get(&(x, y)).into_iter().flatten() {
+                    let q = self.points[other as usize].expect("indexed points are live");
+                    if q == p {
+                        return Err(super::duplicate(id as usize, other as usize, p));
+                    }
+                    if (q - p).abs().max_element() < crate::refine::MIN_GAP {
+                        return Err(Error::TooClose {
+                            a: other as usize,
+                            pa: q.to_array(),
+                            b: id as usize,
+                            pb: p.to_array(),
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Brings the Steiner points up to date after the point at `changed` was inserted (or
+    /// deleted): replays windows around it, doubling, until one holds the change.
+    fn settle(&mut self, changed: DVec2, inserted: bool) -> Result<RefinedEdit, Error> {
+        let mut half = self.first_half_side(changed);
+        let mut windows = 0;
+        loop {
+            let window = self.window_around(changed, half);
+            if window.open == [false; 4] {
+                return self.rebuild(windows);
+            }
+            windows += 1;
+            if let Some(edit) = self.try_window(&window, changed, inserted) {
+                return Ok(RefinedEdit {
+                    windows,
+                    window: (window.hi - window.lo).max_element(),
+                    ..edit
+                });
+            }
+            half *= 2.0;
+        }
+    }
+
+    /// Replays `window` before and after the change, and keeps the result if the change
+    /// stays inside it.
+    fn try_window(&mut self, window: &Window, changed: DVec2, inserted: bool) -> Option<RefinedEdit> {
+        let mut after = self.points_in(window)?;
+        after.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+        let mut before = after.clone();
+        if inserted {
+            before.retain(|&p| p != changed);
+        } else {
+            before.push(changed);
+        }
+        let (forced, expected, slots) = self.steiner_in(window)?;
+        let probe = [changed];
+        let (probe_before, probe_after): (&[DVec2], &[DVec2]) = if inserted {
+            (&probe, &[])
+        } else {
+            (&[], &probe)
+        };
+        let old = replay(window, &self.bounds, &before, &forced, probe_before)?;
+        let new = replay(window, &self.bounds, &after, &forced, probe_after)?;
+        if !old.agrees_beyond_change(&new, window, &expected) {
+            return None;
+        }
+        for slot in slots {
+            self.remove_steiner(slot);
+        }
+        let added = new.computed.len();
+        for s in new.computed {
+            self.add_steiner(s);
+        }
+        Some(RefinedEdit {
+            steiner_removed: expected.len(),
+            steiner_added: added,
+            ..RefinedEdit::default()
+        })
+    }
+
+    /// Refines the live points again from scratch.
+    fn rebuild(&mut self, windows: u32) -> Result<RefinedEdit, Error> {
+        let run = run_in_order(&self.live_points(), &self.options, true)?;
+        let removed = self.steiner_count();
+        let added = run.stamps.len();
+        self.index(run.stamps);
+        Ok(RefinedEdit {
+            windows,
+            window: (self.domain.hi - self.domain.lo).max_element(),
+            steiner_removed: removed,
+            steiner_added: added,
+            rebuilt: true,
+            ..RefinedEdit::default()
+        })
+    }
+
+    /// Indexes the live points and `stamps` afresh, on a grid of about 16 vertices a cell.
+    fn index(&mut self, stamps: Vec<Stamp>) {
+        let size = self.domain.hi - self.domain.lo;
+        let vertices = (self.points.len() + stamps.len()).max(1) as f64;
+        self.cell = (size.x * size.y * 16.0 / vertices).sqrt().max(f64::MIN_POSITIVE);
+        self.point_cells.clear();
+        self.steiner_cells.clear();
+        self.steiner.clear();
+        self.free.clear();
+        for id in 0..self.points.len() as u32 {
+            if let Some(p) = self.points[id as usize] {
+                self.add_point_cell(id, p);
+            }
+        }
+        for s in stamps {
+            self.add_steiner(s);
+        }
+    }
+
+    fn cell_of(&self, p: DVec2) -> (i64, i64) {
+        let c = ((p - self.domain.lo) / self.cell).floor();
+        (c.x as i64, c.y as i64)
+    }
+
+    fn add_point_cell(&mut self, id: u32, p: DVec2) {
+        let cell = self.cell_of(p);
+        self.point_cells.entry(cell).or_default().push(id);
+    }
+
+    fn remove_point_cell(&mut self, id: u32, p: DVec2) {
+        let cell = self.cell_of(p);
+        if let Some(ids) = self.point_cells.get_mut(&cell) {
+            ids.retain(|&i| i != id);
+        }
+    }
+
+    /// The cells of a Steiner point: its own and its decision's.
+    fn steiner_cells_of(&self, s: &Stamp) -> [(i64, i64); 2] {
+        [self.cell_of(s.at), self.cell_of(s.cause.decision)]
+    }
+
+    fn add_steiner(&mut self, s: Stamp) {
+        let slot = match self.free.pop() {
+            Some(slot) => {
+                self.steiner[slot as usize] = Some(s);
+                slot
+            }
+            None => {
+                self.steiner.push(Some(s));
+                (self.steiner.len() - 1) as u32
+            }
+        };
+        let [a, b] = self.steiner_cells_of(&s);
+        self.steiner_cells.entry(a).or_default().push(slot);
+        if b != a {
+            self.steiner_cells.entry(b).or_default().push(slot);
+        }
+    }
+
+    fn remove_steiner(&mut self, slot: u32) {
+        let s = self.steiner[slot as usize].take().expect("a live slot");
+        for cell in self.steiner_cells_of(&s) {
+            if let Some(slots) = self.steiner_cells.get_mut(&cell) {
+                slots.retain(|&k| k != slot);
+            }
+        }
+        self.free.push(slot);
+    }
+
+    /// The cells a rectangle covers.
+    fn cells_over(&self, lo: DVec2, hi: DVec2) -> impl Iterator<Item = (i64, i64)> {
+        let (a, b) = (self.cell_of(lo), self.cell_of(hi));
+        (a.0..=b.0).flat_map(move |x| (a.1..=b.1).map(move |y| (x, y)))
+    }
+
+    /// The live points the window holds; `None` where one lies on an open side.
+    fn points_in(&self, window: &Window) -> Option<Vec<DVec2>> {
+        let mut inside = Vec::new();
+        for cell in self.cells_over(window.lo, window.hi) {
+            for &id in self.point_cells.get(&cell).into_iter().flatten() {
+                let p = self.points[id as usize].expect("indexed points are live");
+                if window.on_open_side(p) {
+                    return None;
+                }
+                if window.holds(p) {
+                    inside.push(p);
+                }
+            }
+        }
+        Some(inside)
+    }
+
+    /// The Steiner points whose place or decision the window holds: those a replay must force
+    /// (their deciding triangle reaches beyond the window), those it should decide itself, and
+    /// the latter's slots. `None` where one lies on an open side.
+    #[allow(clippy::type_complexity)]
+    fn steiner_in(&self, window: &Window) -> Option<(Vec<Stamp>, Vec<Stamp>, Vec<u32>)> {
+        let mut slots: Vec<u32> = self
+            .cells_over(window.lo, window.hi)
+            .flat_map(|cell| self.steiner_cells.get(&cell).into_iter().flatten().copied())
+            .collect();
+        slots.sort_unstable();
+        slots.dedup();
+        let (mut forced, mut expected, mut decided) = (Vec::new(), Vec::new(), Vec::new());
+        for slot in slots {
+            let s = self.steiner[slot as usize].expect("indexed slots are live");
+            if window.on_open_side(s.at) {
+                return None;
+            }
+            if !window.holds(s.at) && !window.holds(s.cause.decision) {
+                continue;
+            }
+            if window.trusts_reach(&s.reach) {
+                expected.push(s);
+                decided.push(slot);
+            } else {
+                forced.push(s);
+            }
+        }
+        Some((forced, expected, decided))
+    }
+
+    /// Half the side of the first window around `p`: a dozen vertex spacings, from the
+    /// vertices in the cells around it.
+    fn first_half_side(&self, p: DVec2) -> f64 {
+        let (cx, cy) = self.cell_of(p);
+        let count: usize = (cx - 1..=cx + 1)
+            .flat_map(|x| (cy - 1..=cy + 1).map(move |y| (x, y)))
+            .map(|cell| {
+                self.point_cells.get(&cell).map_or(0, Vec::len)
+                    + self.steiner_cells.get(&cell).map_or(0, Vec::len)
+            })
+            .sum();
+        let spacing = 3.0 * self.cell / ((count + 1) as f64).sqrt();
+        12.0 * spacing
+    }
+
+    /// The square of half side `half` around `p`, cut to the domain.
+    fn window_around(&self, p: DVec2, half: f64) -> Window {
+        let (lo, hi) = (p - half, p + half);
+        let (d_lo, d_hi) = (self.domain.lo, self.domain.hi);
+        Window {
+            lo: lo.max(d_lo),
+            hi: hi.min(d_hi),
+            open: [lo.x > d_lo.x, lo.y > d_lo.y, hi.x < d_hi.x, hi.y < d_hi.y],
+        }
+    }
+}
