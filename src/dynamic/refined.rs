@@ -166,7 +166,10 @@ impl DynamicDelaunay {
             .point(id)
             .ok_or(Error::UnknownPoint { id: id as usize })?;
         if p == old {
-            return Ok([RefinedEdit { id, ..RefinedEdit::default() }; 2]);
+            return Ok([RefinedEdit {
+                id,
+                ..RefinedEdit::default()
+            }; 2]);
         }
         self.check_new_place(p, id)?;
         let gone = self.delete(id)?;
@@ -233,7 +236,12 @@ impl DynamicDelaunay {
 
     /// Replays `window` before and after the change, and keeps the result if the change
     /// stays inside it.
-    fn try_window(&mut self, window: &Window, changed: DVec2, inserted: bool) -> Option<RefinedEdit> {
+    fn try_window(
+        &mut self,
+        window: &Window,
+        changed: DVec2,
+        inserted: bool,
+    ) -> Option<RefinedEdit> {
         let mut after = self.points_in(window)?;
         after.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
         let mut before = after.clone();
@@ -249,16 +257,30 @@ impl DynamicDelaunay {
         } else {
             (&[], &probe)
         };
-        let old = replay(window, &self.bounds, &before, &forced, probe_before)?;
-        let new = replay(window, &self.bounds, &after, &forced, probe_after)?;
+        let old = replay(
+            window,
+            &self.bounds,
+            &before,
+            &forced,
+            &expected,
+            probe_before,
+        )?;
+        let new = replay(
+            window,
+            &self.bounds,
+            &after,
+            &forced,
+            &expected,
+            probe_after,
+        )?;
         if !old.agrees_beyond_change(&new, window, &expected) {
             return None;
         }
         for slot in slots {
             self.remove_steiner(slot);
         }
-        let added = new.computed.len();
-        for s in new.computed {
+        let added = new.computed.len() + new.adopted.len();
+        for s in new.computed.into_iter().chain(new.adopted) {
             self.add_steiner(s);
         }
         Some(RefinedEdit {
@@ -288,7 +310,9 @@ impl DynamicDelaunay {
     fn index(&mut self, stamps: Vec<Stamp>) {
         let size = self.domain.hi - self.domain.lo;
         let vertices = (self.points.len() + stamps.len()).max(1) as f64;
-        self.cell = (size.x * size.y * 16.0 / vertices).sqrt().max(f64::MIN_POSITIVE);
+        self.cell = (size.x * size.y * 16.0 / vertices)
+            .sqrt()
+            .max(f64::MIN_POSITIVE);
         self.point_cells.clear();
         self.steiner_cells.clear();
         self.steiner.clear();

@@ -95,8 +95,9 @@ pub(crate) fn run_in_order(
     })?;
     let bounds = Bounds::new(options, domain.lo, domain.hi);
     let budget = options.budget(distinct);
-    let (finish, stamps) =
-        times.time("refine", || refine_in_order(&mut t, &bounds, budget, stamps))?;
+    let (finish, stamps) = times.time("refine", || {
+        refine_in_order(&mut t, &bounds, budget, stamps)
+    })?;
     let unmet = (finish == Finish::OutOfBudget).then(|| unmet_triangles(&t, &bounds));
     let mesh = times.time("mesh", || canonical_mesh(t, vertex_input, domain));
     let quality = times.time("angles", || {
@@ -133,7 +134,11 @@ pub(crate) fn canonical_delaunay(
     let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
     let bounds = Bounds::new(options, domain.lo, domain.hi);
     let mut order: Vec<(u64, DVec2)> = steiner.iter().map(|&p| (place(&bounds, p), p)).collect();
-    order.par_sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.x.total_cmp(&b.1.x)).then(a.1.y.total_cmp(&b.1.y)));
+    order.par_sort_unstable_by(|a, b| {
+        a.0.cmp(&b.0)
+            .then(a.1.x.total_cmp(&b.1.x))
+            .then(a.1.y.total_cmp(&b.1.y))
+    });
     let mut cavity = Cavity::default();
     let mut hint = 0;
     for (_, p) in order {
@@ -241,7 +246,12 @@ pub(crate) struct Stamp {
 pub(crate) type Reach = [f64; 4];
 
 /// Nothing yet.
-pub(crate) const NO_REACH: Reach = [f64::INFINITY, f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY];
+pub(crate) const NO_REACH: Reach = [
+    f64::INFINITY,
+    f64::INFINITY,
+    f64::NEG_INFINITY,
+    f64::NEG_INFINITY,
+];
 
 /// `reach` grown to hold the circle through `c` (with a margin for its centre's rounding);
 /// NaN for corners in line, which makes the box hold everything.
@@ -250,10 +260,18 @@ pub(crate) fn reach_around(reach: &mut Reach, c: [DVec2; 3]) {
     let d = 2.0 * ab.perp_dot(ac);
     let (lb, lc) = (ab.length_squared(), ac.length_squared());
     let centre = c[0] + DVec2::new(ac.y * lb - ab.y * lc, ab.x * lc - ac.x * lb) / d;
-    let radius = centre.distance(c[0]).max(centre.distance(c[1])).max(centre.distance(c[2]));
+    let radius = centre
+        .distance(c[0])
+        .max(centre.distance(c[1]))
+        .max(centre.distance(c[2]));
     let r = radius * (1.0 + 1e-9) + 1e-9 * centre.abs().max_element();
     if !r.is_finite() {
-        *reach = [f64::NEG_INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::INFINITY];
+        *reach = [
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::INFINITY,
+        ];
         return;
     }
     *reach = [
@@ -400,7 +418,12 @@ pub(crate) fn step<W: Watch>(
 
 /// Turns triangle `id` to start at its least corner (so that its key and Steiner point depend
 /// on it alone) and queues it if it is bad, and the boundary edges its corners encroach on.
-pub(crate) fn queue_triangle<W: Watch>(t: &mut Triangulation, bounds: &Bounds, id: u32, watch: &mut W) {
+pub(crate) fn queue_triangle<W: Watch>(
+    t: &mut Triangulation,
+    bounds: &Bounds,
+    id: u32,
+    watch: &mut W,
+) {
     turn_to_least_corner(t, id);
     let tri = t.triangle(id);
     for i in 0..3 {

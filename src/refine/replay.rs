@@ -14,14 +14,14 @@
 //! does not hold, and the new Steiner points of the window are those of a whole new run.
 
 use std::cmp::Reverse;
-use std::collections::{BinaryHeap, HashSet};
+use std::collections::{BinaryHeap, HashMap, HashSet};
 
 use glam::DVec2;
 
 use super::delaunay::{Cavity, Location, MARK, Triangulation, beyond, is_wall, locate};
 use super::ordered::{
-    Cause, Key, NO_REACH, Reach, Stamp, Time, Watch, queue_triangle, reach_around,
-    reach_of_cavity, step, time_of,
+    Cause, Key, NO_REACH, Reach, Stamp, Time, Watch, queue_triangle, reach_around, reach_of_cavity,
+    step, time_of,
 };
 use super::refiner::Bounds;
 use crate::mesh::NONE;
@@ -117,6 +117,8 @@ pub(crate) struct Replay {
     /// The entries (time and key) whose steps reached beyond the window, left to the forced
     /// points.
     skipped: Vec<(Time, Key)>,
+    /// The Steiner points of the mesh before that the replay took for steps it skipped.
+    pub adopted: Vec<Stamp>,
 }
 
 /// The loop's watch in a replay: queues only triangles the window trusts, at their time, and
@@ -155,9 +157,10 @@ impl Replaying<'_> {
             self.dug.push(corners_of(c));
         }
         self.ring_trusted = trusted
-            && cavity.rim().iter().all(|e| {
-                is_wall(e.outer) || self.window.trusts(Self::corners(t, beyond(e.outer)))
-            });
+            && cavity
+                .rim()
+                .iter()
+                .all(|e| is_wall(e.outer) || self.window.trusts(Self::corners(t, beyond(e.outer))));
         trusted
     }
 
@@ -205,6 +208,10 @@ impl Watch for Replaying<'_> {
         reach_of_cavity(&mut self.reach, t, cavity);
         if !self.window.trusts_reach(&self.reach) {
             self.replay.skipped.push((self.time, self.key));
+            for &id in cavity.dug() {
+                let corners = corners_of(Self::corners(t, id));
+                self.replay.reads.push(corners);
+            }
             return false;
         }
         self.note_cavity(t, cavity);
@@ -223,16 +230,24 @@ impl Watch for Replaying<'_> {
 }
 
 /// Replays refinement in order in `window` with the input points `inputs` (those in the
-/// window) and the `forced` Steiner points; `probes` are points absent here whose cavity in
-/// the first triangulation, and the triangles around it, must lie inside the window. `None`
-/// where the replay reaches something the window cannot tell.
+/// window) and the `forced` Steiner points; a step that reads beyond the window takes the
+/// Steiner point it made before from `expected` (the others the replay should decide
+/// itself). `probes` are points absent here whose cavity in the first triangulation, and the
+/// triangles around it, must lie inside the window. `None` where the replay reaches something
+/// the window cannot tell.
 pub(crate) fn replay(
     window: &Window,
     bounds: &Bounds,
     inputs: &[DVec2],
     forced: &[Stamp],
+    expected: &[Stamp],
     probes: &[DVec2],
 ) -> Option<Replay> {
+    let expected_by_step: HashMap<(Time, Key), usize> = expected
+        .iter()
+        .enumerate()
+        .map(|(k, s)| ((s.time, s.cause.key), k))
+        .collect();
     let mut t = Triangulation::rectangle(window.lo, window.hi);
     t.canonical = true;
     let mut cavity = Cavity::default();
@@ -282,14 +297,23 @@ pub(crate) fn replay(
     });
     for (rank, &k) in order.iter().enumerate() {
         let s = &forced[k as usize];
-        watch
-            .queue
-            .push(Reverse((s.time, s.cause.key, FORCED - forced.len() as u32 + rank as u32, k)));
+        watch.queue.push(Reverse((
+            s.time,
+            s.cause.key,
+            FORCED - forced.len() as u32 + rank as u32,
+            k,
+        )));
     }
     while let Some(Reverse((time, key, slot, stamp))) = watch.queue.pop() {
         if slot >= FORCED - forced.len() as u32 {
             watch.time = time;
-            force(&mut t, bounds, &mut cavity, &forced[stamp as usize], &mut watch)?;
+            force(
+                &mut t,
+                bounds,
+                &mut cavity,
+                &forced[stamp as usize],
+                &mut watch,
+            )?;
             continue;
         }
         let corners = t.corners[slot as usize];
@@ -297,9 +321,25 @@ pub(crate) fn replay(
             continue;
         }
         watch.time = time;
-        step(&mut t, bounds, &mut cavity, slot, stamp >> 30, key, &mut watch).ok()?;
+        let skipped = watch.replay.skipped.len();
+        step(
+            &mut t,
+            bounds,
+            &mut cavity,
+            slot,
+            stamp >> 30,
+            key,
+            &mut watch,
+        )
+        .ok()?;
         if watch.failed {
             return None;
+        }
+        if watch.replay.skipped.len() > skipped
+            && let Some(&k) = expected_by_step.get(&(time, key))
+        {
+            force(&mut t, bounds, &mut cavity, &expected[k], &mut watch)?;
+            watch.replay.adopted.push(expected[k]);
         }
     }
     leaves_to_forced_exactly(&watch.replay, forced).then_some(watch.replay)
@@ -309,7 +349,15 @@ pub(crate) fn replay(
 /// from, and it decided none of those itself.
 fn leaves_to_forced_exactly(replay: &Replay, forced: &[Stamp]) -> bool {
     let from: HashSet<(Time, Key)> = forced.iter().map(|s| (s.time, s.cause.key)).collect();
-    replay.skipped.iter().all(|k| from.contains(k))
+    let adopted: HashSet<(Time, Key)> = replay
+        .adopted
+        .iter()
+        .map(|s| (s.time, s.cause.key))
+        .collect();
+    replay
+        .skipped
+        .iter()
+        .all(|k| from.contains(k) || adopted.contains(k))
         && replay
             .computed
             .iter()
@@ -365,8 +413,14 @@ impl Replay {
     /// Whether the replays `self` (before the change) and `after` differ only inside the
     /// window, so that `after`'s Steiner points are those of a whole run; `expected` are the
     /// Steiner points the mesh had that the replay before should have decided itself.
-    pub fn agrees_beyond_change(&self, after: &Replay, window: &Window, expected: &[Stamp]) -> bool {
-        same_stamps(&self.computed, expected)
+    pub fn agrees_beyond_change(
+        &self,
+        after: &Replay,
+        window: &Window,
+        expected: &[Stamp],
+    ) -> bool {
+        let decided: Vec<Stamp> = self.computed.iter().chain(&self.adopted).copied().collect();
+        same_stamps(&decided, expected)
             && differences_inside(self, after, window)
             && differences_inside(after, self, window)
     }
