@@ -5,14 +5,19 @@
 //! moved across the domain and back), `mesh/<n>` (warping the current tree) and `rebuild/<n>`
 //! (the static mesh of the same points). Sizes default to 1e4 and 1e5
 //! (`QUADMESH_BENCH_DYNAMIC_SIZES`); threads come from `QUADMESH_BENCH_THREADS`.
+//!
+//! Group `dynamic_delaunay/uniform/t<threads>`: the same for a quality Delaunay mesh at 30°
+//! (`DynamicDelaunay`), with `move_near_and_back/<n>` (a point moved by a thousandth of the
+//! side and back) and `rebuild/<n>` (refinement in order of the same points).
 
 mod common;
 
 use common::{SEED, configure, env_counts, pools};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use quadmesh::dynamic::DynamicMesh;
+use quadmesh::dynamic::{DynamicDelaunay, DynamicMesh};
 use quadmesh::generate::{Distribution2d, points};
 use quadmesh::mesh::Domain;
+use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
 use quadmesh::{DVec2, Input, Options, Region};
 
 /// Places spread over the unit square, off the generated points.
@@ -76,5 +81,58 @@ fn dynamic_benches(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, dynamic_benches);
+fn dynamic_delaunay_benches(c: &mut Criterion) {
+    let domain = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::ONE,
+    };
+    let options = RefineOptions {
+        min_angle_deg: 30.0,
+        domain: RefineDomain::Rectangle(domain),
+        ..RefineOptions::default()
+    };
+    for n in env_counts("QUADMESH_BENCH_DYNAMIC_SIZES", "10000,100000") {
+        let pts = points(Distribution2d::Uniform, n, SEED);
+        let targets = places(1024);
+        for (threads, pool) in pools() {
+            let mut group = c.benchmark_group(format!("dynamic_delaunay/uniform/t{threads}"));
+            configure(&mut group, n);
+            let mut dynamic =
+                pool.install(|| DynamicDelaunay::new(&pts, &options).expect("a mesh"));
+            let mut next = 0;
+            group.bench_function(BenchmarkId::new("insert_delete", n), |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        next = (next + 1) % targets.len();
+                        if let Ok(done) = dynamic.insert(targets[next]) {
+                            dynamic.delete(done.id).expect("a live point");
+                        }
+                    })
+                })
+            });
+            group.bench_function(BenchmarkId::new("move_near_and_back", n), |b| {
+                b.iter(|| {
+                    pool.install(|| {
+                        next = (next + 1) % targets.len();
+                        let id = (next * 7919 % n) as u32;
+                        let home = dynamic.point(id).expect("a live point");
+                        let near =
+                            (home + (targets[next] - 0.5) * 1e-3).clamp(DVec2::ZERO, DVec2::ONE);
+                        if dynamic.move_to(id, near).is_ok() {
+                            dynamic.move_to(id, home).expect("back home");
+                        }
+                    })
+                })
+            });
+            group.bench_function(BenchmarkId::new("rebuild", n), |b| {
+                b.iter_with_large_drop(|| {
+                    pool.install(|| refine_points_in_order(&pts, &options).expect("a mesh"))
+                })
+            });
+            group.finish();
+        }
+    }
+}
+
+criterion_group!(benches, dynamic_benches, dynamic_delaunay_benches);
 criterion_main!(benches);

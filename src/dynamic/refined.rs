@@ -38,6 +38,30 @@ pub struct RefinedEdit {
 }
 
 /// A quality Delaunay mesh of a changing point set in a fixed rectangle.
+///
+/// ```
+/// use quadmesh::DVec2;
+/// use quadmesh::dynamic::DynamicDelaunay;
+/// use quadmesh::mesh::Domain;
+/// use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
+///
+/// let domain = Domain { lo: DVec2::ZERO, hi: DVec2::ONE };
+/// let options = RefineOptions {
+///     min_angle_deg: 30.0,
+///     domain: RefineDomain::Rectangle(domain),
+///     ..RefineOptions::default()
+/// };
+/// let points: Vec<DVec2> = (0..200)
+///     .map(|k| DVec2::new((k as f64 * 0.618_034).fract(), (k as f64 + 0.5) / 200.0))
+///     .collect();
+/// let mut dynamic = DynamicDelaunay::new(&points, &options)?;
+/// let added = dynamic.insert(DVec2::new(0.51, 0.49))?;
+/// dynamic.move_to(3, DVec2::new(0.2, 0.31))?;
+/// dynamic.delete(added.id)?;
+/// let (rebuilt, _) = refine_points_in_order(&dynamic.live_points(), &options)?;
+/// assert_eq!(dynamic.mesh()?.triangles, rebuilt.triangles);
+/// # Ok::<(), quadmesh::Error>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct DynamicDelaunay {
     options: RefineOptions,

@@ -1,0 +1,95 @@
+//! Times single edits of a dynamic quality Delaunay mesh against a rebuild, on uniform points
+//! in the unit square: medians over the edits of each kind (insertions where the points are,
+//! deletions, moves by a thousandth of the side), the windows replayed and the Steiner points
+//! changed. Usage:
+//! `cargo run --release --example dynamic_delaunay_edits -- [points] [edits] [angle]`.
+
+use std::time::Instant;
+
+use quadmesh::DVec2;
+use quadmesh::dynamic::{DynamicDelaunay, RefinedEdit};
+use quadmesh::generate::{Distribution2d, points};
+use quadmesh::mesh::Domain;
+use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
+use rand::{Rng, SeedableRng};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let n: usize = args.get(1).map_or(100_000, |s| s.parse().expect("points"));
+    let edits: usize = args.get(2).map_or(200, |s| s.parse().expect("edits"));
+    let angle: f64 = args.get(3).map_or(30.0, |s| s.parse().expect("angle"));
+    let input = points(Distribution2d::Uniform, n, 1);
+    let options = RefineOptions {
+        min_angle_deg: angle,
+        domain: RefineDomain::Rectangle(Domain {
+            lo: DVec2::ZERO,
+            hi: DVec2::ONE,
+        }),
+        ..RefineOptions::default()
+    };
+    let start = Instant::now();
+    let (rebuilt, _) = refine_points_in_order(&input, &options).expect("a mesh");
+    let rebuild = start.elapsed().as_secs_f64();
+    let start = Instant::now();
+    let mut dynamic = DynamicDelaunay::new(&input, &options).expect("a dynamic mesh");
+    let build = start.elapsed().as_secs_f64();
+    println!(
+        "{n} points at {angle}°: {} triangles; rebuild {rebuild:.3} s, dynamic build {build:.3} s",
+        rebuilt.triangles.len()
+    );
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(2);
+    let mut issued = n as u32;
+    let step = 1e-3;
+    for kind in ["insert", "delete", "move"] {
+        let (mut seconds, mut reports) = (Vec::new(), Vec::<RefinedEdit>::new());
+        for _ in 0..edits {
+            let id = loop {
+                let id = rng.random_range(0..issued);
+                if dynamic.point(id).is_some() {
+                    break id;
+                }
+            };
+            let at = dynamic.point(id).expect("a live point");
+            let jitter = DVec2::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5) * step;
+            let to = (at + jitter).clamp(DVec2::ZERO, DVec2::ONE);
+            let start = Instant::now();
+            let report = match kind {
+                "insert" => dynamic.insert(to).inspect(|_| issued += 1),
+                "delete" => dynamic.delete(id),
+                _ => dynamic.move_to(id, to).map(|r| r[1]),
+            };
+            seconds.push(start.elapsed().as_secs_f64());
+            reports.extend(report.ok());
+        }
+        let windows = median(reports.iter().map(|r| f64::from(r.windows)).collect());
+        let changed = median(
+            reports
+                .iter()
+                .map(|r| (r.steiner_removed + r.steiner_added) as f64)
+                .collect(),
+        );
+        let rebuilt = reports.iter().filter(|r| r.rebuilt).count();
+        let median_s = median(seconds);
+        println!(
+            "{kind:6}: median {:.3} ms ({:.0}x faster than a rebuild), windows {windows}, \
+             Steiner points removed + added {changed}, {rebuilt} of {} refined all again",
+            median_s * 1e3,
+            rebuild / median_s,
+            reports.len()
+        );
+    }
+    let start = Instant::now();
+    let mesh = dynamic.mesh().expect("a mesh");
+    let (check, _) = refine_points_in_order(&dynamic.live_points(), &options).expect("a mesh");
+    println!(
+        "mesh() {:.3} s; identical to a rebuild of the live points: {}",
+        start.elapsed().as_secs_f64(),
+        mesh.vertices == check.vertices && mesh.triangles == check.triangles
+    );
+}
