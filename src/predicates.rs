@@ -4,6 +4,8 @@
 //! span more of f64's range than that allows, the sign is taken from the points scaled by a
 //! power of two, or from integers.
 
+use std::cmp::Ordering;
+
 use glam::DVec2;
 use robust::{Coord, incircle, orient2d};
 
@@ -37,55 +39,56 @@ fn coord(p: DVec2) -> Coord<f64> {
 /// Where `c` lies seen along `a → b`; exact.
 #[inline]
 pub(crate) fn orientation(a: DVec2, b: DVec2, c: DVec2) -> Orientation {
-    let det = orient_value(a, b, c);
-    if det > 0.0 {
-        Orientation::Left
-    } else if det < 0.0 {
-        Orientation::Right
-    } else {
-        Orientation::On
+    match orient_value(a, b, c).partial_cmp(&0.0) {
+        Some(Ordering::Greater) => Orientation::Left,
+        Some(Ordering::Less) => Orientation::Right,
+        _ => Orientation::On,
     }
 }
 
 /// Where `d` lies relative to the circle through `a`, `b`, `c` (counter-clockwise); exact.
 #[inline]
 pub(crate) fn in_circle(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> InCircle {
-    let det = in_circle_value(a, b, c, d);
-    if det > 0.0 {
-        InCircle::Inside
-    } else if det < 0.0 {
-        InCircle::Outside
-    } else {
-        InCircle::On
+    match in_circle_value(a, b, c, d).partial_cmp(&0.0) {
+        Some(Ordering::Greater) => InCircle::Inside,
+        Some(Ordering::Less) => InCircle::Outside,
+        _ => InCircle::On,
     }
 }
 
-/// The orientation determinant itself, positive when `a`, `b`, `c` turn counter-clockwise, with
-/// the exact sign; for reports that print it.
+/// The orientation determinant itself, positive when `a`, `b`, `c` turn counter-clockwise: its
+/// sign exact, its magnitude the adaptive test's (areas are summed from it).
 #[inline]
 pub(crate) fn orient_value(a: DVec2, b: DVec2, c: DVec2) -> f64 {
     let det = orient2d(coord(a), coord(b), coord(c));
     if within_exact_range(&[a, b, c]) {
         return det;
     }
-    if let Some([a, b, c]) = rescaled_within_exact_range([a, b, c]) {
-        return orient2d(coord(a), coord(b), coord(c));
-    }
-    with_sign(det, exact::orientation_sign(a, b, c))
+    let sign = match rescaled_within_exact_range([a, b, c]) {
+        Some([a, b, c]) => sign_of(orient2d(coord(a), coord(b), coord(c))),
+        None => exact::orientation_sign(a, b, c),
+    };
+    with_sign(det, sign)
 }
 
 /// The in-circle determinant itself, positive when `d` lies inside the circle through `a`,
-/// `b`, `c` (counter-clockwise), with the exact sign; for reports that print it.
+/// `b`, `c` (counter-clockwise): its sign exact, its magnitude the adaptive test's; for
+/// reports that print it.
 #[inline]
 pub(crate) fn in_circle_value(a: DVec2, b: DVec2, c: DVec2, d: DVec2) -> f64 {
     let det = incircle(coord(a), coord(b), coord(c), coord(d));
     if within_exact_range(&[a, b, c, d]) {
         return det;
     }
-    if let Some([a, b, c, d]) = rescaled_within_exact_range([a, b, c, d]) {
-        return incircle(coord(a), coord(b), coord(c), coord(d));
-    }
-    with_sign(det, exact::in_circle_sign(a, b, c, d))
+    let sign = match rescaled_within_exact_range([a, b, c, d]) {
+        Some([a, b, c, d]) => sign_of(incircle(coord(a), coord(b), coord(c), coord(d))),
+        None => exact::in_circle_sign(a, b, c, d),
+    };
+    with_sign(det, sign)
+}
+
+fn sign_of(v: f64) -> Ordering {
+    v.partial_cmp(&0.0).unwrap_or(Ordering::Equal)
 }
 
 /// The magnitudes between which every coordinate (or 0) keeps the adaptive predicates exact:
@@ -137,8 +140,7 @@ fn times_power_of_two(mut p: DVec2, mut exponent: i32) -> DVec2 {
 
 /// `approximate` where its sign is `sign`, else the smallest value of that sign: the
 /// magnitude is only for reports, the sign is exact.
-fn with_sign(approximate: f64, sign: std::cmp::Ordering) -> f64 {
-    use std::cmp::Ordering;
+fn with_sign(approximate: f64, sign: Ordering) -> f64 {
     let tiny = f64::from_bits(1);
     match sign {
         Ordering::Equal => 0.0,

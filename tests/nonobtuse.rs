@@ -234,3 +234,40 @@ fn points_at_a_scale_whose_areas_underflow_are_refused() {
         Err(e) => assert!(matches!(e, quadmesh::Error::Unresolvable { .. }), "{e}"),
     }
 }
+
+/// Found twice by the `point_sets` fuzz target (nonobtuse, the square): points spanning
+/// 1e-322 to 4e-45, and 1e-321 to 1e120. The orientation test, exact in sign, had begun to
+/// return the determinant of the points scaled by a power of two where the coordinates span
+/// more than the adaptive test keeps exact, and the area check summed those scaled values.
+/// The value now keeps the adaptive test's magnitude with the exact sign.
+#[test]
+fn points_spanning_f64s_range_keep_their_areas() {
+    let cases: [&[(f64, f64)]; 2] = [
+        &[
+            (3.895_711_326_229_54e-310, -9.237_074_837_998_974e-48),
+            (9e-322, -3.978_588_581_034_294e-45),
+            (-3.978_588_581_063_402e-45, -3.978_613_408_541_841_6e-45),
+            (-4.022_061_095_618_272e-45, -1.896_250_047_369_692_4e-47),
+        ],
+        &[
+            (-8.181_669_322_272_966e106, -1.002_520_540_885_467_1e120),
+            (1.067e-321, 0.0),
+            (-2.145_553_806_265_876_5e110, -1.002_519_304_762_958_2e120),
+            (-1.581_904_604_033_067_6e110, -1.581_904_603_990_005_5e110),
+        ],
+    ];
+    for coordinates in cases {
+        let points: Vec<DVec2> = coordinates.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
+        let options = Options::default().nonobtuse().region(Region::Square);
+        match quadmesh::mesh(&Input::points(points.clone()), &options) {
+            Ok((mesh, _)) => mesh.validate_nonobtuse(&points).unwrap(),
+            Err(e) => assert!(
+                matches!(
+                    e,
+                    quadmesh::Error::CoordinateRange { .. } | quadmesh::Error::Unresolvable { .. }
+                ),
+                "{e}"
+            ),
+        }
+    }
+}

@@ -361,3 +361,27 @@ fn one_edit_changes_the_mesh_only_near_it() {
         );
     }
 }
+
+#[test]
+fn points_spanning_f64s_range_on_the_square() {
+    // Found by the `point_sets` fuzz target (29°, the square, refined in order): points from
+    // 9e-316 to 3.5e59. The area check summed orientation values that had been scaled by a
+    // power of two; they now keep the adaptive test's magnitude with the exact sign.
+    let points = vec![
+        DVec2::new(7.426_934_966_892_627e-304, 5.746_351_521_817_727e-288),
+        DVec2::new(-8.271_187_166_644_016e49, 8.945_668_74e-316),
+        DVec2::new(8.494_184_252_087_114e-147, 3.515_323_719_887_799_5e59),
+        DVec2::new(-1.967_852_582_491_377e52, -1.963_028_246_663_209_8e52),
+    ];
+    let options = RefineOptions {
+        max_vertices: Some(20_000),
+        ..options(29.0)
+    };
+    match refine_points_in_order(&points, &options) {
+        Ok(_) => {
+            refined(&points, &options);
+        }
+        Err(Error::VertexBudget(partial)) => partial.mesh.check_delaunay().unwrap(),
+        Err(e) => assert!(matches!(e, Error::RefinementResolution { .. }), "{e}"),
+    }
+}
