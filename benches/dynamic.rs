@@ -15,12 +15,14 @@
 mod common;
 
 use common::{SEED, configure, env_counts, pools};
-use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use criterion::measurement::WallTime;
+use criterion::{BenchmarkGroup, BenchmarkId, Criterion, criterion_group, criterion_main};
 use quadmesh::dynamic::{DynamicDelaunay, DynamicMesh};
 use quadmesh::generate::{Distribution2d, points};
 use quadmesh::mesh::Domain;
 use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
 use quadmesh::{DVec2, Input, Options, Region};
+use rayon::ThreadPool;
 
 /// Places spread over the unit square, off the generated points.
 fn places(count: usize) -> Vec<DVec2> {
@@ -31,6 +33,52 @@ fn places(count: usize) -> Vec<DVec2> {
             DVec2::new((t * golden).fract(), t / count as f64)
         })
         .collect()
+}
+
+/// What both dynamic meshes do for the benches.
+trait Edits {
+    /// Inserts `p`, returning its id, or `None` where the place is refused.
+    fn insert_at(&mut self, p: DVec2) -> Option<u32>;
+    fn delete_id(&mut self, id: u32);
+}
+
+impl Edits for DynamicMesh {
+    fn insert_at(&mut self, p: DVec2) -> Option<u32> {
+        self.insert(p).ok().map(|done| done.id)
+    }
+    fn delete_id(&mut self, id: u32) {
+        self.delete(id).expect("a live point");
+    }
+}
+
+impl Edits for DynamicDelaunay {
+    fn insert_at(&mut self, p: DVec2) -> Option<u32> {
+        self.insert(p).ok().map(|done| done.id)
+    }
+    fn delete_id(&mut self, id: u32) {
+        self.delete(id).expect("a live point");
+    }
+}
+
+/// `insert_delete/<n>`: a point inserted at the next place and deleted again.
+fn bench_insert_delete(
+    group: &mut BenchmarkGroup<'_, WallTime>,
+    n: usize,
+    pool: &ThreadPool,
+    targets: &[DVec2],
+    dynamic: &mut (impl Edits + Send),
+) {
+    let mut next = 0;
+    group.bench_function(BenchmarkId::new("insert_delete", n), |b| {
+        b.iter(|| {
+            pool.install(|| {
+                next = (next + 1) % targets.len();
+                if let Some(id) = dynamic.insert_at(targets[next]) {
+                    dynamic.delete_id(id);
+                }
+            })
+        })
+    });
 }
 
 fn dynamic_benches(c: &mut Criterion) {
@@ -46,16 +94,7 @@ fn dynamic_benches(c: &mut Criterion) {
             configure(&mut group, n);
             let mut dynamic = pool.install(|| DynamicMesh::new(&pts, domain).expect("a mesh"));
             let mut next = 0;
-            group.bench_function(BenchmarkId::new("insert_delete", n), |b| {
-                b.iter(|| {
-                    pool.install(|| {
-                        next = (next + 1) % targets.len();
-                        if let Ok(done) = dynamic.insert(targets[next]) {
-                            dynamic.delete(done.id).expect("a live point");
-                        }
-                    })
-                })
-            });
+            bench_insert_delete(&mut group, n, &pool, &targets, &mut dynamic);
             group.bench_function(BenchmarkId::new("move_there_and_back", n), |b| {
                 b.iter(|| {
                     pool.install(|| {
@@ -102,16 +141,7 @@ fn dynamic_delaunay_benches(c: &mut Criterion) {
             let mut dynamic =
                 pool.install(|| DynamicDelaunay::new(&pts, &options).expect("a mesh"));
             let mut next = 0;
-            group.bench_function(BenchmarkId::new("insert_delete", n), |b| {
-                b.iter(|| {
-                    pool.install(|| {
-                        next = (next + 1) % targets.len();
-                        if let Ok(done) = dynamic.insert(targets[next]) {
-                            dynamic.delete(done.id).expect("a live point");
-                        }
-                    })
-                })
-            });
+            bench_insert_delete(&mut group, n, &pool, &targets, &mut dynamic);
             group.bench_function(BenchmarkId::new("move_near_and_back", n), |b| {
                 b.iter(|| {
                     pool.install(|| {

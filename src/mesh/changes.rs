@@ -21,16 +21,18 @@ pub struct MeshChange {
 }
 
 /// A triangle's corners as bits, starting from the least, so that its three rotations agree.
-type Corners = [u64; 6];
+pub(crate) type Corners = [u64; 6];
 
 fn corners(mesh: &Mesh, t: usize) -> Corners {
-    let bits = |v: u32| {
-        let p: DVec2 = mesh.vertices[v as usize];
-        // +0 and -0 are the same place.
-        [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits()]
-    };
-    let [a, b, c] = mesh.triangles[t].map(bits);
-    let rotations = [[a, b, c], [b, c, a], [c, a, b]];
+    corner_bits(mesh.triangles[t].map(|v| mesh.vertices[v as usize]))
+}
+
+/// The corners `c` as [`Corners`].
+pub(crate) fn corner_bits(c: [DVec2; 3]) -> Corners {
+    // +0 and -0 are the same place.
+    let bits = |p: DVec2| [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits()];
+    let [a, b, d] = c.map(bits);
+    let rotations = [[a, b, d], [b, d, a], [d, a, b]];
     let least = rotations.iter().min().expect("three rotations");
     [
         least[0][0],

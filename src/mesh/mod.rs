@@ -17,6 +17,7 @@ use rayon::prelude::*;
 pub use crate::domain::NONE;
 pub use crate::domain::{BoundaryEdge, BoundarySide, Domain, Reflection, SubSegment};
 pub use changes::MeshChange;
+pub(crate) use changes::{Corners, corner_bits};
 pub use delaunay_check::check_delaunay;
 pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};

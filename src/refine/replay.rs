@@ -24,7 +24,7 @@ use super::ordered::{
     step, time_of,
 };
 use super::refiner::Bounds;
-use crate::mesh::NONE;
+use crate::mesh::{Corners, NONE, corner_bits};
 
 /// A rectangle inside the domain, and which of its sides cut through the domain (left, bottom,
 /// right, top); the others lie on the domain's boundary.
@@ -71,24 +71,6 @@ impl Window {
             || (self.open[2] && p.x == self.hi.x)
             || (self.open[3] && p.y == self.hi.y)
     }
-}
-
-/// A triangle by its corners' bits, from the least corner: the same in both replays.
-type Corners = [u64; 6];
-
-fn corners_of(c: [DVec2; 3]) -> Corners {
-    let bits = |p: DVec2| [(p.x + 0.0).to_bits(), (p.y + 0.0).to_bits()];
-    let [a, b, d] = c.map(bits);
-    let rotations = [[a, b, d], [b, d, a], [d, a, b]];
-    let least = rotations.iter().min().expect("three rotations");
-    [
-        least[0][0],
-        least[0][1],
-        least[1][0],
-        least[1][1],
-        least[2][0],
-        least[2][1],
-    ]
 }
 
 /// The time of the triangulation of the input points, before any fix.
@@ -154,7 +136,7 @@ impl Replaying<'_> {
         for &id in cavity.dug() {
             let c = Self::corners(t, id);
             trusted &= self.window.trusts(c);
-            self.dug.push(corners_of(c));
+            self.dug.push(corner_bits(c));
         }
         self.ring_trusted = trusted
             && cavity
@@ -180,7 +162,7 @@ impl Replaying<'_> {
             let entry = Logged {
                 made: true,
                 time: self.time,
-                corners: corners_of(Self::corners(t, id)),
+                corners: corner_bits(Self::corners(t, id)),
             };
             self.replay.log.push((entry, k));
         }
@@ -209,7 +191,7 @@ impl Watch for Replaying<'_> {
         if !self.window.trusts_reach(&self.reach) {
             self.replay.skipped.push((self.time, self.key));
             for &id in cavity.dug() {
-                let corners = corners_of(Self::corners(t, id));
+                let corners = corner_bits(Self::corners(t, id));
                 self.replay.reads.push(corners);
             }
             return false;
@@ -280,7 +262,7 @@ pub(crate) fn replay(
         let entry = Logged {
             made: true,
             time: START,
-            corners: corners_of(Replaying::corners(&t, id)),
+            corners: corner_bits(Replaying::corners(&t, id)),
         };
         watch.replay.log.push((entry, NONE));
     }
