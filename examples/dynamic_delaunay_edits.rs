@@ -1,13 +1,13 @@
 //! Times single edits of a dynamic quality Delaunay mesh against a rebuild, on uniform points
 //! in the unit square: medians over the edits of each kind (insertions where the points are,
 //! deletions, moves by a thousandth of the side), the windows replayed and the Steiner points
-//! changed. Usage:
+//! changed; then batches of moves of 0.1, 1 and 10 % of the points. Usage:
 //! `cargo run --release --example dynamic_delaunay_edits -- [points] [edits] [angle]`.
 
 use std::time::Instant;
 
 use quadmesh::DVec2;
-use quadmesh::dynamic::{DynamicDelaunay, RefinedEdit};
+use quadmesh::dynamic::{DynamicDelaunay, Edit, RefinedEdit};
 use quadmesh::generate::{Distribution2d, points};
 use quadmesh::mesh::Domain;
 use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
@@ -82,6 +82,30 @@ fn main() {
             median_s * 1e3,
             rebuild / median_s,
             reports.len()
+        );
+    }
+    for share in [0.001, 0.01, 0.1] {
+        let count = ((n as f64 * share) as usize).max(1);
+        let edits: Vec<Edit> = (0..count)
+            .filter_map(|_| {
+                let id = rng.random_range(0..issued);
+                let at = dynamic.point(id)?;
+                let jitter = DVec2::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+                Some(Edit::Move(
+                    id,
+                    (at + jitter * step).clamp(DVec2::ZERO, DVec2::ONE),
+                ))
+            })
+            .collect();
+        let start = Instant::now();
+        let done = dynamic.apply(&edits);
+        let seconds = start.elapsed().as_secs_f64();
+        println!(
+            "batch of {} moves ({}% of the points): {seconds:.3} s, {:.2} of a rebuild{}",
+            edits.len(),
+            share * 100.0,
+            seconds / rebuild,
+            if done.is_ok() { "" } else { " (refused)" }
         );
     }
     let start = Instant::now();

@@ -6,7 +6,7 @@
 mod common;
 
 use common::{FAMILIES, on_threads};
-use quadmesh::dynamic::{DynamicDelaunay, RefinedEdit};
+use quadmesh::dynamic::{DynamicDelaunay, Edit, RefinedEdit};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::mesh::{AngleBounds, Domain};
 use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
@@ -336,4 +336,48 @@ fn a_dynamic_mesh_needs_a_fixed_rectangle_and_distinct_points() {
         DynamicDelaunay::new(&points, &options(30.0, domain)),
         Err(Error::DuplicatePoint { .. })
     ));
+}
+
+/// `count` edits from `seed`: insertions, deletions and moves of the ids from `first` on.
+fn batch(count: usize, seed: u64, first: u32) -> Vec<Edit> {
+    let places = generate::points(Distribution2d::Uniform, count, seed);
+    places
+        .iter()
+        .enumerate()
+        .map(|(k, &p)| match k % 3 {
+            0 => Edit::Insert(p),
+            1 => Edit::Delete(first + k as u32),
+            _ => Edit::Move(first + k as u32, p),
+        })
+        .collect()
+}
+
+#[test]
+fn batches_small_and_large_give_a_rebuilds_bytes_or_change_nothing() {
+    let domain = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::ONE,
+    };
+    let options = options(30.0, domain);
+    let points = generate::points(Distribution2d::Uniform, 1000, 12);
+    let mut dynamic = DynamicDelaunay::new(&points, &options).expect("a dynamic mesh");
+    // Three edits (one at a time) and forty (at least 16 and a 4096th of the points: all at
+    // once).
+    for (count, first) in [(3, 100), (40, 200)] {
+        let edits = batch(count, first as u64, first);
+        let reports = dynamic.apply(&edits).expect("a batch");
+        assert_eq!(reports.len(), count);
+        matches_rebuild(&dynamic, &options);
+        // Another batch with a refused edit last: nothing changes.
+        let before = dynamic.mesh().unwrap();
+        let mut refused = batch(count, first as u64 + 1, first + 300);
+        refused.push(Edit::Delete(10_000));
+        let (at, error) = dynamic.apply(&refused).expect_err("an unknown id");
+        assert_eq!(at, count);
+        assert!(matches!(error, Error::UnknownPoint { .. }));
+        let after = dynamic.mesh().unwrap();
+        assert_eq!(after.vertices, before.vertices);
+        assert_eq!(after.triangles, before.triangles);
+        matches_rebuild(&dynamic, &options);
+    }
 }

@@ -1,19 +1,24 @@
 //! Quality Delaunay meshes kept current under point insertions, deletions and moves.
 //!
 //! A [`DynamicDelaunay`] keeps the Steiner points of [`crate::refine::refine_points_in_order`]
-//! for its live points, each with its stamp (when it was inserted, and by which triangle's
-//! fix). An edit replays refinement in order in a square window around the changed point,
+//! for its live points, each with its stamp (when its step ran, the step's key, and a box
+//! around all the step read). An edit replays refinement in order in a square window around the changed point,
 //! once with the points before and once after, and keeps the replay's Steiner points where
 //! the two replays show that the change reaches nothing outside the window (see
 //! `refine::replay`); otherwise the window doubles, up to the whole domain. So after any
 //! sequence of edits the mesh is byte for byte that of refinement in order of the live
 //! points in id order, and an edit costs what its window holds.
+//!
+//! Limits: where the first triangulation (the input points in the rectangle) has triangles
+//! much larger than the spacing around the edit (within a few spacings of the rectangle's
+//! sides, whose triangles reach its far corners, or in gaps between clusters), the windows
+//! grow large, up to the whole rectangle.
 
 use std::collections::HashMap;
 
 use glam::DVec2;
 
-use super::check_place;
+use super::{Edit, check_place};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh};
 use crate::refine::{
@@ -212,6 +217,121 @@ impl DynamicDelaunay {
         }
     }
 
+    /// Applies `edits` in order, all or none: a batch of at least 16 edits, and of at least a
+    /// 4096th of the live points, moves the points and refines them all again once; a smaller
+    /// one replays each edit. (An edit near the rectangle's sides may replay the whole domain,
+    /// so past a few dozen edits on 1e5 points one rebuild costs less; see the module's
+    /// limits.) The result is the same either way: the mesh of the live points in id order.
+    ///
+    /// # Errors
+    /// The index of the first edit refused and why (as [`Self::insert`], [`Self::delete`] and
+    /// [`Self::move_to`] refuse); the mesh is then unchanged.
+    pub fn apply(&mut self, edits: &[Edit]) -> Result<Vec<RefinedEdit>, (usize, Error)> {
+        if edits.len() >= 16 && edits.len() * 4096 >= self.live_points().len() {
+            return self.apply_at_once(edits);
+        }
+        let mut reports = Vec::with_capacity(edits.len());
+        // What took each edit back, newest last.
+        let mut undo = Vec::with_capacity(edits.len());
+        for (k, &edit) in edits.iter().enumerate() {
+            let back = match edit {
+                Edit::Insert(_) => None,
+                Edit::Delete(id) | Edit::Move(id, _) => self.point(id),
+            };
+            let done = match edit {
+                Edit::Insert(p) => self.insert(p),
+                Edit::Delete(id) => self.delete(id),
+                Edit::Move(id, p) => self.move_to(id, p).map(|r| r[1]),
+            };
+            match done {
+                Ok(report) => {
+                    undo.push((edit, report.id, back));
+                    reports.push(report);
+                }
+                Err(e) => {
+                    self.take_back(undo);
+                    return Err((k, e));
+                }
+            }
+        }
+        Ok(reports)
+    }
+
+    /// Takes back edits done, newest first; each puts back a mesh that was made before.
+    fn take_back(&mut self, undo: Vec<(Edit, u32, Option<DVec2>)>) {
+        for (edit, id, back) in undo.into_iter().rev() {
+            let restored = match (edit, back) {
+                (Edit::Insert(_), _) => self.delete(id).map(|_| {
+                    self.points.pop();
+                }),
+                (Edit::Delete(_), Some(p)) => {
+                    self.points[id as usize] = Some(p);
+                    self.add_point_cell(id, p);
+                    self.settle(p, true).map(|_| ())
+                }
+                (Edit::Move(..), Some(p)) => self.move_to(id, p).map(|_| ()),
+                _ => Ok(()),
+            };
+            restored.expect("a mesh made before is made again");
+        }
+    }
+
+    /// [`Self::apply`] for a large batch: the points first, then one refinement of them all.
+    fn apply_at_once(&mut self, edits: &[Edit]) -> Result<Vec<RefinedEdit>, (usize, Error)> {
+        let saved = self.points.clone();
+        let mut ids = Vec::with_capacity(edits.len());
+        let placed = edits
+            .iter()
+            .enumerate()
+            .try_for_each(|(k, &edit)| self.place(edit).map(|id| ids.push(id)).map_err(|e| (k, e)));
+        let rebuilt = placed.and_then(|()| {
+            self.rebuild(0)
+                .map_err(|e| (edits.len().saturating_sub(1), e))
+        });
+        match rebuilt {
+            Ok(report) => Ok(ids
+                .into_iter()
+                .map(|id| RefinedEdit { id, ..report })
+                .collect()),
+            Err(refused) => {
+                // The Steiner points are untouched until a rebuild succeeds.
+                self.points = saved;
+                self.index_points();
+                Err(refused)
+            }
+        }
+    }
+
+    /// Applies `edit` to the points alone, with the checks of a single edit; its point's id.
+    fn place(&mut self, edit: Edit) -> Result<u32, Error> {
+        let live = |s: &Self, id: u32| s.point(id).ok_or(Error::UnknownPoint { id: id as usize });
+        match edit {
+            Edit::Insert(p) => {
+                let id = self.points.len() as u32;
+                self.check_new_place(p, id)?;
+                self.points.push(Some(p));
+                self.add_point_cell(id, p);
+                Ok(id)
+            }
+            Edit::Delete(id) => {
+                let p = live(self, id)?;
+                self.points[id as usize] = None;
+                self.remove_point_cell(id, p);
+                Ok(id)
+            }
+            Edit::Move(id, p) => {
+                let old = live(self, id)?;
+                if p != old {
+                    self.check_new_place(p, id)?;
+                    self.remove_point_cell(id, old);
+                    self.points[id as usize] = Some(p);
+                    self.add_point_cell(id, p);
+                }
+                Ok(id)
+            }
+        }
+    }
+
     fn check_new_place(&self, p: DVec2, id: u32) -> Result<(), Error> {
         check_place(p, id as usize, &self.domain)?;
         let (cx, cy) = self.cell_of(p);
@@ -337,17 +457,21 @@ impl DynamicDelaunay {
         self.cell = (size.x * size.y * 16.0 / vertices)
             .sqrt()
             .max(f64::MIN_POSITIVE);
-        self.point_cells.clear();
+        self.index_points();
         self.steiner_cells.clear();
         self.steiner.clear();
         self.free.clear();
+        for s in stamps {
+            self.add_steiner(s);
+        }
+    }
+
+    fn index_points(&mut self) {
+        self.point_cells.clear();
         for id in 0..self.points.len() as u32 {
             if let Some(p) = self.points[id as usize] {
                 self.add_point_cell(id, p);
             }
-        }
-        for s in stamps {
-            self.add_steiner(s);
         }
     }
 
