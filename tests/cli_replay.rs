@@ -274,3 +274,48 @@ fn bench_dynamic_times_each_kind_of_edit() {
     let out = quadmesh(&["bench", "--points", "10", "--dynamic", "--min-angle", "25"]);
     assert!(!out.status.success());
 }
+
+#[test]
+fn a_quality_delaunay_mesh_replays_to_refinement_in_order_of_the_live_points() {
+    let dir = TempDir::new("replay-delaunay");
+    let (points, edits, _) = written_inputs(&dir);
+    let replayed = dir.file("replayed");
+    let out = quadmesh(&[
+        "replay",
+        s(&points),
+        s(&edits),
+        "-o",
+        s(&replayed),
+        "--domain",
+        "0,0,1,1",
+        "--min-angle",
+        "30",
+        "--json",
+        "--verify",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let json = String::from_utf8(out.stdout).unwrap();
+    let lines: Vec<&str> = json.lines().collect();
+    assert_eq!(lines.len(), 6, "a line per edit and a summary: {json}");
+    assert!(lines[0].contains("\"windows\":"), "{}", lines[0]);
+    assert!(lines[5].contains("\"identical\":true"), "{}", lines[5]);
+    assert!(!output(&replayed, "ele").is_empty());
+    // A bad edit names itself and writes nothing.
+    let bad = dir.file("bad.txt");
+    std::fs::write(&bad, "i 0.3 0.3\nd 42\n").unwrap();
+    let refused = dir.file("refused");
+    let out = quadmesh(&[
+        "replay",
+        s(&points),
+        s(&bad),
+        "-o",
+        s(&refused),
+        "--domain",
+        "0,0,1,1",
+        "--min-angle",
+        "30",
+    ]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("edit 2"), "{}", stderr(&out));
+    assert!(!Path::new(&format!("{}.ele", refused.display())).exists());
+}

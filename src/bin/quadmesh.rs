@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use quadmesh::dynamic::{BatchReport, DynamicMesh, Edit};
+use quadmesh::dynamic::{BatchReport, DynamicDelaunay, DynamicMesh, Edit, RefinedEdit};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{
     read_input, read_points, with_extension_appended, write_input_poly, write_leaves_csv,
@@ -26,6 +26,7 @@ use quadmesh::io::{
 use quadmesh::mesh::{Domain, validate_pslg_with};
 use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::StageTimes;
+use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
 use quadmesh::{
     DVec2, GUARANTEED_MIN_ANGLE_DEG, Input, Mesh, MeshReport, Mode, Options, Refinement, Region,
     Tree, TreeBuild, TreeOptions, build_tree,
@@ -137,6 +138,12 @@ enum Command {
         /// Write the nonobtuse mesh of the final tree instead, as `mesh --nonobtuse` would.
         #[arg(long, conflicts_with = "warp")]
         nonobtuse: bool,
+        /// Keep a quality Delaunay mesh with every angle at least DEG instead
+        /// (`DynamicDelaunay`): the final mesh is refinement in order of the live points
+        /// (`--verify` compares it with one), and the JSON lines carry `windows`,
+        /// `steiner_removed` and `steiner_added` instead of `cells`.
+        #[arg(long, value_name = "DEG", conflicts_with_all = ["warp", "nonobtuse", "changes"])]
+        min_angle: Option<f64>,
         /// Output formats, comma-separated, as for `mesh`.
         #[arg(long, value_delimiter = ',', default_value = "node")]
         format: Vec<Format>,
@@ -414,8 +421,29 @@ fn main() -> ExitCode {
             edits,
             output,
             domain,
+            min_angle: Some(angle),
+            format,
+            threads,
+            json,
+            verify,
+            batch,
+            ..
+        } => replay_delaunay(
+            (&points, &edits),
+            &output,
+            (domain, angle),
+            &format,
+            threads,
+            (json, verify, batch.get()),
+        ),
+        Command::Replay {
+            points,
+            edits,
+            output,
+            domain,
             warp: _,
             nonobtuse,
+            min_angle: None,
             format,
             threads,
             json,
@@ -672,6 +700,93 @@ fn replay(
         let _ = writeln!(err, "{:<24}{}", "time build", millis(build_time));
         let _ = writeln!(err, "{:<24}{:.3} ms", "edit median", median(&mut seconds) * 1e3);
         let _ = writeln!(err, "{:<24}{}", "time mesh", millis(mesh_time));
+        let _ = writeln!(err, "{:<24}{}", "triangles", mesh.triangles.len());
+        for file in files {
+            let _ = writeln!(err, "{:<24}{}", "wrote", file.display());
+        }
+        Ok(())
+    })
+}
+
+/// `quadmesh replay --min-angle`: as [`replay`] for a dynamic quality Delaunay mesh.
+fn replay_delaunay(
+    (points_path, edits_path): (&Path, &Path),
+    prefix: &Path,
+    (domain, angle): (Domain, f64),
+    formats: &[Format],
+    threads: Option<NonZeroUsize>,
+    (json, verify, batch): (bool, bool, usize),
+) -> Result<()> {
+    refuse_overwriting(points_path, prefix)?;
+    let points = read_points(points_path)?;
+    let text = std::fs::read_to_string(edits_path)
+        .with_context(|| format!("cannot read {}", edits_path.display()))?;
+    let edits = quadmesh::io::parse_edits(&text, &edits_path.display().to_string())?;
+    let options = RefineOptions {
+        min_angle_deg: angle,
+        domain: RefineDomain::Rectangle(domain),
+        ..RefineOptions::default()
+    };
+    pool(threads)?.install(|| {
+        let (built, build_time) = timed(|| DynamicDelaunay::new(&points, &options));
+        let mut dynamic = built.map_err(|e| anyhow::anyhow!("{}: {e}", points_path.display()))?;
+        let mut out = io::stdout().lock();
+        let mut seconds = Vec::with_capacity(edits.len());
+        for (b, group) in edits.chunks(batch).enumerate() {
+            let (done, time) = timed(|| dynamic.apply(group));
+            let reports = done.map_err(|(k, e)| {
+                let at = b * batch + k;
+                let edit = edits[at];
+                anyhow::anyhow!("{}: edit {} ({edit:?}): {e}", edits_path.display(), at + 1)
+            })?;
+            seconds.push(time.as_secs_f64());
+            if json {
+                let sum = |f: fn(&RefinedEdit) -> usize| reports.iter().map(f).sum::<usize>();
+                writeln!(
+                    out,
+                    "{{\"edit\":{},\"edits\":{},\"seconds\":{},\"windows\":{},\"steiner_removed\":{},\"steiner_added\":{},\"rebuilt\":{}}}",
+                    b * batch + 1,
+                    group.len(),
+                    time.as_secs_f64(),
+                    sum(|r| r.windows as usize),
+                    sum(|r| r.steiner_removed),
+                    sum(|r| r.steiner_added),
+                    reports.iter().any(|r| r.rebuilt)
+                )?;
+            }
+        }
+        let (meshed, mesh_time) = timed(|| dynamic.mesh());
+        let mesh = meshed.map_err(|e| anyhow::anyhow!("the final mesh: {e}"))?;
+        let live = dynamic.live_points();
+        let mut summary = format!(
+            "{{\"points\":{},\"edits\":{},\"build_seconds\":{},\"mesh_seconds\":{},\"edit_seconds_median\":{}",
+            live.len(),
+            edits.len(),
+            build_time.as_secs_f64(),
+            mesh_time.as_secs_f64(),
+            median(&mut seconds)
+        );
+        if verify {
+            let (rebuilt, rebuild_time) = timed(|| refine_points_in_order(&live, &options));
+            let (rebuilt, _) = rebuilt.map_err(|e| anyhow::anyhow!("the rebuild: {e}"))?;
+            let identical = rebuilt == mesh;
+            summary += &format!(
+                ",\"rebuild_seconds\":{},\"identical\":{identical}",
+                rebuild_time.as_secs_f64()
+            );
+            if !identical {
+                anyhow::bail!("the replayed mesh differs from a build from scratch");
+            }
+        }
+        let files = write_formats(&mesh, prefix, formats, 200_000)?;
+        if json {
+            writeln!(out, "{summary}}}")?;
+        }
+        let mut err = io::stderr().lock();
+        let _ = writeln!(err, "{:<24}{}", "live points", live.len());
+        let _ = writeln!(err, "{:<24}{}", "edits", edits.len());
+        let _ = writeln!(err, "{:<24}{}", "time build", millis(build_time));
+        let _ = writeln!(err, "{:<24}{:.3} ms", "edit median", median(&mut seconds) * 1e3);
         let _ = writeln!(err, "{:<24}{}", "triangles", mesh.triangles.len());
         for file in files {
             let _ = writeln!(err, "{:<24}{}", "wrote", file.display());
