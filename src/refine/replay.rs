@@ -1,10 +1,12 @@
 //! Refinement in order replayed in a window, to find what a change of input points changes.
 //!
 //! A replay triangulates the window (a rectangle inside the domain) and runs the loop of
-//! [`super::ordered`] there, in the same order: every bad triangle whose circumcircle lies
-//! inside the window is fixed as the whole run fixes it, since the whole run's triangulation
-//! has the same triangle. Other Steiner points (those whose deciding triangle reaches beyond
-//! the window) are *forced*: taken from the mesh before the change, inserted at their time.
+//! [`super::ordered`] there, in the same order. A step whose reads (its triangle's
+//! circumcircle, the cavities it digs and the triangles around them) all lie clear of the
+//! window's open sides is taken as the whole run takes it: the whole run's triangulation has
+//! the same triangles there. The other steps' Steiner points are *forced*: taken from the mesh
+//! before the change, inserted at their time; so is the point of a step the replay begins and
+//! finds reading beyond the window.
 //!
 //! The same window is replayed twice, with the input before and after the change, and the two
 //! are compared (see [`Replay::agrees_beyond_change`]). The replay before must give back the
@@ -109,7 +111,6 @@ struct Replaying<'a> {
     window: &'a Window,
     queue: BinaryHeap<Reverse<(Time, Key, u32, u32)>>,
     time: Time,
-    failed: bool,
     replay: Replay,
     /// The cavity last allowed: its triangles, and whether it and the triangles around it are
     /// trusted.
@@ -241,7 +242,6 @@ pub(crate) fn replay(
         window,
         queue: BinaryHeap::new(),
         time: START,
-        failed: false,
         replay: Replay::default(),
         dug: Vec::new(),
         ring_trusted: true,
@@ -314,9 +314,6 @@ pub(crate) fn replay(
             &mut watch,
         )
         .ok()?;
-        if watch.failed {
-            return None;
-        }
         if watch.replay.skipped.len() > skipped
             && let Some(&k) = expected_by_step.get(&(time, key))
         {
