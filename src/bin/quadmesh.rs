@@ -606,11 +606,7 @@ fn replay(
     (json, verify, changes, batch): (bool, bool, bool, usize),
     mode: Mode,
 ) -> Result<()> {
-    refuse_overwriting(points_path, prefix)?;
-    let points = read_points(points_path)?;
-    let text = std::fs::read_to_string(edits_path)
-        .with_context(|| format!("cannot read {}", edits_path.display()))?;
-    let edits = quadmesh::io::parse_edits(&text, &edits_path.display().to_string())?;
+    let (points, edits) = replay_inputs((points_path, edits_path), prefix)?;
     pool(threads)?.install(|| {
         let (built, build_time) = timed(|| DynamicMesh::new(&points, domain));
         let mut dynamic = built.map_err(|e| anyhow::anyhow!("{}: {e}", points_path.display()))?;
@@ -666,45 +662,21 @@ fn replay(
         }
         let (meshed, mesh_time) = timed(|| mesh_of(&dynamic));
         let mesh = meshed.map_err(|e| anyhow::anyhow!("the final mesh: {e}"))?;
-        let mut summary = format!(
-            "{{\"points\":{},\"edits\":{},\"build_seconds\":{},\"mesh_seconds\":{},\"edit_seconds_median\":{}",
-            dynamic.len(),
-            edits.len(),
-            build_time.as_secs_f64(),
-            mesh_time.as_secs_f64(),
-            median(&mut seconds)
-        );
-        if verify {
+        let rebuild = || {
             let (_, live) = dynamic.live_points();
             let options = Options::default()
                 .with_mode(mode)
                 .region(Region::Rectangle(domain));
-            let (rebuilt, rebuild_time) = timed(|| quadmesh::mesh(&Input::points(live), &options));
-            let (rebuilt, _) = rebuilt.map_err(|e| anyhow::anyhow!("the rebuild: {e}"))?;
-            let identical = rebuilt == mesh;
-            summary += &format!(
-                ",\"rebuild_seconds\":{},\"identical\":{identical}",
-                rebuild_time.as_secs_f64()
-            );
-            if !identical {
-                anyhow::bail!("the replayed mesh differs from a build from scratch");
-            }
-        }
-        let files = write_formats(&mesh, prefix, formats, 200_000)?;
-        if json {
-            writeln!(out, "{summary}}}")?;
-        }
-        let mut err = io::stderr().lock();
-        let _ = writeln!(err, "{:<24}{}", "live points", dynamic.len());
-        let _ = writeln!(err, "{:<24}{}", "edits", edits.len());
-        let _ = writeln!(err, "{:<24}{}", "time build", millis(build_time));
-        let _ = writeln!(err, "{:<24}{:.3} ms", "edit median", median(&mut seconds) * 1e3);
-        let _ = writeln!(err, "{:<24}{}", "time mesh", millis(mesh_time));
-        let _ = writeln!(err, "{:<24}{}", "triangles", mesh.triangles.len());
-        for file in files {
-            let _ = writeln!(err, "{:<24}{}", "wrote", file.display());
-        }
-        Ok(())
+            quadmesh::mesh(&Input::points(live), &options).map(|(m, _)| m)
+        };
+        let times = (build_time, mesh_time, &mut seconds[..]);
+        finish_replay(
+            &mut out,
+            &mesh,
+            (dynamic.len(), edits.len(), times),
+            verify.then_some(rebuild),
+            (prefix, formats, json),
+        )
     })
 }
 
@@ -717,11 +689,7 @@ fn replay_delaunay(
     threads: Option<NonZeroUsize>,
     (json, verify, batch): (bool, bool, usize),
 ) -> Result<()> {
-    refuse_overwriting(points_path, prefix)?;
-    let points = read_points(points_path)?;
-    let text = std::fs::read_to_string(edits_path)
-        .with_context(|| format!("cannot read {}", edits_path.display()))?;
-    let edits = quadmesh::io::parse_edits(&text, &edits_path.display().to_string())?;
+    let (points, edits) = replay_inputs((points_path, edits_path), prefix)?;
     let options = RefineOptions {
         min_angle_deg: angle,
         domain: RefineDomain::Rectangle(domain),
@@ -758,41 +726,78 @@ fn replay_delaunay(
         let (meshed, mesh_time) = timed(|| dynamic.mesh());
         let mesh = meshed.map_err(|e| anyhow::anyhow!("the final mesh: {e}"))?;
         let live = dynamic.live_points();
-        let mut summary = format!(
-            "{{\"points\":{},\"edits\":{},\"build_seconds\":{},\"mesh_seconds\":{},\"edit_seconds_median\":{}",
-            live.len(),
-            edits.len(),
-            build_time.as_secs_f64(),
-            mesh_time.as_secs_f64(),
-            median(&mut seconds)
-        );
-        if verify {
-            let (rebuilt, rebuild_time) = timed(|| refine_points_in_order(&live, &options));
-            let (rebuilt, _) = rebuilt.map_err(|e| anyhow::anyhow!("the rebuild: {e}"))?;
-            let identical = rebuilt == mesh;
-            summary += &format!(
-                ",\"rebuild_seconds\":{},\"identical\":{identical}",
-                rebuild_time.as_secs_f64()
-            );
-            if !identical {
-                anyhow::bail!("the replayed mesh differs from a build from scratch");
-            }
-        }
-        let files = write_formats(&mesh, prefix, formats, 200_000)?;
-        if json {
-            writeln!(out, "{summary}}}")?;
-        }
-        let mut err = io::stderr().lock();
-        let _ = writeln!(err, "{:<24}{}", "live points", live.len());
-        let _ = writeln!(err, "{:<24}{}", "edits", edits.len());
-        let _ = writeln!(err, "{:<24}{}", "time build", millis(build_time));
-        let _ = writeln!(err, "{:<24}{:.3} ms", "edit median", median(&mut seconds) * 1e3);
-        let _ = writeln!(err, "{:<24}{}", "triangles", mesh.triangles.len());
-        for file in files {
-            let _ = writeln!(err, "{:<24}{}", "wrote", file.display());
-        }
-        Ok(())
+        let rebuild = || refine_points_in_order(&live, &options).map(|(m, _)| m);
+        let times = (build_time, mesh_time, &mut seconds[..]);
+        finish_replay(
+            &mut out,
+            &mesh,
+            (live.len(), edits.len(), times),
+            verify.then_some(rebuild),
+            (prefix, formats, json),
+        )
     })
+}
+
+/// The initial points and the edits of a replay, after refusing an output prefix that would
+/// overwrite the points.
+fn replay_inputs(
+    (points_path, edits_path): (&Path, &Path),
+    prefix: &Path,
+) -> Result<(Vec<DVec2>, Vec<Edit>)> {
+    refuse_overwriting(points_path, prefix)?;
+    let points = read_points(points_path)?;
+    let text = std::fs::read_to_string(edits_path)
+        .with_context(|| format!("cannot read {}", edits_path.display()))?;
+    let edits = quadmesh::io::parse_edits(&text, &edits_path.display().to_string())?;
+    Ok((points, edits))
+}
+
+/// The end of a replay of either mode: the summary line (with `rebuild`'s mesh compared, when
+/// given), the files, and the report on stderr.
+fn finish_replay(
+    out: &mut impl Write,
+    mesh: &Mesh,
+    (live, edits, (build_time, mesh_time, seconds)): (
+        usize,
+        usize,
+        (Duration, Duration, &mut [f64]),
+    ),
+    rebuild: Option<impl FnOnce() -> Result<Mesh, quadmesh::Error>>,
+    (prefix, formats, json): (&Path, &[Format], bool),
+) -> Result<()> {
+    let mut summary = format!(
+        "{{\"points\":{live},\"edits\":{edits},\"build_seconds\":{},\"mesh_seconds\":{},\"edit_seconds_median\":{}",
+        build_time.as_secs_f64(),
+        mesh_time.as_secs_f64(),
+        median(seconds)
+    );
+    if let Some(rebuild) = rebuild {
+        let (rebuilt, rebuild_time) = timed(rebuild);
+        let rebuilt = rebuilt.map_err(|e| anyhow::anyhow!("the rebuild: {e}"))?;
+        let identical = rebuilt == *mesh;
+        summary += &format!(
+            ",\"rebuild_seconds\":{},\"identical\":{identical}",
+            rebuild_time.as_secs_f64()
+        );
+        if !identical {
+            anyhow::bail!("the replayed mesh differs from a build from scratch");
+        }
+    }
+    let files = write_formats(mesh, prefix, formats, 200_000)?;
+    if json {
+        writeln!(out, "{summary}}}")?;
+    }
+    let mut err = io::stderr().lock();
+    let _ = writeln!(err, "{:<24}{live}", "live points");
+    let _ = writeln!(err, "{:<24}{edits}", "edits");
+    let _ = writeln!(err, "{:<24}{}", "time build", millis(build_time));
+    let _ = writeln!(err, "{:<24}{:.3} ms", "edit median", median(seconds) * 1e3);
+    let _ = writeln!(err, "{:<24}{}", "time mesh", millis(mesh_time));
+    let _ = writeln!(err, "{:<24}{}", "triangles", mesh.triangles.len());
+    for file in files {
+        let _ = writeln!(err, "{:<24}{}", "wrote", file.display());
+    }
+    Ok(())
 }
 
 /// The median of `values` (0 for none).
