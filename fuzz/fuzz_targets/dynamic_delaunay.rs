@@ -10,22 +10,10 @@ use quadmesh::mesh::{AngleBounds, Domain};
 use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
 use quadmesh::{DVec2, Mesh};
 
-/// A coordinate from two bytes, mostly on a 1/4096 grid of the square (so that points land on
-/// sides and close together), sometimes outside it or not finite.
-fn coordinate(b: &[u8]) -> f64 {
-    let v = u16::from_le_bytes([b[0], b[1]]);
-    match v >> 13 {
-        0 => f64::from(v & 0x0FFF) / 4096.0 + f64::from(v >> 12) * 1e-9,
-        1 => f64::from(v & 0x1FFF) / 8191.0,
-        2 if v & 0xFF == 0 => f64::NAN,
-        2 => 1.0 + f64::from(v & 0xFF) / 256.0,
-        _ => f64::from(v) / 65535.0,
-    }
-}
+#[path = "edit_points.rs"]
+mod edit_points;
 
-fn point(b: &[u8]) -> DVec2 {
-    DVec2::new(coordinate(&b[..2]), coordinate(&b[2..4]))
-}
+use edit_points::point;
 
 /// The mesh refinement in order makes of the live points, if it makes one.
 fn rebuilt(dynamic: &DynamicDelaunay, options: &RefineOptions) -> Option<Mesh> {
@@ -70,7 +58,9 @@ fuzz_target!(|data: &[u8]| {
     };
     let mut issued = initial.len() as u32;
     for chunk in tail.chunks_exact(5).take(16) {
-        let live: Vec<u32> = (0..issued).filter(|&id| dynamic.point(id).is_some()).collect();
+        let live: Vec<u32> = (0..issued)
+            .filter(|&id| dynamic.point(id).is_some())
+            .collect();
         // A live id mostly, sometimes one that is not.
         let pick = |b: u8| {
             live.get(b as usize % (live.len() + 1))
@@ -84,12 +74,17 @@ fuzz_target!(|data: &[u8]| {
                 r.id
             }),
             1 => dynamic.delete(pick(chunk[1])).map(|r| r.id),
-            _ => dynamic.move_to(pick(chunk[4]), point(&chunk[..4])).map(|r| r[1].id),
+            _ => dynamic
+                .move_to(pick(chunk[4]), point(&chunk[..4]))
+                .map(|r| r[1].id),
         };
         let mesh = dynamic.mesh().ok();
         match done {
             Ok(id) => {
-                assert!(same(&mesh, &rebuilt(&dynamic, &options)), "edit of {id}: not the rebuilt mesh");
+                assert!(
+                    same(&mesh, &rebuilt(&dynamic, &options)),
+                    "edit of {id}: not the rebuilt mesh"
+                );
                 if let Some(mesh) = mesh {
                     mesh.validate(&dynamic.live_points(), bounds)
                         .unwrap_or_else(|e| panic!("edit of {id}: {e}"));
@@ -99,7 +94,10 @@ fuzz_target!(|data: &[u8]| {
             }
             Err(e) => {
                 assert!(!e.to_string().is_empty());
-                assert!(same(&mesh, &before), "a refused edit ({e}) changed the mesh");
+                assert!(
+                    same(&mesh, &before),
+                    "a refused edit ({e}) changed the mesh"
+                );
             }
         }
     }

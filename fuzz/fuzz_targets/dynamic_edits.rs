@@ -9,22 +9,10 @@ use quadmesh::dynamic::{DynamicMesh, Edit, TriangleChanges};
 use quadmesh::mesh::Domain;
 use quadmesh::{DVec2, Input, Options, Region};
 
-/// A coordinate from two bytes, mostly on a 1/4096 grid of the square (so that points land on
-/// sides and close together), sometimes outside it or not finite.
-fn coordinate(b: &[u8]) -> f64 {
-    let v = u16::from_le_bytes([b[0], b[1]]);
-    match v >> 13 {
-        0 => f64::from(v & 0x0FFF) / 4096.0 + f64::from(v >> 12) * 1e-9,
-        1 => f64::from(v & 0x1FFF) / 8191.0,
-        2 if v & 0xFF == 0 => f64::NAN,
-        2 => 1.0 + f64::from(v & 0xFF) / 256.0,
-        _ => f64::from(v) / 65535.0,
-    }
-}
+#[path = "edit_points.rs"]
+mod edit_points;
 
-fn point(b: &[u8]) -> DVec2 {
-    DVec2::new(coordinate(&b[..2]), coordinate(&b[2..4]))
-}
+use edit_points::point;
 
 /// A mesh's triangles by their corners' bits, each from its least corner on, sorted.
 fn triangle_set(mesh: &quadmesh::Mesh) -> Vec<[[u64; 2]; 3]> {
@@ -62,7 +50,9 @@ fn rebuilt(dynamic: &DynamicMesh) -> Option<quadmesh::Mesh> {
     let options = Options::default()
         .warp()
         .region(Region::Rectangle(dynamic.domain()));
-    quadmesh::mesh(&Input::points(points), &options).ok().map(|(m, _)| m)
+    quadmesh::mesh(&Input::points(points), &options)
+        .ok()
+        .map(|(m, _)| m)
 }
 
 fuzz_target!(|data: &[u8]| {
@@ -123,7 +113,10 @@ fuzz_target!(|data: &[u8]| {
                         "{edit:?} refused but reported changes"
                     );
                 }
-                assert!(dynamic.mesh().ok() == before, "{edit:?} refused but changed the mesh");
+                assert!(
+                    dynamic.mesh().ok() == before,
+                    "{edit:?} refused but changed the mesh"
+                );
             }
         }
     }

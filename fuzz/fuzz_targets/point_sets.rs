@@ -27,7 +27,8 @@ fn check_in_order(points: &[DVec2], options: &Options) {
         (Ok((mesh, _)), Ok((other, _))) => {
             mesh.validate(points, options.angle_bounds())
                 .unwrap_or_else(|e| panic!("in order: invalid mesh: {e}"));
-            mesh.check_delaunay().unwrap_or_else(|e| panic!("in order: not Delaunay: {e}"));
+            mesh.check_delaunay()
+                .unwrap_or_else(|e| panic!("in order: not Delaunay: {e}"));
             let change = other.changes_from(&mesh);
             assert!(
                 change.added.is_empty() && change.removed.is_empty(),
@@ -82,11 +83,15 @@ fuzz_target!(|data: &[u8]| {
             };
             checked.unwrap_or_else(|e| panic!("invalid mesh: {e}"));
             if choice & 1 == 0 {
-                mesh.check_delaunay().unwrap_or_else(|e| panic!("not Delaunay: {e}"));
+                mesh.check_delaunay()
+                    .unwrap_or_else(|e| panic!("not Delaunay: {e}"));
             }
         }
         Err(Error::VertexBudget(partial)) => {
-            partial.mesh.check_delaunay().unwrap_or_else(|e| panic!("partial: {e}"));
+            partial
+                .mesh
+                .check_delaunay()
+                .unwrap_or_else(|e| panic!("partial: {e}"));
         }
         Err(_) => {}
     }

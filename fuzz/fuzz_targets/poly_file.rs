@@ -32,10 +32,14 @@ fuzz_target!(|data: &[u8]| {
                 validate_pslg(&mesh, &input, options.angle_bounds())
                     .unwrap_or_else(|e| panic!("invalid mesh: {e}"));
             }
-            mesh.check_delaunay().unwrap_or_else(|e| panic!("not Delaunay: {e}"));
+            mesh.check_delaunay()
+                .unwrap_or_else(|e| panic!("not Delaunay: {e}"));
         }
         Err(Error::VertexBudget(partial)) => {
-            partial.mesh.check_delaunay().unwrap_or_else(|e| panic!("partial: {e}"));
+            partial
+                .mesh
+                .check_delaunay()
+                .unwrap_or_else(|e| panic!("partial: {e}"));
         }
         Err(_) => {}
     }
