@@ -1,7 +1,8 @@
 //! Times single edits of a dynamic quality Delaunay mesh against a rebuild, on uniform points
 //! in the unit square: medians over the edits of each kind (insertions where the points are,
 //! deletions, moves by a thousandth of the side), the windows replayed and the Steiner points
-//! changed; then batches of moves of 0.1, 1 and 10 % of the points. Usage:
+//! changed, and the triangles the edit changed (`take_changes`) with the time to find them;
+//! then batches of moves of 0.1, 1 and 10 % of the points. Usage:
 //! `cargo run --release --example dynamic_delaunay_edits -- [points] [edits] [angle]`.
 
 use std::time::Instant;
@@ -43,11 +44,13 @@ fn main() {
         "{n} points at {angle}°: {} triangles; rebuild {rebuild:.3} s, dynamic build {build:.3} s",
         rebuilt.triangles.len()
     );
+    dynamic.track_changes(true);
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(2);
     let mut issued = n as u32;
     let step = 1e-3;
     for kind in ["insert", "delete", "move"] {
         let (mut seconds, mut reports) = (Vec::new(), Vec::<RefinedEdit>::new());
+        let (mut change_seconds, mut triangles) = (Vec::new(), Vec::new());
         for _ in 0..edits {
             let id = loop {
                 let id = rng.random_range(0..issued);
@@ -66,6 +69,10 @@ fn main() {
             };
             seconds.push(start.elapsed().as_secs_f64());
             reports.extend(report.ok());
+            let start = Instant::now();
+            let changes = dynamic.take_changes().expect("tracked changes");
+            change_seconds.push(start.elapsed().as_secs_f64());
+            triangles.push((changes.removed.len() + changes.added.len()) as f64);
         }
         let windows = median(reports.iter().map(|r| f64::from(r.windows)).collect());
         let changed = median(
@@ -83,7 +90,13 @@ fn main() {
             rebuild / median_s,
             reports.len()
         );
+        println!(
+            "        changes: median {:.3} ms, triangles removed + added {}",
+            median(change_seconds) * 1e3,
+            median(triangles)
+        );
     }
+    dynamic.track_changes(false);
     for share in [0.001, 0.01, 0.1] {
         let count = ((n as f64 * share) as usize).max(1);
         let edits: Vec<Edit> = (0..count)

@@ -381,3 +381,143 @@ fn batches_small_and_large_give_a_rebuilds_bytes_or_change_nothing() {
         matches_rebuild(&dynamic, &options);
     }
 }
+
+/// A triangle's corners as bits, from its least corner on.
+fn triangle_key(c: [DVec2; 3]) -> [[u64; 2]; 3] {
+    let mut bits = c.map(|p| [p.x.to_bits(), p.y.to_bits()]);
+    let least = (0..3).min_by_key(|&i| bits[i]).unwrap();
+    bits.rotate_left(least);
+    bits
+}
+
+fn triangle_keys(mesh: &Mesh) -> std::collections::HashSet<[[u64; 2]; 3]> {
+    mesh.triangles
+        .iter()
+        .map(|t| triangle_key(t.map(|v| mesh.vertices[v as usize])))
+        .collect()
+}
+
+/// Takes the changes since the last take and checks that they turn `before` into the mesh
+/// as it is, which it returns; and that they are as many as a comparison of whole meshes
+/// finds.
+fn check_changes(dynamic: &mut DynamicDelaunay, before: &Mesh, options: &RefineOptions) -> Mesh {
+    let changes = dynamic.take_changes().expect("tracked changes");
+    let after = matches_rebuild(dynamic, options);
+    let mut triangles = triangle_keys(before);
+    for &c in &changes.removed {
+        assert!(
+            triangles.remove(&triangle_key(c)),
+            "removed {c:?} was not there"
+        );
+    }
+    for &c in &changes.added {
+        assert!(triangles.insert(triangle_key(c)), "added {c:?} was there");
+    }
+    assert!(
+        triangles == triangle_keys(&after),
+        "the changes miss triangles"
+    );
+    let whole = after.changes_from(before);
+    assert_eq!(changes.removed.len(), whole.removed.len());
+    assert_eq!(changes.added.len(), whole.added.len());
+    after
+}
+
+#[test]
+fn tracked_changes_turn_the_mesh_before_into_the_mesh_after() {
+    for (k, dist) in FAMILIES.into_iter().enumerate() {
+        let points = generate::points(dist, 1500, 30 + k as u64);
+        let domain = domain_around(&points);
+        let options = options(30.0, domain);
+        let mut dynamic = DynamicDelaunay::new(&points, &options).expect("a dynamic mesh");
+        assert!(matches!(
+            dynamic.take_changes(),
+            Err(Error::InvalidOption { .. })
+        ));
+        dynamic.track_changes(true);
+        let mut mesh = dynamic.mesh().unwrap();
+        let mut changed = 0;
+        // One edit at a time, then three between takes.
+        for (round, per_take) in [(0, 1), (1, 1), (2, 3)] {
+            for step in 0..per_take {
+                random_edits(
+                    &mut dynamic,
+                    &options,
+                    (domain, true),
+                    1,
+                    (round * 7 + step) as u64,
+                );
+            }
+            let next = check_changes(&mut dynamic, &mesh, &options);
+            changed += next.changes_from(&mesh).added.len();
+            mesh = next;
+        }
+        assert!(changed > 0, "{dist:?}: the edits changed nothing");
+        // No edit: no change.
+        let none = dynamic.take_changes().unwrap();
+        assert!(none.removed.is_empty() && none.added.is_empty());
+        // A large batch refines everything again; a refused one changes nothing.
+        let into_domain = |edits: Vec<Edit>| -> Vec<Edit> {
+            let place = |p: DVec2| domain.lo + p * (domain.hi - domain.lo);
+            edits
+                .into_iter()
+                .map(|e| match e {
+                    Edit::Insert(p) => Edit::Insert(place(p)),
+                    Edit::Move(id, p) => Edit::Move(id, place(p)),
+                    delete => delete,
+                })
+                .collect()
+        };
+        dynamic
+            .apply(&into_domain(batch(40, 3, 0)))
+            .expect("a batch");
+        mesh = check_changes(&mut dynamic, &mesh, &options);
+        let mut refused = into_domain(batch(40, 4, 300));
+        refused.push(Edit::Delete(100_000));
+        dynamic.apply(&refused).expect_err("an unknown id");
+        dynamic.insert(DVec2::NAN).expect_err("not a point");
+        let none = dynamic.take_changes().unwrap();
+        assert!(none.removed.is_empty() && none.added.is_empty());
+        // A point on a corner of the domain changes no triangle; one on a side does.
+        let corner = dynamic.insert(domain.lo).unwrap().id;
+        let side = dynamic
+            .insert(DVec2::new(domain.hi.x, (domain.lo.y + domain.hi.y) / 2.0))
+            .unwrap()
+            .id;
+        mesh = check_changes(&mut dynamic, &mesh, &options);
+        dynamic.delete(corner).unwrap();
+        dynamic.delete(side).unwrap();
+        check_changes(&mut dynamic, &mesh, &options);
+        dynamic.track_changes(false);
+        assert!(dynamic.take_changes().is_err());
+    }
+}
+
+#[test]
+fn the_changes_of_an_edit_are_found_near_it() {
+    let points = generate::points(Distribution2d::Uniform, 6000, 23);
+    let domain = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::ONE,
+    };
+    let options = options(30.0, domain);
+    let mut dynamic = DynamicDelaunay::new(&points, &options).expect("a dynamic mesh");
+    dynamic.track_changes(true);
+    let mut mesh = dynamic.mesh().unwrap();
+    let mut work = Vec::new();
+    for seed in 0..8 {
+        let reports = random_edits(&mut dynamic, &options, (middle(domain, 0.6), true), 1, seed);
+        let vertices = dynamic.live_points().len() + dynamic.steiner_count();
+        let changes = dynamic.clone().take_changes().unwrap();
+        if !reports[0].rebuilt {
+            work.push(changes.leaves as f64 / vertices as f64);
+        }
+        mesh = check_changes(&mut dynamic, &mesh, &options);
+    }
+    work.sort_by(f64::total_cmp);
+    let median = work[work.len() / 2];
+    assert!(
+        median < 0.25,
+        "a median edit triangulated {median} of the vertices"
+    );
+}

@@ -67,6 +67,14 @@ fn triangle_bits(corners: [DVec2; 3]) -> TriangleBits {
     bits
 }
 
+/// `triangles` each from its least corner, sorted by their bits, repeats dropped.
+pub(super) fn in_order(triangles: Vec<[DVec2; 3]>) -> Vec<[DVec2; 3]> {
+    let mut bits: Vec<TriangleBits> = triangles.into_iter().map(triangle_bits).collect();
+    bits.sort_unstable();
+    bits.dedup();
+    bits.iter().map(corners).collect()
+}
+
 fn corners(bits: &TriangleBits) -> [DVec2; 3] {
     bits.map(|[x, y]| DVec2::new(f64::from_bits(x), f64::from_bits(y)))
 }

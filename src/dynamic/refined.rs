@@ -14,6 +14,8 @@
 //! sides, whose triangles reach its far corners, or in gaps between clusters), the windows
 //! grow large, up to the whole rectangle.
 
+mod changes;
+
 use std::collections::HashMap;
 
 use glam::DVec2;
@@ -82,6 +84,8 @@ pub struct DynamicDelaunay {
     point_cells: HashMap<(i64, i64), Vec<u32>>,
     steiner_cells: HashMap<(i64, i64), Vec<u32>>,
     cell: f64,
+    /// While changes are tracked, the vertices edits changed since they were last taken.
+    log: Option<changes::VertexLog>,
 }
 
 impl DynamicDelaunay {
@@ -112,6 +116,7 @@ impl DynamicDelaunay {
             point_cells: HashMap::new(),
             steiner_cells: HashMap::new(),
             cell: 1.0,
+            log: None,
         };
         mesh.index(run.stamps);
         Ok(mesh)
@@ -278,7 +283,7 @@ impl DynamicDelaunay {
 
     /// [`Self::apply`] for a large batch: the points first, then one refinement of them all.
     fn apply_at_once(&mut self, edits: &[Edit]) -> Result<Vec<RefinedEdit>, (usize, Error)> {
-        let saved = self.points.clone();
+        let saved = (self.points.clone(), self.log.clone());
         let mut ids = Vec::with_capacity(edits.len());
         let placed = edits
             .iter()
@@ -295,7 +300,7 @@ impl DynamicDelaunay {
                 .collect()),
             Err(refused) => {
                 // The Steiner points are untouched until a rebuild succeeds.
-                self.points = saved;
+                (self.points, self.log) = saved;
                 self.index_points();
                 Err(refused)
             }
@@ -458,6 +463,12 @@ impl DynamicDelaunay {
             .sqrt()
             .max(f64::MIN_POSITIVE);
         self.index_points();
+        if self.log.is_some() {
+            let old: Vec<DVec2> = self.steiner.iter().flatten().map(|s| s.at).collect();
+            for p in old {
+                self.note_vertex(p, -1);
+            }
+        }
         self.steiner_cells.clear();
         self.steiner.clear();
         self.free.clear();
@@ -470,7 +481,8 @@ impl DynamicDelaunay {
         self.point_cells.clear();
         for id in 0..self.points.len() as u32 {
             if let Some(p) = self.points[id as usize] {
-                self.add_point_cell(id, p);
+                let cell = self.cell_of(p);
+                self.point_cells.entry(cell).or_default().push(id);
             }
         }
     }
@@ -480,12 +492,16 @@ impl DynamicDelaunay {
         (c.x as i64, c.y as i64)
     }
 
+    /// Indexes live point `id` at `p`, which it just took.
     fn add_point_cell(&mut self, id: u32, p: DVec2) {
+        self.note_vertex(p, 1);
         let cell = self.cell_of(p);
         self.point_cells.entry(cell).or_default().push(id);
     }
 
+    /// Takes point `id`, which just left `p`, out of the index.
     fn remove_point_cell(&mut self, id: u32, p: DVec2) {
+        self.note_vertex(p, -1);
         let cell = self.cell_of(p);
         if let Some(ids) = self.point_cells.get_mut(&cell) {
             ids.retain(|&i| i != id);
@@ -498,6 +514,7 @@ impl DynamicDelaunay {
     }
 
     fn add_steiner(&mut self, s: Stamp) {
+        self.note_vertex(s.at, 1);
         let slot = match self.free.pop() {
             Some(slot) => {
                 self.steiner[slot as usize] = Some(s);
@@ -517,6 +534,7 @@ impl DynamicDelaunay {
 
     fn remove_steiner(&mut self, slot: u32) {
         let s = self.steiner[slot as usize].take().expect("a live slot");
+        self.note_vertex(s.at, -1);
         for cell in self.steiner_cells_of(&s) {
             if let Some(slots) = self.steiner_cells.get_mut(&cell) {
                 slots.retain(|&k| k != slot);
@@ -595,7 +613,11 @@ impl DynamicDelaunay {
 
     /// The square of half side `half` around `p`, cut to the domain.
     fn window_around(&self, p: DVec2, half: f64) -> Window {
-        let (lo, hi) = (p - half, p + half);
+        self.window_over(p - half, p + half)
+    }
+
+    /// The rectangle from `lo` to `hi`, cut to the domain.
+    fn window_over(&self, lo: DVec2, hi: DVec2) -> Window {
         let (d_lo, d_hi) = (self.domain.lo, self.domain.hi);
         Window {
             lo: lo.max(d_lo),

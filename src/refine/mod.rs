@@ -37,6 +37,7 @@
 
 mod delaunay;
 mod hull;
+mod local_changes;
 mod ordered;
 mod queue;
 mod refiner;
@@ -45,6 +46,7 @@ mod segments;
 mod strips;
 mod tiles;
 
+pub(crate) use local_changes::{local_changes, point_bits};
 pub use ordered::refine_points_in_order;
 pub(crate) use ordered::{Stamp, canonical_delaunay, run_in_order};
 pub(crate) use refiner::Bounds;
