@@ -292,12 +292,18 @@ fn a_quality_delaunay_mesh_replays_to_refinement_in_order_of_the_live_points() {
         "30",
         "--json",
         "--verify",
+        "--changes",
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
     let json = String::from_utf8(out.stdout).unwrap();
     let lines: Vec<&str> = json.lines().collect();
     assert_eq!(lines.len(), 6, "a line per edit and a summary: {json}");
     assert!(lines[0].contains("\"windows\":"), "{}", lines[0]);
+    for (k, line) in lines[..5].iter().enumerate() {
+        // Every edit changes the mesh but the fourth, a point on a corner of the domain.
+        let none = line.contains("\"triangles_removed\":0,\"triangles_added\":0,");
+        assert_eq!(none, k == 3, "{line}");
+    }
     assert!(lines[5].contains("\"identical\":true"), "{}", lines[5]);
     assert!(!output(&replayed, "ele").is_empty());
     // A bad edit names itself and writes nothing.

@@ -7,8 +7,9 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
-use quadmesh::dynamic::DynamicMesh;
+use quadmesh::dynamic::{DynamicDelaunay, DynamicMesh, Edit, TriangleChanges};
 use quadmesh::mesh::Domain;
+use quadmesh::refine::{RefineDomain, RefineOptions};
 use quadmesh::{DVec2, Error, Input, Mesh, MeshReport, Mode, Options, Region, RegionSeed, Segment};
 
 create_exception!(
@@ -444,22 +445,7 @@ impl PyDynamicMesh {
             true => inner.take_nonobtuse_changes(),
             false => inner.take_changes(),
         });
-        let changes = found.map_err(|e| raise(&e))?;
-        let corners = |triangles: &[[DVec2; 3]]| -> PyResult<Bound<'py, PyAny>> {
-            let flat: Vec<f64> = triangles
-                .iter()
-                .flat_map(|t| t.iter().flat_map(|p| [p.x, p.y]))
-                .collect();
-            Ok(flat
-                .into_pyarray(py)
-                .reshape([triangles.len(), 3, 2])?
-                .into_any())
-        };
-        Ok((
-            corners(&changes.removed)?,
-            corners(&changes.added)?,
-            changes.leaves,
-        ))
+        changes_arrays(py, found)
     }
 
     /// The ids of the live points, in increasing order.
@@ -485,6 +471,160 @@ impl PyDynamicMesh {
     }
 }
 
+/// Changes as two arrays of shape (k, 3, 2), the triangles' corners, and the work it took.
+#[allow(clippy::type_complexity)]
+fn changes_arrays<'py>(
+    py: Python<'py>,
+    found: Result<TriangleChanges, Error>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, usize)> {
+    let changes = found.map_err(|e| raise(&e))?;
+    let corners = |triangles: &[[DVec2; 3]]| -> PyResult<Bound<'py, PyAny>> {
+        let flat: Vec<f64> = triangles
+            .iter()
+            .flat_map(|t| t.iter().flat_map(|p| [p.x, p.y]))
+            .collect();
+        Ok(flat
+            .into_pyarray(py)
+            .reshape([triangles.len(), 3, 2])?
+            .into_any())
+    };
+    Ok((
+        corners(&changes.removed)?,
+        corners(&changes.added)?,
+        changes.leaves,
+    ))
+}
+
+/// A dynamic quality Delaunay mesh; see the package's `DynamicDelaunay`.
+#[pyclass(name = "_DynamicDelaunay", module = "quadmesh._quadmesh")]
+struct PyDynamicDelaunay {
+    inner: DynamicDelaunay,
+}
+
+#[pymethods]
+impl PyDynamicDelaunay {
+    #[new]
+    #[pyo3(signature = (points, domain, min_angle, max_area = None))]
+    fn new(
+        py: Python<'_>,
+        points: PyReadonlyArray2<'_, f64>,
+        domain: (f64, f64, f64, f64),
+        min_angle: f64,
+        max_area: Option<f64>,
+    ) -> PyResult<Self> {
+        let points = rows(&points, 2, "points", |r| DVec2::new(r[0], r[1]))?;
+        let (x0, y0, x1, y1) = domain;
+        let options = RefineOptions {
+            min_angle_deg: min_angle,
+            max_area,
+            domain: RefineDomain::Rectangle(Domain {
+                lo: DVec2::new(x0, y0),
+                hi: DVec2::new(x1, y1),
+            }),
+            ..RefineOptions::default()
+        };
+        let inner = py
+            .detach(|| DynamicDelaunay::new(&points, &options))
+            .map_err(|e| raise(&e))?;
+        Ok(PyDynamicDelaunay { inner })
+    }
+
+    fn __len__(&self) -> usize {
+        self.inner.len()
+    }
+
+    fn steiner_count(&self) -> usize {
+        self.inner.steiner_count()
+    }
+
+    fn insert(&mut self, py: Python<'_>, x: f64, y: f64) -> PyResult<u32> {
+        let inner = &mut self.inner;
+        let report = py.detach(|| inner.insert(DVec2::new(x, y)));
+        Ok(report.map_err(|e| raise(&e))?.id)
+    }
+
+    fn delete(&mut self, py: Python<'_>, id: i64) -> PyResult<()> {
+        let (id, inner) = (point_id(id)?, &mut self.inner);
+        py.detach(|| inner.delete(id)).map_err(|e| raise(&e))?;
+        Ok(())
+    }
+
+    fn move_to(&mut self, py: Python<'_>, id: i64, x: f64, y: f64) -> PyResult<()> {
+        let (id, inner) = (point_id(id)?, &mut self.inner);
+        py.detach(|| inner.move_to(id, DVec2::new(x, y)))
+            .map_err(|e| raise(&e))?;
+        Ok(())
+    }
+
+    fn move_all(
+        &mut self,
+        py: Python<'_>,
+        ids: PyReadonlyArray1<'_, i64>,
+        displacements: PyReadonlyArray2<'_, f64>,
+    ) -> PyResult<()> {
+        let shifts = rows(&displacements, 2, "displacements", |r| {
+            DVec2::new(r[0], r[1])
+        })?;
+        let ids = ids.as_slice()?;
+        if ids.len() != shifts.len() {
+            return Err(QuadmeshError::new_err(format!(
+                "{} ids but {} displacements",
+                ids.len(),
+                shifts.len()
+            )));
+        }
+        let mut edits = Vec::with_capacity(ids.len());
+        for (k, (&id, &shift)) in ids.iter().zip(&shifts).enumerate() {
+            let at = point_id(id)
+                .ok()
+                .and_then(|id| self.inner.point(id).map(|p| (id, p)));
+            let Some((id, p)) = at else {
+                return Err(QuadmeshError::new_err(format!(
+                    "move {k}: no live point has id {id}"
+                )));
+            };
+            edits.push(Edit::Move(id, p + shift));
+        }
+        let inner = &mut self.inner;
+        py.detach(|| inner.apply(&edits))
+            .map_err(|(k, e)| QuadmeshError::new_err(format!("move {k}: {}", message(&e))))?;
+        Ok(())
+    }
+
+    fn track_changes(&mut self, on: bool) {
+        self.inner.track_changes(on);
+    }
+
+    /// The triangles taken out and put in since the last call, as `_DynamicMesh` gives them,
+    /// and the vertices triangulated to find them.
+    #[allow(clippy::type_complexity)]
+    fn take_changes<'py>(
+        &mut self,
+        py: Python<'py>,
+    ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, usize)> {
+        let inner = &mut self.inner;
+        let found = py.detach(|| inner.take_changes());
+        changes_arrays(py, found)
+    }
+
+    /// The ids of the live points, in increasing order.
+    fn live_ids<'py>(&self, py: Python<'py>) -> Bound<'py, PyAny> {
+        self.inner.live_ids().into_pyarray(py).into_any()
+    }
+
+    fn mesh<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
+        let inner = &self.inner;
+        let mesh = py.detach(|| inner.mesh()).map_err(|e| raise(&e))?;
+        let report = MeshReport {
+            points: inner.len(),
+            vertices: mesh.vertices.len(),
+            triangles: mesh.triangles.len(),
+            ..MeshReport::default()
+        };
+        mesh_dict(py, mesh, &report, false)
+    }
+}
+
 /// A point id from Python.
 fn point_id(id: i64) -> PyResult<u32> {
     u32::try_from(id).map_err(|_| QuadmeshError::new_err(format!("no live point has id {id}")))
@@ -494,6 +634,7 @@ fn point_id(id: i64) -> PyResult<u32> {
 fn _quadmesh(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_mesh, m)?)?;
     m.add_class::<PyDynamicMesh>()?;
+    m.add_class::<PyDynamicDelaunay>()?;
     m.add("QuadmeshError", m.py().get_type::<QuadmeshError>())?;
     m.add("NONE", quadmesh::NONE)?;
     Ok(())

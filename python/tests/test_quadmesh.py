@@ -275,3 +275,60 @@ def test_a_time_step_moves_every_point():
     shift = (rng.random((200, 2)) - 0.5) * 1e-3
     dynamic.move_all(np.arange(200), shift)
     _same_mesh(dynamic.mesh(), quadmesh.DynamicMesh(start + shift, (0, 0, 1, 1)).mesh())
+
+
+def test_a_dynamic_delaunay_mesh_after_edits_is_a_fresh_one_of_its_live_points():
+    rng = np.random.default_rng(5)
+    domain = (0, 0, 2, 1)
+    start = rng.random((400, 2)) * [2, 1]
+    dynamic = quadmesh.DynamicDelaunay(start, domain, min_angle=30)
+    dynamic.track_changes()
+    where = {i: tuple(p) for i, p in enumerate(start)}
+    before = dynamic.mesh()
+    for k in range(12):
+        ids = list(where)
+        if k % 3 == 0:
+            x, y = rng.random(2) * [2, 1]
+            where[dynamic.insert(x, y)] = (x, y)
+        elif k % 3 == 1:
+            gone = ids[int(rng.integers(len(ids)))]
+            dynamic.delete(gone)
+            del where[gone]
+        else:
+            moved = ids[int(rng.integers(len(ids)))]
+            x, y = np.clip(np.array(where[moved]) + (rng.random(2) - 0.5) * 0.01, 0, [2, 1])
+            dynamic.move_to(moved, x, y)
+            where[moved] = (x, y)
+        # The changes turn the mesh before into the mesh after.
+        removed, added = dynamic.take_changes()
+        after = dynamic.mesh()
+        rows = _triangle_rows(before.vertices, before.triangles)
+        for t in removed:
+            rows.remove(_corner_row(t))
+        rows += [_corner_row(t) for t in added]
+        assert sorted(rows) == sorted(_triangle_rows(after.vertices, after.triangles))
+        before = after
+    live = dynamic.live_ids()
+    assert list(live) == sorted(where) and len(dynamic) == len(where)
+    points = np.array([where[i] for i in live])
+    _same_mesh(before, quadmesh.DynamicDelaunay(points, domain, min_angle=30).mesh())
+    assert min_angles(before.vertices, before.triangles).min() >= 30 - 1e-9
+    # The vertices: the rectangle's corners, the live points and the Steiner points.
+    assert dynamic.steiner_count() == len(before.vertices) - len(live) - 4
+    # A time step moves every point at once, all or none.
+    shift = (rng.random((len(live), 2)) - 0.5) * 1e-3
+    moved = np.clip(points + shift, 0, [2, 1])
+    dynamic.move_all(live, moved - points)
+    _same_mesh(dynamic.mesh(), quadmesh.DynamicDelaunay(moved, domain, min_angle=30).mesh())
+    mesh = dynamic.mesh()
+    for edit in (
+        lambda: dynamic.insert(2.5, 0.5),
+        lambda: dynamic.insert(float("nan"), 0.5),
+        lambda: dynamic.delete(10_000),
+        lambda: dynamic.move_all(live[:2], [[0.0, 0.0], [5.0, 0.0]]),
+    ):
+        with pytest.raises(quadmesh.QuadmeshError):
+            edit()
+        _same_mesh(dynamic.mesh(), mesh)
+    with pytest.raises(quadmesh.QuadmeshError):
+        quadmesh.DynamicDelaunay([[0.5, 0.5], [0.5, 0.5]], domain)

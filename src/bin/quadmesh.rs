@@ -17,7 +17,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use quadmesh::dynamic::{BatchReport, DynamicDelaunay, DynamicMesh, Edit, RefinedEdit};
+use quadmesh::dynamic::{
+    BatchReport, DynamicDelaunay, DynamicMesh, Edit, RefinedEdit, TriangleChanges,
+};
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{
     read_input, read_points, with_extension_appended, write_input_poly, write_leaves_csv,
@@ -142,7 +144,7 @@ enum Command {
         /// (`DynamicDelaunay`): the final mesh is refinement in order of the live points
         /// (`--verify` compares it with one), and the JSON lines carry `windows`,
         /// `steiner_removed` and `steiner_added` instead of `cells`.
-        #[arg(long, value_name = "DEG", conflicts_with_all = ["warp", "nonobtuse", "changes"])]
+        #[arg(long, value_name = "DEG", conflicts_with_all = ["warp", "nonobtuse"])]
         min_angle: Option<f64>,
         /// Output formats, comma-separated, as for `mesh`.
         #[arg(long, value_delimiter = ',', default_value = "node")]
@@ -160,9 +162,11 @@ enum Command {
         #[arg(long)]
         verify: bool,
         /// With `--json`: also print how many triangles each edit or batch removed and added
-        /// (`triangles_removed`, `triangles_added`), found by warping the tree only around the
-        /// change (`DynamicMesh::take_changes`), in `changes_seconds`, apart from `seconds`,
-        /// with the leaves it warped (`changes_leaves`).
+        /// (`triangles_removed`, `triangles_added`), found only around the change
+        /// (`DynamicMesh::take_changes` warps the tree there; with `--min-angle`,
+        /// `DynamicDelaunay::take_changes` triangulates the vertices there), in
+        /// `changes_seconds`, apart from `seconds`, with the work it took (`changes_leaves`:
+        /// the leaves warped, or the vertices triangulated).
         #[arg(long, requires = "json")]
         changes: bool,
         /// Apply the edits in batches of N (one tree update per batch, its moves in
@@ -426,6 +430,7 @@ fn main() -> ExitCode {
             threads,
             json,
             verify,
+            changes,
             batch,
             ..
         } => replay_delaunay(
@@ -434,7 +439,7 @@ fn main() -> ExitCode {
             (domain, angle),
             &format,
             threads,
-            (json, verify, batch.get()),
+            (json, verify, changes, batch.get()),
         ),
         Command::Replay {
             points,
@@ -639,14 +644,7 @@ fn replay(
                     Mode::Nonobtuse => dynamic.take_nonobtuse_changes(),
                     _ => dynamic.take_changes(),
                 });
-                let change = found.map_err(|e| anyhow::anyhow!("the changes: {e}"))?;
-                triangles = format!(
-                    ",\"triangles_removed\":{},\"triangles_added\":{},\"changes_seconds\":{},\"changes_leaves\":{}",
-                    change.removed.len(),
-                    change.added.len(),
-                    time.as_secs_f64(),
-                    change.leaves
-                );
+                triangles = changes_json(found, time)?;
             }
             if json {
                 writeln!(
@@ -687,7 +685,7 @@ fn replay_delaunay(
     (domain, angle): (Domain, f64),
     formats: &[Format],
     threads: Option<NonZeroUsize>,
-    (json, verify, batch): (bool, bool, usize),
+    (json, verify, changes, batch): (bool, bool, bool, usize),
 ) -> Result<()> {
     let (points, edits) = replay_inputs((points_path, edits_path), prefix)?;
     let options = RefineOptions {
@@ -700,6 +698,7 @@ fn replay_delaunay(
         let mut dynamic = built.map_err(|e| anyhow::anyhow!("{}: {e}", points_path.display()))?;
         let mut out = io::stdout().lock();
         let mut seconds = Vec::with_capacity(edits.len());
+        dynamic.track_changes(changes);
         for (b, group) in edits.chunks(batch).enumerate() {
             let (done, time) = timed(|| dynamic.apply(group));
             let reports = done.map_err(|(k, e)| {
@@ -708,11 +707,16 @@ fn replay_delaunay(
                 anyhow::anyhow!("{}: edit {} ({edit:?}): {e}", edits_path.display(), at + 1)
             })?;
             seconds.push(time.as_secs_f64());
+            let mut triangles = String::new();
+            if changes {
+                let (found, time) = timed(|| dynamic.take_changes());
+                triangles = changes_json(found, time)?;
+            }
             if json {
                 let sum = |f: fn(&RefinedEdit) -> usize| reports.iter().map(f).sum::<usize>();
                 writeln!(
                     out,
-                    "{{\"edit\":{},\"edits\":{},\"seconds\":{},\"windows\":{},\"steiner_removed\":{},\"steiner_added\":{},\"rebuilt\":{}}}",
+                    "{{\"edit\":{},\"edits\":{},\"seconds\":{},\"windows\":{},\"steiner_removed\":{},\"steiner_added\":{},\"rebuilt\":{}{triangles}}}",
                     b * batch + 1,
                     group.len(),
                     time.as_secs_f64(),
@@ -736,6 +740,18 @@ fn replay_delaunay(
             (prefix, formats, json),
         )
     })
+}
+
+/// The JSON fields of the changes one edit or batch made, found in `time`.
+fn changes_json(found: Result<TriangleChanges, quadmesh::Error>, time: Duration) -> Result<String> {
+    let change = found.map_err(|e| anyhow::anyhow!("the changes: {e}"))?;
+    Ok(format!(
+        ",\"triangles_removed\":{},\"triangles_added\":{},\"changes_seconds\":{},\"changes_leaves\":{}",
+        change.removed.len(),
+        change.added.len(),
+        time.as_secs_f64(),
+        change.leaves
+    ))
 }
 
 /// The initial points and the edits of a replay, after refusing an output prefix that would

@@ -20,7 +20,7 @@ use crate::mesh::StageTimes;
 use crate::morton::{Cell, MortonKey};
 use crate::warp::{split as split_leaves, warp};
 
-/// Triangles of the warped mesh that edits took out and put in, each by its corners
+/// Triangles of a dynamic mesh that edits took out and put in, each by its corners
 /// counter-clockwise, starting from the least corner (by coordinates' bits).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TriangleChanges {
@@ -28,7 +28,8 @@ pub struct TriangleChanges {
     pub removed: Vec<[DVec2; 3]>,
     /// Triangles the edits put in.
     pub added: Vec<[DVec2; 3]>,
-    /// Leaves of the two partial trees warped to find them: the work it took.
+    /// The work it took: the leaves of the two partial trees warped to find them (in
+    /// [`DynamicMesh`]), or the vertices triangulated ([`super::DynamicDelaunay`]).
     pub leaves: usize,
 }
 

@@ -127,6 +127,23 @@ impl DynamicDelaunay {
         self.points.get(id as usize).copied().flatten()
     }
 
+    /// How many points are live.
+    pub fn len(&self) -> usize {
+        self.points.iter().flatten().count()
+    }
+
+    /// Whether no point is live.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The ids of the live points, increasing.
+    pub fn live_ids(&self) -> Vec<u32> {
+        (0..self.points.len() as u32)
+            .filter(|&id| self.points[id as usize].is_some())
+            .collect()
+    }
+
     /// The live points in id order.
     pub fn live_points(&self) -> Vec<DVec2> {
         self.points.iter().flatten().copied().collect()

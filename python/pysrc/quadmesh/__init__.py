@@ -19,9 +19,9 @@ from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
-from ._quadmesh import NONE, QuadmeshError, _DynamicMesh, _mesh
+from ._quadmesh import NONE, QuadmeshError, _DynamicDelaunay, _DynamicMesh, _mesh
 
-__all__ = ["DynamicMesh", "Mesh", "QuadmeshError", "mesh", "triangulate"]
+__all__ = ["DynamicDelaunay", "DynamicMesh", "Mesh", "QuadmeshError", "mesh", "triangulate"]
 
 
 @dataclass
@@ -220,6 +220,73 @@ class DynamicMesh:
         only around the change, in time that does not grow with the number of points (a large
         ``move_all`` that rebuilds the tree costs two whole meshes)."""
         removed, added, _ = self._inner.take_changes(bool(nonobtuse))
+        return removed, added
+
+
+class DynamicDelaunay:
+    """A quality Delaunay mesh (every angle at least ``min_angle`` degrees, every triangle at
+    most ``max_area`` where given) of points in a fixed rectangle ``domain`` (x0, y0, x1, y1),
+    kept current while points are inserted, deleted and moved.
+
+    Ids work as in ``DynamicMesh``. An edit re-refines only a window around the change where
+    it can (near the rectangle's sides, or between clusters, the window may grow to the whole
+    domain). After any edits, ``mesh()`` is exactly the mesh that a new ``DynamicDelaunay`` of
+    the live points (in id order) gives. A bad edit (outside the domain, NaN, the place of a
+    live point or too close to one, an unknown id) raises ``QuadmeshError`` and changes
+    nothing; ``move_all`` moves all points or none.
+    """
+
+    def __init__(self, points, domain, min_angle: float = 30.0, max_area: Optional[float] = None):
+        x0, y0, x1, y1 = (float(v) for v in domain)
+        area = None if max_area is None else float(max_area)
+        self._inner = _DynamicDelaunay(
+            _as_points(points, "points"), (x0, y0, x1, y1), float(min_angle), area
+        )
+
+    def __len__(self) -> int:
+        return len(self._inner)
+
+    def steiner_count(self) -> int:
+        """How many vertices refinement added."""
+        return self._inner.steiner_count()
+
+    def insert(self, x: float, y: float) -> int:
+        """Adds a point; returns its id."""
+        return self._inner.insert(float(x), float(y))
+
+    def delete(self, id: int) -> None:
+        """Deletes the live point ``id``."""
+        self._inner.delete(int(id))
+
+    def move_to(self, id: int, x: float, y: float) -> None:
+        """Moves the live point ``id`` to (x, y)."""
+        self._inner.move_to(int(id), float(x), float(y))
+
+    def move_all(self, ids, displacements) -> None:
+        """Moves each point ``ids[k]`` by ``displacements[k]`` (a time step), all or none: a
+        few moves one by one, many with one refinement of all the points."""
+        ids = np.ascontiguousarray(ids, dtype=np.int64).reshape(-1)
+        self._inner.move_all(ids, _as_points(displacements, "displacements"))
+
+    def live_ids(self) -> np.ndarray:
+        """The ids of the live points, in increasing order."""
+        return self._inner.live_ids()
+
+    def mesh(self) -> Mesh:
+        """The current mesh; its ``vertex_input`` numbers the live points in id order."""
+        return _mesh_of(self._inner.mesh())
+
+    def track_changes(self, on: bool = True) -> None:
+        """Starts (or with ``on=False`` stops) recording what edits change, for
+        ``take_changes``."""
+        self._inner.track_changes(bool(on))
+
+    def take_changes(self) -> Tuple[np.ndarray, np.ndarray]:
+        """The triangles of ``mesh()`` that the edits since ``track_changes`` or the last call
+        took out and put in, as ``DynamicMesh.take_changes`` gives them; found from the
+        vertices around the change (after a ``move_all`` that refined everything again, from
+        two triangulations of the whole domain)."""
+        removed, added, _ = self._inner.take_changes()
         return removed, added
 
 
