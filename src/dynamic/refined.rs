@@ -423,22 +423,30 @@ impl DynamicDelaunay {
         } else {
             (&[], &probe)
         };
-        let old = replay(
-            window,
-            &self.bounds,
-            &before,
-            &forced,
-            &expected,
-            probe_before,
-        )?;
-        let new = replay(
-            window,
-            &self.bounds,
-            &after,
-            &forced,
-            &expected,
-            probe_after,
-        )?;
+        // The two replays are independent: one on each of two threads where there are two.
+        let (old, new) = rayon::join(
+            || {
+                replay(
+                    window,
+                    &self.bounds,
+                    &before,
+                    &forced,
+                    &expected,
+                    probe_before,
+                )
+            },
+            || {
+                replay(
+                    window,
+                    &self.bounds,
+                    &after,
+                    &forced,
+                    &expected,
+                    probe_after,
+                )
+            },
+        );
+        let (old, new) = (old?, new?);
         if !old.agrees_beyond_change(&new, window, &expected) {
             return None;
         }
