@@ -82,10 +82,12 @@ fn main() {
                 .collect(),
         );
         let rebuilt = reports.iter().filter(|r| r.rebuilt).count();
+        let total: f64 = seconds.iter().sum();
         let median_s = median(seconds);
         println!(
             "{kind:6}: median {:.3} ms ({:.0}x faster than a rebuild), windows {windows}, \
-             Steiner points removed + added {changed}, {rebuilt} of {} refined all again",
+             Steiner points removed + added {changed}, {rebuilt} of {} refined all again; \
+             all {total:.2} s",
             median_s * 1e3,
             rebuild / median_s,
             reports.len()

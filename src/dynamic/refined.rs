@@ -9,10 +9,15 @@
 //! sequence of edits the mesh is byte for byte that of refinement in order of the live
 //! points in id order, and an edit costs what its window holds.
 //!
+//! Refinement in order cuts the rectangle's sides before it begins (`refine::sides`), so
+//! that no triangle of the first triangulation joins a point near a side to the far corners;
+//! an edit changes only the side points whose circles hold the changed point and no other,
+//! found along one chain of pieces per side. A point on a side starts that side's pieces, so
+//! its edit refines everything again.
+//!
 //! Limits: where the first triangulation (the input points in the rectangle) has triangles
-//! much larger than the spacing around the edit (within a few spacings of the rectangle's
-//! sides, whose triangles reach its far corners, or in gaps between clusters), the windows
-//! grow large, up to the whole rectangle.
+//! much larger than the spacing around the edit (in gaps between clusters), the windows grow
+//! large, up to the whole rectangle.
 
 mod changes;
 
@@ -24,7 +29,8 @@ use super::{Edit, check_place};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh};
 use crate::refine::{
-    Bounds, RefineDomain, RefineOptions, Stamp, Window, canonical_delaunay, replay, run_in_order,
+    Bounds, RefineDomain, RefineOptions, Stamp, Window, canonical_delaunay, inside_chain,
+    on_a_side, replay, run_in_order, side_changes, side_ends,
 };
 
 /// What one edit of a [`DynamicDelaunay`] did.
@@ -84,6 +90,11 @@ pub struct DynamicDelaunay {
     point_cells: HashMap<(i64, i64), Vec<u32>>,
     steiner_cells: HashMap<(i64, i64), Vec<u32>>,
     cell: f64,
+    /// The points on the rectangle's sides (see `refine::sides`), by grid cell.
+    side_cells: HashMap<(i64, i64), Vec<DVec2>>,
+    side_count: usize,
+    /// Per side, its corners and the live points on it, in order along it.
+    side_ends: [Vec<DVec2>; 4],
     /// While changes are tracked, the vertices edits changed since they were last taken.
     log: Option<changes::VertexLog>,
 }
@@ -116,9 +127,12 @@ impl DynamicDelaunay {
             point_cells: HashMap::new(),
             steiner_cells: HashMap::new(),
             cell: 1.0,
+            side_cells: HashMap::new(),
+            side_count: 0,
+            side_ends: Default::default(),
             log: None,
         };
-        mesh.index(run.stamps);
+        mesh.index(run.stamps, run.side);
         Ok(mesh)
     }
 
@@ -149,9 +163,10 @@ impl DynamicDelaunay {
         self.points.iter().flatten().copied().collect()
     }
 
-    /// How many Steiner points the mesh has.
+    /// How many vertices refinement added: the Steiner points, and the points it put on the
+    /// rectangle's sides before it began.
     pub fn steiner_count(&self) -> usize {
-        self.steiner.len() - self.free.len()
+        self.steiner.len() - self.free.len() + self.side_count
     }
 
     /// The mesh: byte for byte what [`crate::refine::refine_points_in_order`] makes of the
@@ -161,8 +176,9 @@ impl DynamicDelaunay {
     /// As [`crate::refine::refine_points_in_order`] for the live points (none for a mesh that
     /// was made).
     pub fn mesh(&self) -> Result<Mesh, Error> {
-        let steiner: Vec<DVec2> = self.steiner.iter().flatten().map(|s| s.at).collect();
-        canonical_delaunay(&self.live_points(), &steiner, &self.options)
+        let mut added: Vec<DVec2> = self.side_cells.values().flatten().copied().collect();
+        added.extend(self.steiner.iter().flatten().map(|s| s.at));
+        canonical_delaunay(&self.live_points(), &added, &self.options)
     }
 
     /// Adds a point; it takes the next id.
@@ -240,16 +256,15 @@ impl DynamicDelaunay {
     }
 
     /// Applies `edits` in order, all or none: a batch of at least 16 edits, and of at least a
-    /// 4096th of the live points, moves the points and refines them all again once; a smaller
-    /// one replays each edit. (An edit near the rectangle's sides may replay the whole domain,
-    /// so past a few dozen edits on 1e5 points one rebuild costs less; see the module's
-    /// limits.) The result is the same either way: the mesh of the live points in id order.
+    /// 1024th of the live points, moves the points and refines them all again once; a smaller
+    /// one replays each edit. (An edit costs about what refining a thousand points does.)
+    /// The result is the same either way: the mesh of the live points in id order.
     ///
     /// # Errors
     /// The index of the first edit refused and why (as [`Self::insert`], [`Self::delete`] and
     /// [`Self::move_to`] refuse); the mesh is then unchanged.
     pub fn apply(&mut self, edits: &[Edit]) -> Result<Vec<RefinedEdit>, (usize, Error)> {
-        if edits.len() >= 16 && edits.len() * 4096 >= self.live_points().len() {
+        if edits.len() >= 16 && edits.len() * 1024 >= self.len() {
             return self.apply_at_once(edits);
         }
         let mut reports = Vec::with_capacity(edits.len());
@@ -381,6 +396,32 @@ impl DynamicDelaunay {
     /// Brings the Steiner points up to date after the point at `changed` was inserted (or
     /// deleted): replays windows around it, doubling, until one holds the change.
     fn settle(&mut self, changed: DVec2, inserted: bool) -> Result<RefinedEdit, Error> {
+        if on_a_side(self.domain, changed) {
+            // The side's pieces start from the points on it: all of them change.
+            return self.rebuild(0);
+        }
+        let side = self.side_changes(changed);
+        let (side_added, side_removed) = if inserted {
+            (side, Vec::new())
+        } else {
+            (Vec::new(), side)
+        };
+        self.change_side_points(&side_added, &side_removed);
+        let settled = self.settle_steiner(changed, inserted, (&side_added, &side_removed));
+        if settled.is_err() {
+            self.change_side_points(&side_removed, &side_added);
+        }
+        settled
+    }
+
+    /// Brings the Steiner points up to date after the change at `changed`, whose side points
+    /// `side` (added, removed) are in place.
+    fn settle_steiner(
+        &mut self,
+        changed: DVec2,
+        inserted: bool,
+        side: (&[DVec2], &[DVec2]),
+    ) -> Result<RefinedEdit, Error> {
         let mut half = self.first_half_side(changed);
         let mut windows = 0;
         loop {
@@ -389,7 +430,7 @@ impl DynamicDelaunay {
                 return self.rebuild(windows);
             }
             windows += 1;
-            if let Some(edit) = self.try_window(&window, changed, inserted) {
+            if let Some(edit) = self.try_window(&window, (changed, inserted), side) {
                 return Ok(RefinedEdit {
                     windows,
                     window: (window.hi - window.lo).max_element(),
@@ -405,17 +446,30 @@ impl DynamicDelaunay {
     fn try_window(
         &mut self,
         window: &Window,
-        changed: DVec2,
-        inserted: bool,
+        (changed, inserted): (DVec2, bool),
+        (side_added, side_removed): (&[DVec2], &[DVec2]),
     ) -> Option<RefinedEdit> {
-        let mut after = self.points_in(window)?;
-        after.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
-        let mut before = after.clone();
-        if inserted {
-            before.retain(|&p| p != changed);
-        } else {
-            before.push(changed);
+        let held = |side: &[DVec2]| side.iter().all(|&p| window.holds(p));
+        if !held(side_added) || !held(side_removed) {
+            return None;
         }
+        let mut after = self.points_in(window)?;
+        after.extend(self.side_points_in(window)?);
+        let (mut gone, mut came) = (side_added.to_vec(), side_removed.to_vec());
+        if inserted {
+            gone.push(changed);
+        } else {
+            came.push(changed);
+        }
+        let mut before: Vec<DVec2> = after
+            .iter()
+            .copied()
+            .filter(|p| !gone.contains(p))
+            .collect();
+        before.extend(came);
+        let by_place = |a: &DVec2, b: &DVec2| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y));
+        after.sort_by(by_place);
+        before.sort_by(by_place);
         let (forced, expected, slots) = self.steiner_in(window)?;
         let probe = [changed];
         let (probe_before, probe_after): (&[DVec2], &[DVec2]) = if inserted {
@@ -468,8 +522,8 @@ impl DynamicDelaunay {
     fn rebuild(&mut self, windows: u32) -> Result<RefinedEdit, Error> {
         let run = run_in_order(&self.live_points(), &self.options, true)?;
         let removed = self.steiner_count();
-        let added = run.stamps.len();
-        self.index(run.stamps);
+        let added = run.stamps.len() + run.side.len();
+        self.index(run.stamps, run.side);
         Ok(RefinedEdit {
             windows,
             window: (self.domain.hi - self.domain.lo).max_element(),
@@ -480,8 +534,9 @@ impl DynamicDelaunay {
         })
     }
 
-    /// Indexes the live points and `stamps` afresh, on a grid of about 16 vertices a cell.
-    fn index(&mut self, stamps: Vec<Stamp>) {
+    /// Indexes the live points, `stamps` and the side points `side` afresh, on a grid of
+    /// about 16 vertices a cell.
+    fn index(&mut self, stamps: Vec<Stamp>, side: Vec<DVec2>) {
         let size = self.domain.hi - self.domain.lo;
         let vertices = (self.points.len() + stamps.len()).max(1) as f64;
         self.cell = (size.x * size.y * 16.0 / vertices)
@@ -500,6 +555,97 @@ impl DynamicDelaunay {
         for s in stamps {
             self.add_steiner(s);
         }
+        // The grid changed: the old side points leave the index at once.
+        let old: Vec<DVec2> = self.side_cells.drain().flat_map(|(_, v)| v).collect();
+        for p in old {
+            self.note_vertex(p, -1);
+        }
+        self.side_count = 0;
+        self.change_side_points(&side, &[]);
+        let live = self.live_points();
+        self.side_ends = std::array::from_fn(|k| side_ends(self.domain, k, &live));
+    }
+
+    /// Takes the side points `removed` out of the index and puts `added` in.
+    fn change_side_points(&mut self, added: &[DVec2], removed: &[DVec2]) {
+        for &p in removed {
+            let cell = self.cell_of(p);
+            if let Some(points) = self.side_cells.get_mut(&cell) {
+                points.retain(|&q| q != p);
+            }
+            self.side_count -= 1;
+            self.note_vertex(p, -1);
+        }
+        for &p in added {
+            let cell = self.cell_of(p);
+            self.side_cells.entry(cell).or_default().push(p);
+            self.side_count += 1;
+            self.note_vertex(p, 1);
+        }
+    }
+
+    /// The side points that the live point at `p` (not on a side) alone decides.
+    fn side_changes(&self, p: DVec2) -> Vec<DVec2> {
+        let other_inside = |chain: &[(DVec2, DVec2)]| {
+            let &(a, b) = chain.last().expect("a piece");
+            let (centre, radius) = ((a + b) / 2.0, a.distance(b) / 2.0);
+            self.any_point_near(p, (centre - radius, centre + radius), |q| {
+                q != p && inside_chain(chain, q)
+            })
+        };
+        side_changes(p, |k| self.side_ends[k].clone(), other_inside)
+    }
+
+    /// Whether a live point in the box `(lo, hi)` passes `test`, looking from `p` outwards.
+    fn any_point_near(
+        &self,
+        p: DVec2,
+        (lo, hi): (DVec2, DVec2),
+        test: impl Fn(DVec2) -> bool,
+    ) -> bool {
+        let (centre, a, b) = (self.cell_of(p), self.cell_of(lo), self.cell_of(hi));
+        let reach = [
+            centre.0 - a.0,
+            centre.1 - a.1,
+            b.0 - centre.0,
+            b.1 - centre.1,
+        ]
+        .into_iter()
+        .max()
+        .unwrap_or(0)
+        .max(0);
+        let in_box = |(x, y): (i64, i64)| x >= a.0 && x <= b.0 && y >= a.1 && y <= b.1;
+        // The cells at Chebyshev distance `ring` from the centre's.
+        let ring_cells = |ring: i64| {
+            (centre.0 - ring..=centre.0 + ring).flat_map(move |x| {
+                let edge = x == centre.0 - ring || x == centre.0 + ring;
+                let step = if edge { 1 } else { (2 * ring).max(1) as usize };
+                (centre.1 - ring..=centre.1 + ring)
+                    .step_by(step)
+                    .map(move |y| (x, y))
+            })
+        };
+        (0..=reach)
+            .flat_map(ring_cells)
+            .filter(|&cell| in_box(cell))
+            .flat_map(|cell| self.point_cells.get(&cell).into_iter().flatten())
+            .any(|&id| test(self.points[id as usize].expect("indexed points are live")))
+    }
+
+    /// The side points the window holds; `None` where one lies on an open side.
+    fn side_points_in(&self, window: &Window) -> Option<Vec<DVec2>> {
+        let mut inside = Vec::new();
+        for cell in self.cells_over(window.lo, window.hi) {
+            for &p in self.side_cells.get(&cell).into_iter().flatten() {
+                if window.on_open_side(p) {
+                    return None;
+                }
+                if window.holds(p) {
+                    inside.push(p);
+                }
+            }
+        }
+        Some(inside)
     }
 
     fn index_points(&mut self) {

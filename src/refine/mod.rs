@@ -43,6 +43,7 @@ mod queue;
 mod refiner;
 mod replay;
 mod segments;
+mod sides;
 mod strips;
 mod tiles;
 
@@ -51,6 +52,7 @@ pub use ordered::refine_points_in_order;
 pub(crate) use ordered::{Stamp, canonical_delaunay, run_in_order};
 pub(crate) use refiner::Bounds;
 pub(crate) use replay::{Window, replay};
+pub(crate) use sides::{inside_chain, on_a_side, side_changes, side_ends};
 
 use glam::DVec2;
 use rayon::prelude::*;

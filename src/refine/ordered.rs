@@ -1,6 +1,10 @@
 //! Off-center refinement one insertion at a time, in an order fixed by the triangles alone,
 //! so that the mesh depends only on the points near each triangle.
 //!
+//! It starts from the Delaunay triangulation of the input points, the rectangle's corners and
+//! the points [`super::sides`] puts on its sides, so that no triangle joins a point near a
+//! side to the far corners.
+//!
 //! The loop of [`super::refiner`] fixes bad triangles in a global order (size classes, then
 //! tiles and Morton order across the whole domain, the newest first), so where a Steiner point
 //! lands depends on work done far away. Here every bad triangle and every encroached boundary
@@ -35,6 +39,7 @@ use super::refiner::{
     Bounds, Finish, badness, encroaches, midpoint, place, resolvable_steiner_point, split_point,
     steiner_point,
 };
+use super::sides::side_points;
 use super::{
     RefineDomain, RefineOptions, boundary_edges, checked_order, insert_in_order, square_around,
     unmet_triangles, within_budget,
@@ -66,6 +71,8 @@ pub(crate) struct InOrder {
     pub report: MeshReport,
     pub bounds: Bounds,
     pub stamps: Vec<Stamp>,
+    /// The points put on the rectangle's sides before refinement ([`super::sides`]).
+    pub side: Vec<DVec2>,
 }
 
 /// Refinement in order of `points`, with the Steiner points' stamps when `stamps` is set.
@@ -90,8 +97,11 @@ pub(crate) fn run_in_order(
     let mut t = Triangulation::rectangle(domain.lo, domain.hi);
     t.canonical = true;
     t.reserve(2 * options.expected_vertices(distinct), distinct + 4);
-    let vertex_input = times.time("delaunay", || {
-        insert_in_order(&mut t, points, &morton.order)
+    let (vertex_input, side) = times.time("delaunay", || {
+        let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
+        let side = side_points(points, domain);
+        insert_side_points(&mut t, &side)?;
+        Ok::<_, Error>((vertex_input, side))
     })?;
     let bounds = Bounds::new(options, domain.lo, domain.hi);
     let budget = options.budget(distinct);
@@ -110,11 +120,27 @@ pub(crate) fn run_in_order(
         report,
         bounds,
         stamps,
+        side,
     })
 }
 
+/// Inserts `side`, points on the rectangle's sides, into `t`.
+fn insert_side_points(t: &mut Triangulation, side: &[DVec2]) -> Result<(), Error> {
+    let mut cavity = Cavity::default();
+    let mut hint = 0;
+    for &p in side {
+        let Location::Inside(start) = locate(t, p, hint) else {
+            return Err(Error::RefinementResolution { x: p.x, y: p.y });
+        };
+        cavity.dig(t, p, start);
+        cavity.commit(t, p, None);
+        hint = cavity.created()[0];
+    }
+    Ok(())
+}
+
 /// The mesh refinement in order makes of `points` in `domain` when it inserts the Steiner
-/// points `steiner`: their Delaunay triangulation (unique, ties broken as refinement breaks
+/// points `steiner` (with the points on the sides): their Delaunay triangulation (unique, ties broken as refinement breaks
 /// them), numbered as [`refine_points_in_order`] numbers it.
 pub(crate) fn canonical_delaunay(
     points: &[DVec2],

@@ -164,6 +164,7 @@ impl DynamicDelaunay {
     ) -> Option<TriangleChanges> {
         let mut after = self.points_in(window)?;
         after.extend(self.steiner_places_in(window)?);
+        after.extend(self.side_points_in(window)?);
         let inside = |places: &[DVec2]| -> Vec<DVec2> {
             places
                 .iter()
