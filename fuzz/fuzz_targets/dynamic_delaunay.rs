@@ -1,7 +1,8 @@
 //! Any bytes as an angle bound, initial points and a sequence of edits of a dynamic quality
 //! Delaunay mesh on the unit square: after every edit the mesh equals refinement in order of
 //! the live points (byte for byte), passes `validate` with the bound and the exact Delaunay
-//! check, and a refused edit leaves it as it was.
+//! check, the triangles the tracked changes report turn the mesh before into the mesh after,
+//! and a refused edit leaves it as it was.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -12,8 +13,11 @@ use quadmesh::{DVec2, Mesh};
 
 #[path = "edit_points.rs"]
 mod edit_points;
+#[path = "triangle_changes.rs"]
+mod triangle_changes;
 
 use edit_points::point;
+use triangle_changes::{changed, triangle_set};
 
 /// The mesh refinement in order makes of the live points, if it makes one.
 fn rebuilt(dynamic: &DynamicDelaunay, options: &RefineOptions) -> Option<Mesh> {
@@ -56,6 +60,7 @@ fuzz_target!(|data: &[u8]| {
         min_deg: options.min_angle_deg,
         max_deg: 180.0 - 2.0 * options.min_angle_deg,
     };
+    dynamic.track_changes(true);
     let mut issued = initial.len() as u32;
     for chunk in tail.chunks_exact(5).take(16) {
         let live: Vec<u32> = (0..issued)
@@ -79,6 +84,13 @@ fuzz_target!(|data: &[u8]| {
                 .map(|r| r[1].id),
         };
         let mesh = dynamic.mesh().ok();
+        let changes = dynamic.take_changes().expect("tracked changes");
+        if let (Some(before), Some(after)) = (&before, &mesh) {
+            assert!(
+                changed(before, &changes) == Some(triangle_set(after)),
+                "the changes do not turn the old mesh into the new"
+            );
+        }
         match done {
             Ok(id) => {
                 assert!(

@@ -5,45 +5,17 @@
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
-use quadmesh::dynamic::{DynamicMesh, Edit, TriangleChanges};
+use quadmesh::dynamic::{DynamicMesh, Edit};
 use quadmesh::mesh::Domain;
 use quadmesh::{DVec2, Input, Options, Region};
 
 #[path = "edit_points.rs"]
 mod edit_points;
+#[path = "triangle_changes.rs"]
+mod triangle_changes;
 
 use edit_points::point;
-
-/// A mesh's triangles by their corners' bits, each from its least corner on, sorted.
-fn triangle_set(mesh: &quadmesh::Mesh) -> Vec<[[u64; 2]; 3]> {
-    let mut all: Vec<_> = mesh
-        .triangles
-        .iter()
-        .map(|t| bits(t.map(|v| mesh.vertices[v as usize])))
-        .collect();
-    all.sort_unstable();
-    all
-}
-
-fn bits(corners: [DVec2; 3]) -> [[u64; 2]; 3] {
-    let mut b = corners.map(|p| [p.x.to_bits(), p.y.to_bits()]);
-    let least = (0..3).min_by_key(|&i| b[i]).unwrap();
-    b.rotate_left(least);
-    b
-}
-
-/// `before` less the removed triangles and with the added ones, or `None` if a removed one is
-/// not there.
-fn changed(before: &quadmesh::Mesh, changes: &TriangleChanges) -> Option<Vec<[[u64; 2]; 3]>> {
-    let mut all = triangle_set(before);
-    for t in &changes.removed {
-        let at = all.binary_search(&bits(*t)).ok()?;
-        all.remove(at);
-    }
-    all.extend(changes.added.iter().map(|t| bits(*t)));
-    all.sort_unstable();
-    Some(all)
-}
+use triangle_changes::{changed, triangle_set};
 
 fn rebuilt(dynamic: &DynamicMesh) -> Option<quadmesh::Mesh> {
     let (_, points) = dynamic.live_points();
