@@ -414,14 +414,7 @@ impl PyDynamicMesh {
         ids: PyReadonlyArray1<'_, i64>,
         displacements: PyReadonlyArray2<'_, f64>,
     ) -> PyResult<()> {
-        let ids: Vec<u32> = ids
-            .as_slice()?
-            .iter()
-            .map(|&id| point_id(id))
-            .collect::<PyResult<_>>()?;
-        let shifts = rows(&displacements, 2, "displacements", |r| {
-            DVec2::new(r[0], r[1])
-        })?;
+        let (ids, shifts) = moves(&ids, &displacements)?;
         let inner = &mut self.inner;
         py.detach(|| inner.move_all(&ids, &shifts))
             .map_err(|(k, e)| QuadmeshError::new_err(format!("move {k}: {}", message(&e))))?;
@@ -562,10 +555,7 @@ impl PyDynamicDelaunay {
         ids: PyReadonlyArray1<'_, i64>,
         displacements: PyReadonlyArray2<'_, f64>,
     ) -> PyResult<()> {
-        let shifts = rows(&displacements, 2, "displacements", |r| {
-            DVec2::new(r[0], r[1])
-        })?;
-        let ids = ids.as_slice()?;
+        let (ids, shifts) = moves(&ids, &displacements)?;
         if ids.len() != shifts.len() {
             return Err(QuadmeshError::new_err(format!(
                 "{} ids but {} displacements",
@@ -575,10 +565,7 @@ impl PyDynamicDelaunay {
         }
         let mut edits = Vec::with_capacity(ids.len());
         for (k, (&id, &shift)) in ids.iter().zip(&shifts).enumerate() {
-            let at = point_id(id)
-                .ok()
-                .and_then(|id| self.inner.point(id).map(|p| (id, p)));
-            let Some((id, p)) = at else {
+            let Some(p) = self.inner.point(id) else {
                 return Err(QuadmeshError::new_err(format!(
                     "move {k}: no live point has id {id}"
                 )));
@@ -623,6 +610,22 @@ impl PyDynamicDelaunay {
         };
         mesh_dict(py, mesh, &report, false)
     }
+}
+
+/// The ids and displacements of a time step.
+fn moves(
+    ids: &PyReadonlyArray1<'_, i64>,
+    displacements: &PyReadonlyArray2<'_, f64>,
+) -> PyResult<(Vec<u32>, Vec<DVec2>)> {
+    let ids: Vec<u32> = ids
+        .as_slice()?
+        .iter()
+        .map(|&id| point_id(id))
+        .collect::<PyResult<_>>()?;
+    let shifts = rows(displacements, 2, "displacements", |r| {
+        DVec2::new(r[0], r[1])
+    })?;
+    Ok((ids, shifts))
 }
 
 /// A point id from Python.

@@ -737,17 +737,23 @@ impl DynamicDelaunay {
         Some(inside)
     }
 
-    /// The Steiner points whose place or decision the window holds: those a replay must force
-    /// (their deciding triangle reaches beyond the window), those it should decide itself, and
-    /// the latter's slots. `None` where one lies on an open side.
-    #[allow(clippy::type_complexity)]
-    fn steiner_in(&self, window: &Window) -> Option<(Vec<Stamp>, Vec<Stamp>, Vec<u32>)> {
+    /// The slots of the Steiner points indexed in the cells the window covers, increasing.
+    fn steiner_slots_over(&self, window: &Window) -> Vec<u32> {
         let mut slots: Vec<u32> = self
             .cells_over(window.lo, window.hi)
             .flat_map(|cell| self.steiner_cells.get(&cell).into_iter().flatten().copied())
             .collect();
         slots.sort_unstable();
         slots.dedup();
+        slots
+    }
+
+    /// The Steiner points whose place or decision the window holds: those a replay must force
+    /// (their deciding triangle reaches beyond the window), those it should decide itself, and
+    /// the latter's slots. `None` where one lies on an open side.
+    #[allow(clippy::type_complexity)]
+    fn steiner_in(&self, window: &Window) -> Option<(Vec<Stamp>, Vec<Stamp>, Vec<u32>)> {
+        let slots = self.steiner_slots_over(window);
         let (mut forced, mut expected, mut decided) = (Vec::new(), Vec::new(), Vec::new());
         for slot in slots {
             let s = self.steiner[slot as usize].expect("indexed slots are live");

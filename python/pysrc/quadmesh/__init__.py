@@ -162,21 +162,10 @@ def _mesh_of(raw) -> Mesh:
     return Mesh(neighbors=neighbors, **raw)
 
 
-class DynamicMesh:
-    """A warped quadtree mesh (every angle in [22.5°, 112.5°]) of points on a fixed square
-    ``domain`` (x0, y0, x1, y1), kept current while points are inserted, deleted and moved.
+class _Dynamic:
+    """What both dynamic meshes share: ids, edits and change tracking."""
 
-    The initial points have ids ``0 .. n-1``; each insertion takes the next id, and a deleted
-    id is never given out again. After any edits, ``mesh()`` is exactly the mesh that a new
-    ``DynamicMesh`` of the live points (in id order) gives; its ``vertex_input`` numbers the
-    live points in id order (``live_ids()``). A bad edit (outside the domain, NaN, the place of
-    a live point, an unknown id) raises ``QuadmeshError`` and changes nothing; ``move_all`` moves
-    all points or none.
-    """
-
-    def __init__(self, points, domain):
-        x0, y0, x1, y1 = (float(v) for v in domain)
-        self._inner = _DynamicMesh(_as_points(points, "points"), (x0, y0, x1, y1))
+    _inner: Any
 
     def __len__(self) -> int:
         return len(self._inner)
@@ -202,15 +191,32 @@ class DynamicMesh:
         """The ids of the live points, in increasing order."""
         return self._inner.live_ids()
 
-    def mesh(self, nonobtuse: bool = False) -> Mesh:
-        """The current mesh: the warped one, or with ``nonobtuse=True`` the nonobtuse mesh of
-        the same quadtree (every angle at most 90°), as ``mesh(..., mode="nonobtuse")`` gives."""
-        return _mesh_of(self._inner.mesh(nonobtuse))
-
     def track_changes(self, on: bool = True) -> None:
         """Starts (or with ``on=False`` stops) recording what edits change, for
         ``take_changes``."""
         self._inner.track_changes(bool(on))
+
+
+class DynamicMesh(_Dynamic):
+    """A warped quadtree mesh (every angle in [22.5°, 112.5°]) of points on a fixed square
+    ``domain`` (x0, y0, x1, y1), kept current while points are inserted, deleted and moved.
+
+    The initial points have ids ``0 .. n-1``; each insertion takes the next id, and a deleted
+    id is never given out again. After any edits, ``mesh()`` is exactly the mesh that a new
+    ``DynamicMesh`` of the live points (in id order) gives; its ``vertex_input`` numbers the
+    live points in id order (``live_ids()``). A bad edit (outside the domain, NaN, the place of
+    a live point, an unknown id) raises ``QuadmeshError`` and changes nothing; ``move_all`` moves
+    all points or none.
+    """
+
+    def __init__(self, points, domain):
+        x0, y0, x1, y1 = (float(v) for v in domain)
+        self._inner = _DynamicMesh(_as_points(points, "points"), (x0, y0, x1, y1))
+
+    def mesh(self, nonobtuse: bool = False) -> Mesh:
+        """The current mesh: the warped one, or with ``nonobtuse=True`` the nonobtuse mesh of
+        the same quadtree (every angle at most 90°), as ``mesh(..., mode="nonobtuse")`` gives."""
+        return _mesh_of(self._inner.mesh(nonobtuse))
 
     def take_changes(self, nonobtuse: bool = False) -> Tuple[np.ndarray, np.ndarray]:
         """The triangles of ``mesh()`` (or ``mesh(nonobtuse=True)``) that the edits since
@@ -223,7 +229,7 @@ class DynamicMesh:
         return removed, added
 
 
-class DynamicDelaunay:
+class DynamicDelaunay(_Dynamic):
     """A quality Delaunay mesh (every angle at least ``min_angle`` degrees, every triangle at
     most ``max_area`` where given) of points in a fixed rectangle ``domain`` (x0, y0, x1, y1),
     kept current while points are inserted, deleted and moved.
@@ -243,43 +249,13 @@ class DynamicDelaunay:
             _as_points(points, "points"), (x0, y0, x1, y1), float(min_angle), area
         )
 
-    def __len__(self) -> int:
-        return len(self._inner)
-
     def steiner_count(self) -> int:
         """How many vertices refinement added."""
         return self._inner.steiner_count()
 
-    def insert(self, x: float, y: float) -> int:
-        """Adds a point; returns its id."""
-        return self._inner.insert(float(x), float(y))
-
-    def delete(self, id: int) -> None:
-        """Deletes the live point ``id``."""
-        self._inner.delete(int(id))
-
-    def move_to(self, id: int, x: float, y: float) -> None:
-        """Moves the live point ``id`` to (x, y)."""
-        self._inner.move_to(int(id), float(x), float(y))
-
-    def move_all(self, ids, displacements) -> None:
-        """Moves each point ``ids[k]`` by ``displacements[k]`` (a time step), all or none: a
-        few moves one by one, many with one refinement of all the points."""
-        ids = np.ascontiguousarray(ids, dtype=np.int64).reshape(-1)
-        self._inner.move_all(ids, _as_points(displacements, "displacements"))
-
-    def live_ids(self) -> np.ndarray:
-        """The ids of the live points, in increasing order."""
-        return self._inner.live_ids()
-
     def mesh(self) -> Mesh:
         """The current mesh; its ``vertex_input`` numbers the live points in id order."""
         return _mesh_of(self._inner.mesh())
-
-    def track_changes(self, on: bool = True) -> None:
-        """Starts (or with ``on=False`` stops) recording what edits change, for
-        ``take_changes``."""
-        self._inner.track_changes(bool(on))
 
     def take_changes(self) -> Tuple[np.ndarray, np.ndarray]:
         """The triangles of ``mesh()`` that the edits since ``track_changes`` or the last call

@@ -191,12 +191,7 @@ impl DynamicDelaunay {
     /// The places of the Steiner points the window holds; `None` where one lies on an open
     /// side.
     fn steiner_places_in(&self, window: &Window) -> Option<Vec<DVec2>> {
-        let mut slots: Vec<u32> = self
-            .cells_over(window.lo, window.hi)
-            .flat_map(|cell| self.steiner_cells.get(&cell).into_iter().flatten().copied())
-            .collect();
-        slots.sort_unstable();
-        slots.dedup();
+        let slots = self.steiner_slots_over(window);
         let mut places = Vec::with_capacity(slots.len());
         for slot in slots {
             let p = self.steiner[slot as usize]
