@@ -3,7 +3,8 @@
 //! deletions, moves by a thousandth of the side), the windows replayed and the Steiner points
 //! changed, and the triangles the edit changed (`take_changes`) with the time to find them;
 //! then batches of moves of 0.1, 1 and 10 % of the points. Usage:
-//! `cargo run --release --example dynamic_delaunay_edits -- [points] [edits] [angle]`.
+//! `cargo run --release --example dynamic_delaunay_edits -- [points] [edits] [angle] [dist]`
+//! (`dist`: uniform, the default, or cluster, kuzmin or grid, scaled into the unit square).
 
 use std::time::Instant;
 
@@ -15,6 +16,19 @@ use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
 use rand::{Rng, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
+/// `points` scaled and shifted into the unit square, a thousandth clear of its sides.
+fn into_unit_square(points: Vec<DVec2>) -> Vec<DVec2> {
+    let (lo, hi) = points.iter().fold(
+        (DVec2::splat(f64::MAX), DVec2::splat(f64::MIN)),
+        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
+    );
+    let scale = 0.998 / (hi - lo).max_element().max(f64::MIN_POSITIVE);
+    points
+        .into_iter()
+        .map(|p| (p - lo) * scale + 0.001)
+        .collect()
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -25,7 +39,14 @@ fn main() {
     let n: usize = args.get(1).map_or(100_000, |s| s.parse().expect("points"));
     let edits: usize = args.get(2).map_or(200, |s| s.parse().expect("edits"));
     let angle: f64 = args.get(3).map_or(30.0, |s| s.parse().expect("angle"));
-    let input = points(Distribution2d::Uniform, n, 1);
+    let dist: Distribution2d = args
+        .get(4)
+        .map_or(Ok(Distribution2d::Uniform), |s| s.parse())
+        .expect("a distribution");
+    let input = match dist {
+        Distribution2d::Uniform => points(dist, n, 1),
+        _ => into_unit_square(points(dist, n, 1)),
+    };
     let options = RefineOptions {
         min_angle_deg: angle,
         domain: RefineDomain::Rectangle(Domain {
@@ -41,7 +62,7 @@ fn main() {
     let mut dynamic = DynamicDelaunay::new(&input, &options).expect("a dynamic mesh");
     let build = start.elapsed().as_secs_f64();
     println!(
-        "{n} points at {angle}°: {} triangles; rebuild {rebuild:.3} s, dynamic build {build:.3} s",
+        "{n} {dist:?} points at {angle}°: {} triangles; rebuild {rebuild:.3} s, dynamic build {build:.3} s",
         rebuilt.triangles.len()
     );
     dynamic.track_changes(true);

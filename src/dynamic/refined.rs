@@ -424,9 +424,14 @@ impl DynamicDelaunay {
     ) -> Result<RefinedEdit, Error> {
         let mut half = self.first_half_side(changed);
         let mut windows = 0;
+        let vertices = self.len() + self.steiner_count();
         loop {
             let window = self.window_around(changed, half);
-            if window.open == [false; 4] {
+            // A replay costs a few times what refining its points does, and there are two:
+            // once the first window failed, one holding an eighth of the vertices costs more
+            // than refining them all.
+            let large = windows > 0 && self.holds_more_than(&window, vertices / 8);
+            if window.open == [false; 4] || large {
                 return self.rebuild(windows);
             }
             windows += 1;
@@ -439,6 +444,18 @@ impl DynamicDelaunay {
             }
             half *= 2.0;
         }
+    }
+
+    /// Whether the window holds more than `limit` live points and Steiner points; counts
+    /// no further than that.
+    pub(super) fn holds_more_than(&self, window: &Window, limit: usize) -> bool {
+        let points = self.cells_over(window.lo, window.hi).flat_map(|cell| {
+            let live = self.point_cells.get(&cell).into_iter().flatten();
+            let steiner = self.steiner_cells.get(&cell).into_iter().flatten();
+            live.map(|&id| self.points[id as usize].expect("indexed points are live"))
+                .chain(steiner.map(|&slot| self.steiner[slot as usize].expect("a live slot").at))
+        });
+        points.filter(|&p| window.holds(p)).nth(limit).is_some()
     }
 
     /// Replays `window` before and after the change, and keeps the result if the change

@@ -57,17 +57,33 @@ impl DynamicDelaunay {
         };
         let (removed, added) = (changed(-1), changed(1));
         let mut changes = TriangleChanges::default();
-        let vertices = self.points.len() + self.steiner_count();
+        let vertices = self.len() + self.steiner_count();
         let groups = if (removed.len() + added.len()) * 8 >= vertices {
-            vec![(0..removed.len() + added.len()).collect()]
+            Vec::new()
         } else {
             self.groups(&removed, &added)
         };
-        for group in groups {
-            let found = self.changes_of_group(&group, &removed, &added);
-            changes.removed.extend(found.removed);
-            changes.added.extend(found.added);
-            changes.leaves += found.leaves;
+        let mut found = Vec::with_capacity(groups.len());
+        for group in &groups {
+            match self.changes_of_group(group, (&removed, &added), vertices) {
+                Some(group_changes) => found.push(group_changes),
+                None => {
+                    found.clear();
+                    break;
+                }
+            }
+        }
+        if found.is_empty() {
+            // Many changes, or a group whose windows grew past a quarter of the vertices:
+            // one window over the whole domain, which trusts every triangle.
+            let whole = self.window_over(self.domain.lo, self.domain.hi);
+            let all = self.changes_in(&whole, &removed, &added);
+            found.push(all.expect("the whole domain trusts every triangle"));
+        }
+        for group_changes in found {
+            changes.removed.extend(group_changes.removed);
+            changes.added.extend(group_changes.added);
+            changes.leaves += group_changes.leaves;
         }
         changes.removed = in_order(changes.removed);
         changes.added = in_order(changes.added);
@@ -122,13 +138,14 @@ impl DynamicDelaunay {
     }
 
     /// The triangles the changed places of `group` touch: windows around them, doubling,
-    /// until one trusts them all; the whole domain always does.
+    /// until one trusts them all; `None` once a window holds more than a quarter of the
+    /// mesh's `vertices`, or the whole domain.
     fn changes_of_group(
         &self,
         group: &[usize],
-        removed: &[DVec2],
-        added: &[DVec2],
-    ) -> TriangleChanges {
+        (removed, added): (&[DVec2], &[DVec2]),
+        vertices: usize,
+    ) -> Option<TriangleChanges> {
         let place = |k: usize| {
             if k < removed.len() {
                 removed[k]
@@ -144,13 +161,12 @@ impl DynamicDelaunay {
         let mut margin = self.first_half_side((lo + hi) / 2.0) / 4.0;
         loop {
             let window = self.window_over(lo - margin, hi + margin);
-            if let Some(found) = self.changes_in(&window, removed, added) {
-                return found;
+            if window.open == [false; 4] || self.holds_more_than(&window, vertices / 4) {
+                return None;
             }
-            assert!(
-                window.open != [false; 4],
-                "the whole domain trusts every triangle"
-            );
+            if let Some(found) = self.changes_in(&window, removed, added) {
+                return Some(found);
+            }
             margin *= 2.0;
         }
     }
