@@ -38,6 +38,7 @@ fn domain_around(points: &[DVec2]) -> Domain {
 /// Checks the dynamic mesh against a rebuild of its live points, and the mesh's validity.
 fn matches_rebuild(dynamic: &DynamicDelaunay, options: &RefineOptions) -> Mesh {
     let points = dynamic.live_points();
+    assert_eq!(dynamic.len(), points.len());
     let mesh = dynamic.mesh().expect("the dynamic mesh");
     let (rebuilt, _) = refine_points_in_order(&points, options).expect("a rebuild");
     assert_eq!(

@@ -82,6 +82,8 @@ pub struct DynamicDelaunay {
     bounds: Bounds,
     /// The points by id; `None` once deleted.
     points: Vec<Option<DVec2>>,
+    /// How many of them are live: those in `point_cells`.
+    live_count: usize,
     /// The Steiner points, by slot; `None` for a free slot.
     steiner: Vec<Option<Stamp>>,
     free: Vec<u32>,
@@ -122,6 +124,7 @@ impl DynamicDelaunay {
             domain,
             bounds: run.bounds,
             points: points.iter().map(|&p| Some(p)).collect(),
+            live_count: 0,
             steiner: Vec::new(),
             free: Vec::new(),
             point_cells: HashMap::new(),
@@ -143,7 +146,7 @@ impl DynamicDelaunay {
 
     /// How many points are live.
     pub fn len(&self) -> usize {
-        self.points.iter().flatten().count()
+        self.live_count
     }
 
     /// Whether no point is live.
@@ -667,10 +670,12 @@ impl DynamicDelaunay {
 
     fn index_points(&mut self) {
         self.point_cells.clear();
+        self.live_count = 0;
         for id in 0..self.points.len() as u32 {
             if let Some(p) = self.points[id as usize] {
                 let cell = self.cell_of(p);
                 self.point_cells.entry(cell).or_default().push(id);
+                self.live_count += 1;
             }
         }
     }
@@ -683,6 +688,7 @@ impl DynamicDelaunay {
     /// Indexes live point `id` at `p`, which it just took.
     fn add_point_cell(&mut self, id: u32, p: DVec2) {
         self.note_vertex(p, 1);
+        self.live_count += 1;
         let cell = self.cell_of(p);
         self.point_cells.entry(cell).or_default().push(id);
     }
@@ -690,6 +696,7 @@ impl DynamicDelaunay {
     /// Takes point `id`, which just left `p`, out of the index.
     fn remove_point_cell(&mut self, id: u32, p: DVec2) {
         self.note_vertex(p, -1);
+        self.live_count -= 1;
         let cell = self.cell_of(p);
         if let Some(ids) = self.point_cells.get_mut(&cell) {
             ids.retain(|&i| i != id);
