@@ -196,6 +196,26 @@ impl Triangulation {
         self.corners.len()
     }
 
+    /// Inserts `points`, each walking from the triangles the last one made; a point on a
+    /// corner of the rectangle is there already. Returns the first point that lies on no
+    /// triangle's inside or edge (outside the rectangle, or on another vertex).
+    pub fn insert_all(&mut self, points: impl IntoIterator<Item = DVec2>) -> Result<(), DVec2> {
+        let mut cavity = Cavity::default();
+        let mut hint = 0;
+        for p in points {
+            match locate(self, p, hint) {
+                Location::Inside(start) => {
+                    cavity.dig(self, p, start);
+                    cavity.commit(self, p, None);
+                    hint = cavity.created()[0];
+                }
+                Location::Vertex(v) if v < 4 => {}
+                _ => return Err(p),
+            }
+        }
+        Ok(())
+    }
+
     /// Flips edges until every one is locally Delaunay, starting from the edges opposite the
     /// given corners (`(triangle, corner)`): Lawson's flips, each of which replaces an edge whose
     /// far apex lies strictly inside the circumcircle, checking the four edges around it again.

@@ -20,7 +20,7 @@ use std::collections::HashSet;
 
 use glam::DVec2;
 
-use super::delaunay::{Cavity, Location, Triangulation, beyond, in_circumcircle, locate};
+use super::delaunay::{Location, Triangulation, beyond, in_circumcircle, locate};
 use super::replay::Window;
 use crate::mesh::{Domain, NONE};
 use crate::morton::interleave::interleave32;
@@ -122,19 +122,6 @@ fn triangulate(domain: Domain, window: &Window, points: &[DVec2]) -> Option<Tria
     let mut t = Triangulation::rectangle(domain.lo, domain.hi);
     t.canonical = true;
     t.reserve(4 + order.len(), 0);
-    let mut cavity = Cavity::default();
-    let mut hint = 0;
-    for (_, p) in order {
-        match locate(&t, p, hint) {
-            Location::Inside(start) => {
-                cavity.dig(&mut t, p, start);
-                cavity.commit(&mut t, p, None);
-                hint = cavity.created()[0];
-            }
-            // A point on a corner of the domain, which is there already.
-            Location::Vertex(v) if v < 4 => {}
-            _ => return None,
-        }
-    }
+    t.insert_all(order.into_iter().map(|(_, p)| p)).ok()?;
     Some(t)
 }

@@ -100,7 +100,8 @@ pub(crate) fn run_in_order(
     let (vertex_input, side) = times.time("delaunay", || {
         let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
         let side = side_points(points, domain);
-        insert_side_points(&mut t, &side)?;
+        t.insert_all(side.iter().copied())
+            .map_err(|p| Error::RefinementResolution { x: p.x, y: p.y })?;
         Ok::<_, Error>((vertex_input, side))
     })?;
     let bounds = Bounds::new(options, domain.lo, domain.hi);
@@ -124,24 +125,9 @@ pub(crate) fn run_in_order(
     })
 }
 
-/// Inserts `side`, points on the rectangle's sides, into `t`.
-fn insert_side_points(t: &mut Triangulation, side: &[DVec2]) -> Result<(), Error> {
-    let mut cavity = Cavity::default();
-    let mut hint = 0;
-    for &p in side {
-        let Location::Inside(start) = locate(t, p, hint) else {
-            return Err(Error::RefinementResolution { x: p.x, y: p.y });
-        };
-        cavity.dig(t, p, start);
-        cavity.commit(t, p, None);
-        hint = cavity.created()[0];
-    }
-    Ok(())
-}
-
 /// The mesh refinement in order makes of `points` in `domain` when it inserts the Steiner
-/// points `steiner` (with the points on the sides): their Delaunay triangulation (unique, ties broken as refinement breaks
-/// them), numbered as [`refine_points_in_order`] numbers it.
+/// points `steiner` (with the points on the sides): their Delaunay triangulation (unique,
+/// ties broken as refinement breaks them), numbered as [`refine_points_in_order`] numbers it.
 pub(crate) fn canonical_delaunay(
     points: &[DVec2],
     steiner: &[DVec2],
@@ -165,16 +151,8 @@ pub(crate) fn canonical_delaunay(
             .then(a.1.x.total_cmp(&b.1.x))
             .then(a.1.y.total_cmp(&b.1.y))
     });
-    let mut cavity = Cavity::default();
-    let mut hint = 0;
-    for (_, p) in order {
-        let Location::Inside(start) = locate(&t, p, hint) else {
-            return Err(Error::RefinementResolution { x: p.x, y: p.y });
-        };
-        cavity.dig(&mut t, p, start);
-        cavity.commit(&mut t, p, None);
-        hint = cavity.created()[0];
-    }
+    t.insert_all(order.into_iter().map(|(_, p)| p))
+        .map_err(|p| Error::RefinementResolution { x: p.x, y: p.y })?;
     Ok(canonical_mesh(t, vertex_input, domain))
 }
 
