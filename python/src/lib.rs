@@ -417,7 +417,7 @@ impl PyDynamicMesh {
         let (ids, shifts) = moves(&ids, &displacements)?;
         let inner = &mut self.inner;
         py.detach(|| inner.move_all(&ids, &shifts))
-            .map_err(|(k, e)| QuadmeshError::new_err(format!("move {k}: {}", message(&e))))?;
+            .map_err(refused_move)?;
         Ok(())
     }
 
@@ -573,8 +573,7 @@ impl PyDynamicDelaunay {
             edits.push(Edit::Move(id, p + shift));
         }
         let inner = &mut self.inner;
-        py.detach(|| inner.apply(&edits))
-            .map_err(|(k, e)| QuadmeshError::new_err(format!("move {k}: {}", message(&e))))?;
+        py.detach(|| inner.apply(&edits)).map_err(refused_move)?;
         Ok(())
     }
 
@@ -626,6 +625,11 @@ fn moves(
         DVec2::new(r[0], r[1])
     })?;
     Ok((ids, shifts))
+}
+
+/// The error for move `k` of a time step, refused for `e`.
+fn refused_move((k, e): (usize, Error)) -> PyErr {
+    QuadmeshError::new_err(format!("move {k}: {}", message(&e)))
 }
 
 /// A point id from Python.

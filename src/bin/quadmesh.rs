@@ -632,11 +632,7 @@ fn replay(
                 }),
                 _ => dynamic.apply_batch(group),
             });
-            let report = done.map_err(|(k, e)| {
-                let at = b * batch + k;
-                let edit = edits[at];
-                anyhow::anyhow!("{}: edit {} ({edit:?}): {e}", edits_path.display(), at + 1)
-            })?;
+            let report = done.map_err(|(k, e)| refused_edit(edits_path, &edits, b * batch + k, e))?;
             seconds.push(time.as_secs_f64());
             let mut triangles = String::new();
             if changes {
@@ -701,11 +697,8 @@ fn replay_delaunay(
         dynamic.track_changes(changes);
         for (b, group) in edits.chunks(batch).enumerate() {
             let (done, time) = timed(|| dynamic.apply(group));
-            let reports = done.map_err(|(k, e)| {
-                let at = b * batch + k;
-                let edit = edits[at];
-                anyhow::anyhow!("{}: edit {} ({edit:?}): {e}", edits_path.display(), at + 1)
-            })?;
+            let reports =
+                done.map_err(|(k, e)| refused_edit(edits_path, &edits, b * batch + k, e))?;
             seconds.push(time.as_secs_f64());
             let mut triangles = String::new();
             if changes {
@@ -740,6 +733,12 @@ fn replay_delaunay(
             (prefix, formats, json),
         )
     })
+}
+
+/// The error for edit `at` (from 0) of the file at `edits_path`, refused for `e`.
+fn refused_edit(edits_path: &Path, edits: &[Edit], at: usize, e: quadmesh::Error) -> anyhow::Error {
+    let edit = edits[at];
+    anyhow::anyhow!("{}: edit {} ({edit:?}): {e}", edits_path.display(), at + 1)
 }
 
 /// The JSON fields of the changes one edit or batch made, found in `time`.

@@ -449,8 +449,9 @@ impl DynamicDelaunay {
         }
     }
 
-    /// Whether the window holds more than `limit` live points and Steiner points; counts
-    /// no further than that.
+    /// Whether the window holds more than `limit` live points and Steiner points, a Steiner
+    /// point counted under each of its cells (its place's and its decision's) that the window
+    /// covers; counts no further than that.
     pub(super) fn holds_more_than(&self, window: &Window, limit: usize) -> bool {
         let points = self.cells_over(window.lo, window.hi).flat_map(|cell| {
             let live = self.point_cells.get(&cell).into_iter().flatten();
@@ -613,7 +614,7 @@ impl DynamicDelaunay {
                 q != p && inside_chain(chain, q)
             })
         };
-        side_changes(p, |k| self.side_ends[k].clone(), other_inside)
+        side_changes(p, &self.side_ends, other_inside)
     }
 
     /// Whether a live point in the box `(lo, hi)` passes `test`, looking from `p` outwards.

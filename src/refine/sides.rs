@@ -96,15 +96,14 @@ fn halve(a: DVec2, b: DVec2, mut candidates: Vec<DVec2>, out: &mut Vec<DVec2>) {
 /// the pieces whose circles, and their ancestors', hold `p` and no other input point.
 /// `other_inside(chain)` tells whether some input point other than `p` lies inside the
 /// circles of all the pieces of `chain` (a piece and its ancestors, as `(a, b)`). `ends`
-/// gives, for side `k`, the corners and the input points on it in order along it.
+/// holds, per side, its corners and the input points on it in order along it.
 pub(crate) fn side_changes(
     p: DVec2,
-    ends: impl Fn(usize) -> Vec<DVec2>,
+    ends: &[Vec<DVec2>; 4],
     mut other_inside: impl FnMut(&[(DVec2, DVec2)]) -> bool,
 ) -> Vec<DVec2> {
     let mut changed = Vec::new();
-    for k in 0..4 {
-        let ends = ends(k);
+    for ends in ends {
         for piece in ends.windows(2) {
             let (a, b) = (piece[0], piece[1]);
             if inside_diametral_circle(a, b, p) {
@@ -218,9 +217,9 @@ mod tests {
                     .iter()
                     .all(|q| with.binary_search_by_key(&key(q), key).is_ok())
             );
-            let ends = |k: usize| side_ends(domain, k, &[]);
+            let ends = std::array::from_fn(|k| side_ends(domain, k, &[]));
             let other = |chain: &[(DVec2, DVec2)]| others.iter().any(|&q| inside_chain(chain, q));
-            let mut changed = side_changes(p, ends, other);
+            let mut changed = side_changes(p, &ends, other);
             changed.sort_by_key(key);
             expected.sort_by_key(key);
             assert_eq!(changed, expected, "point {i} at {p:?}");
