@@ -25,6 +25,7 @@ use super::hull::{
 use crate::domain::SubSegment;
 use crate::error::Error;
 use crate::mesh::{BoundaryEdge, NONE};
+use crate::morton::interleave::interleave32;
 use crate::options::Input;
 use crate::predicates::{Orientation, orientation};
 
@@ -161,16 +162,21 @@ pub(super) fn constrain(
         .flat_map(|&id| (0..3).map(move |i| (id, i)))
         .collect();
     t.flip_to_delaunay(edges);
-    check_seeds(t, input, &vertex_of)?;
+    // The triangulation stays as it is until the outside is cut off: the seeds are found once.
+    let seeds: Vec<DVec2> = (input.holes.iter().copied())
+        .chain(input.regions.iter().map(|r| r.seed))
+        .collect();
+    let places = locate_all(t, &seeds);
+    let (hole_places, region_places) = places.split_at(input.holes.len());
+    check_seeds(t, input, &vertex_of, &places)?;
 
-    let outside = eat_outside(t, vertex_input, &input.holes, hull);
+    let outside = eat_outside(t, vertex_input, hole_places, hull);
     if outside.iter().all(|&gone| gone) {
         return Err(Error::NothingEnclosed);
     }
     let regions = !input.regions.is_empty();
     if regions {
-        let seeds: Vec<DVec2> = input.regions.iter().map(|r| r.seed).collect();
-        t.regions = spread_regions(t, &outside, &seeds);
+        t.regions = spread_regions(t, &outside, region_places);
     }
     let keep: Vec<bool> = outside.iter().map(|&gone| !gone).collect();
     let (vertex_map, _) = compact_keeping(t, vertex_input, &keep);
@@ -210,14 +216,19 @@ fn mark_wall(t: &mut Triangulation, id: u32, i: usize) {
 /// The triangles outside the domain: those reached without crossing a wall from a triangle
 /// with a vertex that is not an input point (the square's corners and the strips' seam ends;
 /// none once cut to the hull) or from a hole seed.
-fn eat_outside(t: &Triangulation, vertex_input: &[u32], holes: &[DVec2], hull: bool) -> Vec<bool> {
+fn eat_outside(
+    t: &Triangulation,
+    vertex_input: &[u32],
+    holes: &[Location],
+    hull: bool,
+) -> Vec<bool> {
     let mut outside = vec![false; t.len()];
     let mut queue: VecDeque<u32> = VecDeque::new();
     if !hull {
         let inside = touches_no_added_vertex(t, vertex_input);
         queue.extend((0..t.len() as u32).filter(|&id| !inside[id as usize]));
     }
-    queue.extend(holes.iter().filter_map(|&seed| triangle_at(t, seed)));
+    queue.extend(holes.iter().filter_map(|&place| triangle_of(t, place)));
     for &id in &queue {
         outside[id as usize] = true;
     }
@@ -234,31 +245,31 @@ fn eat_outside(t: &Triangulation, vertex_input: &[u32], holes: &[DVec2], hull: b
 ///
 /// # Errors
 /// [`Error::SeedOnSegment`] naming the first such seed, holes first.
-fn check_seeds(t: &Triangulation, input: &Input, vertex_of: &[u32]) -> Result<(), Error> {
+fn check_seeds(
+    t: &Triangulation,
+    input: &Input,
+    vertex_of: &[u32],
+    places: &[Location],
+) -> Result<(), Error> {
     let mut ends = vec![false; t.vertices.len()];
     for s in &input.segments {
         for i in s.ends {
             ends[vertex_of[i as usize] as usize] = true;
         }
     }
-    let on_segment = |p: DVec2| {
-        if !p.is_finite() || t.len() == 0 {
-            return false;
+    let on_segment = |p: DVec2, place: Location| match place {
+        Location::Vertex(v) => ends[v as usize],
+        Location::Inside(id) => {
+            let (c, n) = (t.corners[id as usize], t.across[id as usize]);
+            (0..3).any(|i| {
+                let (a, b) = (c[NEXT[i]], c[PREV[i]]);
+                n[i] != NONE
+                    && is_wall(n[i])
+                    && orientation(t.vertices[a as usize], t.vertices[b as usize], p)
+                        == Orientation::On
+            })
         }
-        match locate_across_segments(t, p, 0) {
-            Location::Vertex(v) => ends[v as usize],
-            Location::Inside(id) => {
-                let (c, n) = (t.corners[id as usize], t.across[id as usize]);
-                (0..3).any(|i| {
-                    let (a, b) = (c[NEXT[i]], c[PREV[i]]);
-                    n[i] != NONE
-                        && is_wall(n[i])
-                        && orientation(t.vertices[a as usize], t.vertices[b as usize], p)
-                            == Orientation::On
-                })
-            }
-            Location::Outside { .. } | Location::Foreign => false,
-        }
+        Location::Outside { .. } | Location::Foreign => false,
     };
     let seeds = input
         .holes
@@ -272,8 +283,8 @@ fn check_seeds(t: &Triangulation, input: &Input, vertex_of: &[u32]) -> Result<()
                 .enumerate()
                 .map(|(k, r)| ("region", k, r.seed)),
         );
-    for (kind, index, p) in seeds {
-        if on_segment(p) {
+    for ((kind, index, p), &place) in seeds.zip(places) {
+        if on_segment(p, place) {
             return Err(Error::SeedOnSegment {
                 kind,
                 index,
@@ -285,12 +296,44 @@ fn check_seeds(t: &Triangulation, input: &Input, vertex_of: &[u32]) -> Result<()
     Ok(())
 }
 
-/// The triangle holding `p`, if any (a point on an edge or vertex gets one of its triangles).
-fn triangle_at(t: &Triangulation, p: DVec2) -> Option<u32> {
-    if !p.is_finite() || t.len() == 0 {
-        return None;
+/// Where each of `points` lies (`Foreign` for a point that is not finite). The walks go in
+/// Morton order of the points, each from where the one before ended: seeds spread over a large
+/// mesh then cost a short walk each, not one from the first triangle.
+fn locate_all(t: &Triangulation, points: &[DVec2]) -> Vec<Location> {
+    let mut places = vec![Location::Foreign; points.len()];
+    if t.len() == 0 {
+        return places;
     }
-    match locate_across_segments(t, p, 0) {
+    let finite: Vec<usize> = (0..points.len())
+        .filter(|&k| points[k].is_finite())
+        .collect();
+    let (lo, hi) = finite.iter().fold(
+        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &k| (lo.min(points[k]), hi.max(points[k])),
+    );
+    // 2^31 cells a side: the offsets, at most the extent, stay below 2^32 as they round.
+    let scale = (2f64.powi(31) / (hi - lo).max_element()).min(f64::MAX);
+    let key = |p: DVec2| {
+        let g = (p - lo) * scale;
+        interleave32(g.x as u32, g.y as u32)
+    };
+    let mut order = finite;
+    order.sort_by_key(|&k| (key(points[k]), k));
+    let mut start = 0;
+    for k in order {
+        let place = locate_across_segments(t, points[k], start);
+        start = match place {
+            Location::Inside(id) | Location::Outside { triangle: id, .. } => id,
+            Location::Vertex(_) | Location::Foreign => start,
+        };
+        places[k] = place;
+    }
+    places
+}
+
+/// The triangle at `place`, if any (a vertex gets one of its triangles).
+fn triangle_of(t: &Triangulation, place: Location) -> Option<u32> {
+    match place {
         Location::Inside(id) => Some(id),
         Location::Vertex(v) => t
             .corners
@@ -315,11 +358,11 @@ fn spread(t: &Triangulation, queue: &mut VecDeque<u32>, mut visit: impl FnMut(u3
 
 /// Per triangle, the last region seed (in input order) whose region holds it, or [`NONE`]:
 /// each seed's triangle and all it reaches without crossing a wall.
-fn spread_regions(t: &Triangulation, outside: &[bool], seeds: &[DVec2]) -> Vec<u32> {
+fn spread_regions(t: &Triangulation, outside: &[bool], seeds: &[Location]) -> Vec<u32> {
     let mut region = vec![NONE; t.len()];
     let mut stamp = vec![NONE; t.len()];
     for (k, &seed) in seeds.iter().enumerate() {
-        let Some(start) = triangle_at(t, seed).filter(|&id| !outside[id as usize]) else {
+        let Some(start) = triangle_of(t, seed).filter(|&id| !outside[id as usize]) else {
             continue;
         };
         let k = k as u32;
@@ -503,4 +546,42 @@ fn along(p: DVec2, d: DVec2) -> [f64; 2] {
 /// The order of two [`along`] keys.
 fn by_key(a: [f64; 2], b: [f64; 2]) -> std::cmp::Ordering {
     a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::refine::delaunay::Cavity;
+    use rand::{Rng, SeedableRng};
+
+    /// Seeds found by walks that start where the last one ended lie where a walk from the
+    /// first triangle finds them; seeds that are not finite are nowhere.
+    #[test]
+    fn seeds_are_found_where_a_walk_from_the_first_triangle_finds_them() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(9);
+        let mut t = Triangulation::rectangle(DVec2::ZERO, DVec2::splat(1.0));
+        let mut cavity = Cavity::default();
+        for _ in 0..3000 {
+            let p = DVec2::new(rng.random(), rng.random());
+            cavity.insert(&mut t, p, 0).unwrap();
+        }
+        let mut seeds: Vec<DVec2> = (0..500)
+            .map(|_| DVec2::new(rng.random_range(-0.1..1.1), rng.random_range(-0.1..1.1)))
+            .collect();
+        seeds.extend([t.vertices[100], DVec2::new(f64::NAN, 0.5), DVec2::INFINITY]);
+        let places = locate_all(&t, &seeds);
+        for (&p, &place) in seeds.iter().zip(&places) {
+            let expected = if p.is_finite() {
+                locate_across_segments(&t, p, 0)
+            } else {
+                Location::Foreign
+            };
+            match (place, expected) {
+                // Outside: the boundary edge it is beyond depends on the walk.
+                (Location::Outside { .. }, Location::Outside { .. }) => {}
+                _ => assert_eq!(place, expected, "{p}"),
+            }
+        }
+        assert!(matches!(places[500], Location::Vertex(100)));
+    }
 }

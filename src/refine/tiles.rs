@@ -247,6 +247,13 @@ impl<'t> Shared<'t> {
         }
     }
 
+    /// The larger side of triangle `t`'s bounding box.
+    fn extent(&self, t: u32) -> f64 {
+        let [a, b, c] = self.corners(t).map(|v| self.point(v));
+        let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+        (hi - lo).max_element()
+    }
+
     fn owner(&self, tiling: &Tiling, colour: u8, t: u32) -> Option<u64> {
         let c = self.corners(t);
         let corners = [self.point(c[0]), self.point(c[1]), self.point(c[2])];
@@ -798,6 +805,8 @@ struct Levels {
     finest: usize,
     /// The grid of each size class.
     level_of_class: Vec<u8>,
+    /// The side of the square the grids cover.
+    side: f64,
 }
 
 impl Levels {
@@ -817,6 +826,7 @@ impl Levels {
             limits,
             finest,
             level_of_class: Vec::new(),
+            side,
         };
         levels.level_of_class = (0..SizeQueue::CLASSES)
             .map(|class| levels.level_of(class) as u8)
@@ -838,17 +848,40 @@ impl Levels {
             .unwrap_or(COARSEST)
     }
 
+    /// The finest grid whose cells are wider than `extent`, where some tile of some colour
+    /// holds a triangle that wide: a tile of a finer grid would only set it aside.
+    fn holding(&self, extent: f64) -> usize {
+        // One level coarser than the ratio says: rounding cannot make it too fine, and the
+        // nested rings' refinement took less time so than at the finest fitting level.
+        let levels = (self.side / extent).log2();
+        if levels.is_nan() || levels < 1.0 {
+            return COARSEST;
+        }
+        (levels as usize - 1).clamp(COARSEST, FINEST)
+    }
+
+    /// The grid that takes a bad triangle of size class `class` and extent `extent`: the one
+    /// of its class, or a coarser one that holds it.
+    fn level_for(&self, class: u32, extent: f64) -> usize {
+        let by_class = self.level_of_class[class as usize] as usize;
+        let fits = by_class.min(self.holding(extent));
+        self.used().find(|&l| l <= fits).unwrap_or(COARSEST)
+    }
+
     /// Files bad triangles under the grid that takes them, as one new batch per grid: lists
     /// that grew instead would be copied again and again.
-    fn file(&self, bad: Vec<Pending>, by_level: &mut [Vec<Vec<Pending>>]) {
-        let level = |p: &Pending| self.level_of_class[p.class as usize] as usize;
+    fn file(&self, shared: &Shared, bad: Vec<Pending>, by_level: &mut [Vec<Vec<Pending>>]) {
+        let levels: Vec<u8> = bad
+            .par_iter()
+            .map(|p| self.level_for(p.class, shared.extent(p.entry.triangle)) as u8)
+            .collect();
         let mut counts = vec![0; by_level.len()];
-        for p in &bad {
-            counts[level(p)] += 1;
+        for &l in &levels {
+            counts[l as usize] += 1;
         }
         let mut batches: Vec<Vec<Pending>> = counts.into_iter().map(Vec::with_capacity).collect();
-        for p in bad {
-            batches[level(&p)].push(p);
+        for (p, l) in bad.into_iter().zip(levels) {
+            batches[l as usize].push(p);
         }
         for (waiting, batch) in by_level.iter_mut().zip(batches) {
             if !batch.is_empty() {
@@ -878,7 +911,7 @@ pub(super) fn refine_tiles(
         edges,
         later: vec![Vec::new(); levels.finest + 1],
     };
-    levels.file(bad, &mut lists.later);
+    levels.file(&shared, bad, &mut lists.later);
     let used: Vec<usize> = levels.used().collect();
     'levels: for level in used {
         let waiting = std::mem::take(&mut lists.later[level]);
@@ -903,7 +936,7 @@ pub(super) fn refine_tiles(
                     budget,
                     &mut lists,
                 )?;
-                levels.file(larger, &mut lists.later);
+                levels.file(&shared, larger, &mut lists.later);
                 inserted += n;
             }
             if lists.is_empty() || inserted == 0 {
@@ -1152,6 +1185,40 @@ mod tests {
         };
         two.validate(&points, bounds).unwrap();
         assert!(two == on(1), "the mesh depends on the thread count");
+    }
+
+    /// A bad triangle narrower than the coarsest grid's cells is filed under a grid where a
+    /// tile of some colour holds it whole, so that no grid finer than its size passes it by
+    /// unrefined; and under a grid at most three levels coarser than the finest that would.
+    #[test]
+    fn a_bad_triangle_goes_to_a_grid_whose_tiles_hold_it() {
+        let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(5);
+        for (origin, side) in [(DVec2::ZERO, 1.0), (DVec2::new(-3e5, 7.0), 6e5)] {
+            // No bad triangles: every grid down to the finest is used.
+            let levels = Levels::new(side, &[]);
+            for _ in 0..5000 {
+                // Narrower than the coarsest grid's cells: wider ones no tile holds, and the
+                // sequential loop takes them.
+                let extent = side * 2f64.powf(-rng.random_range(COARSEST as f64 + 0.01..30.0));
+                let lo = origin + DVec2::new(rng.random(), rng.random()) * (side - extent);
+                let corners = [(); 3].map(|_| lo + DVec2::new(rng.random(), rng.random()) * extent);
+                let (a, b) = (
+                    corners.iter().fold(corners[0], |m, &c| m.min(c)),
+                    corners.iter().fold(corners[0], |m, &c| m.max(c)),
+                );
+                let level = levels.level_for(0, (b - a).max_element());
+                let held = |level| {
+                    let tiling = Tiling::at_level(origin, side, level);
+                    (0..4).any(|colour| tiling.owner(colour, corners).is_some())
+                };
+                assert!(held(level), "{corners:?} at level {level}");
+                let finest_holding = (level..=FINEST).rev().find(|&l| held(l)).unwrap();
+                assert!(
+                    level + 3 >= finest_holding,
+                    "{corners:?}: {level} for {finest_holding}"
+                );
+            }
+        }
     }
 
     /// A tile's bounds hold exactly the points the grid puts in the tile, on grids far from
