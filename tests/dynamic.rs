@@ -200,6 +200,48 @@ fn bad_edits_are_refused_and_change_nothing() {
     check(&dynamic, "after the refused edits");
 }
 
+/// A batch whose edits pass the checks but put a point where no grid separates it from
+/// another fails where it is placed: everything the batch did before goes back, the ids too,
+/// and the tracked changes say nothing changed.
+#[test]
+fn a_batch_failing_past_its_checks_takes_back_what_it_did() {
+    // Near the origin a step of f64 is a few cells of the wide grid: too few to separate.
+    let points = [DVec2::new(0.01, 0.01), DVec2::new(0.75, 0.6)];
+    let crowded = DVec2::new(0.01f64.next_up(), 0.01);
+    let edits = [
+        Edit::Insert(DVec2::new(0.6, 0.3)),
+        Edit::Move(1, DVec2::new(0.7, 0.65)),
+        Edit::Insert(crowded),
+        Edit::Delete(1),
+    ];
+    let mut one_by_one = DynamicMesh::new(&points, unit()).unwrap();
+    one_by_one.track_changes(true);
+    let before = one_by_one.mesh().unwrap();
+    let mut batched = one_by_one.clone();
+    let Err((at, e)) = one_by_one.apply(&edits) else {
+        panic!("a point one step of f64 from another was placed");
+    };
+    assert_eq!(at, 2, "{e}");
+    assert!(matches!(e, Error::Unresolvable { .. }), "{e}");
+    let Err((_, e)) = batched.apply_batch(&edits) else {
+        panic!("a point one step of f64 from another was placed in a batch");
+    };
+    assert!(matches!(e, Error::Unresolvable { .. }), "{e}");
+    // A batch is placed as a whole: the point next to one the batch deletes is no crowd.
+    let mut whole = edits;
+    whole[3] = Edit::Delete(0);
+    assert!(one_by_one.clone().apply(&whole).is_err());
+    assert!(one_by_one.clone().apply_batch(&whole).is_ok());
+    for dynamic in [&mut one_by_one, &mut batched] {
+        assert_eq!(dynamic.mesh().unwrap(), before);
+        assert_eq!(dynamic.live_points().1, points.to_vec());
+        let changes = dynamic.take_changes().expect("changes are tracked");
+        assert!(changes.removed.is_empty() && changes.added.is_empty());
+        assert_eq!(dynamic.insert(DVec2::new(0.4, 0.4)).unwrap().id, 2);
+        check(dynamic, "after the refused batch");
+    }
+}
+
 #[test]
 fn a_batch_equals_its_edits_one_by_one_and_a_bad_batch_changes_nothing() {
     let mut rng = Rng::seed_from_u64(5);

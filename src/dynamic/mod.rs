@@ -52,16 +52,6 @@ impl Plan {
     }
 }
 
-/// How to take back an edit of a batch.
-enum Undo {
-    /// Delete the point an insertion added, and give its id back.
-    Remove(u32),
-    /// Bring back a deleted point with its id.
-    Restore(u32),
-    /// Move a point back.
-    MoveBack(u32, DVec2),
-}
-
 /// What an edit did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct EditReport {
@@ -287,35 +277,26 @@ impl DynamicMesh {
     }
 
     /// Applies `edits` in order, all or none: on a bad edit the mesh goes back to what it was
-    /// and the error names the edit's position.
+    /// and the error names the edit's position. The edits are checked first, as
+    /// [`Self::apply_batch`] checks them, and then done one by one.
     ///
     /// # Errors
     /// The first edit refused, by position, with why.
     pub fn apply(&mut self, edits: &[Edit]) -> Result<Vec<EditReport>, (usize, Error)> {
+        let plan = self.plan(edits)?;
+        let first_new = self.points.len() as u32;
         let mut reports = Vec::with_capacity(edits.len());
-        // How to take back each edit done, newest last.
-        let mut undo: Vec<Undo> = Vec::with_capacity(edits.len());
         for (k, &edit) in edits.iter().enumerate() {
-            let before = match edit {
-                Edit::Move(id, _) => self.point(id),
-                _ => None,
-            };
             let done = match edit {
                 Edit::Insert(p) => self.insert(p),
                 Edit::Delete(id) => self.delete(id),
                 Edit::Move(id, p) => self.move_to(id, p),
             };
             match done {
-                Ok(report) => {
-                    undo.push(match edit {
-                        Edit::Insert(_) => Undo::Remove(report.id),
-                        Edit::Delete(id) => Undo::Restore(id),
-                        Edit::Move(id, _) => Undo::MoveBack(id, before.expect("a live point")),
-                    });
-                    reports.push(report);
-                }
+                Ok(report) => reports.push(report),
                 Err(e) => {
-                    self.take_back(undo);
+                    // Only a place too crowded for the grid passes the checks and fails here.
+                    self.restore(&plan.starts, first_new);
                     return Err((k, e));
                 }
             }
@@ -323,31 +304,14 @@ impl DynamicMesh {
         Ok(reports)
     }
 
-    /// Takes back edits done, newest first: the tree depends on the live points alone, so
-    /// it comes back as it was; the ids the insertions took are given back too.
-    fn take_back(&mut self, undo: Vec<Undo>) {
-        for step in undo.into_iter().rev() {
-            let restored = match step {
-                Undo::Remove(id) => self.delete(id).map(|_| {
-                    self.points.pop();
-                    self.live.pop();
-                }),
-                Undo::Restore(id) => {
-                    self.live[id as usize] = true;
-                    self.live_count += 1;
-                    self.place(id).map(|_| ())
-                }
-                Undo::MoveBack(id, p) => self.move_to(id, p).map(|_| ()),
-            };
-            restored.expect("an edit taken back fits as it did before");
-        }
-    }
-
     /// Applies `edits` as one batch, all or none, with the same result as [`Self::apply`]: the
     /// edits are checked in order first (the error names the first bad one), then the tree is
     /// updated once. Points that stay in their leaves move in place; the others leave
     /// together and the new places are put in together, each group's first moves and rounds
     /// in parallel, so a batch costs one pass over the sorted keys rather than one per edit.
+    /// The one difference: the grid must separate the points as the batch leaves them, not as
+    /// each edit does, so a point placed next to one a later edit deletes is accepted here and
+    /// refused by [`Self::apply`].
     ///
     /// # Errors
     /// The first edit refused, by position, with why.
