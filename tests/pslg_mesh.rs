@@ -113,6 +113,41 @@ fn a_square_with_a_hundred_holes() {
     assert!(mesh.boundary.iter().all(|e| e.marker == 1 || e.marker == 2));
 }
 
+/// Seeds exactly on loose input points: a hole seed on a point inside a hole eats the hole,
+/// and a region seed on a point inside a room names the room.
+#[test]
+fn seeds_on_loose_points_find_their_holes_and_regions() {
+    let mut input = Input::default();
+    closed_loop(
+        &mut input.points,
+        &mut input.segments,
+        &square(DVec2::ZERO, 10.0),
+        1,
+    );
+    for i in 0..4 {
+        let lo = DVec2::new(1.0 + 2.0 * i as f64, 4.0);
+        closed_loop(&mut input.points, &mut input.segments, &square(lo, 1.0), 2);
+        let centre = lo + DVec2::splat(0.5);
+        input.points.push(centre);
+        input.holes.push(centre);
+    }
+    let loose = DVec2::new(5.0, 8.5);
+    input.points.push(loose);
+    input.regions.push(RegionSeed {
+        seed: loose,
+        attribute: 7.0,
+        max_area: None,
+    });
+    let (mesh, _) = mesh_checked(&input, Options::default().min_angle(25.0), false);
+    assert!((common::mesh_area(&mesh) - (100.0 - 4.0)).abs() < 1e-9);
+    assert!(mesh.triangles.iter().all(|t| {
+        let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
+        let at = (a + b + c) / 3.0;
+        !(at.y > 4.0 && at.y < 5.0 && (at.x - 1.0).rem_euclid(2.0) < 1.0)
+    }));
+    assert!((0..mesh.triangles.len()).all(|t| mesh.triangle_attribute(t) == 7.0));
+}
+
 #[test]
 fn nested_regions_get_their_attributes_and_area_bounds() {
     let mut input = Input::default();

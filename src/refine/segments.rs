@@ -167,16 +167,17 @@ pub(super) fn constrain(
         .chain(input.regions.iter().map(|r| r.seed))
         .collect();
     let places = locate_all(t, &seeds);
-    let (hole_places, region_places) = places.split_at(input.holes.len());
     check_seeds(t, input, &vertex_of, &places)?;
+    let seed_triangles = triangles_at(t, &places);
+    let (hole_triangles, region_triangles) = seed_triangles.split_at(input.holes.len());
 
-    let outside = eat_outside(t, vertex_input, hole_places, hull);
+    let outside = eat_outside(t, vertex_input, hole_triangles, hull);
     if outside.iter().all(|&gone| gone) {
         return Err(Error::NothingEnclosed);
     }
     let regions = !input.regions.is_empty();
     if regions {
-        t.regions = spread_regions(t, &outside, region_places);
+        t.regions = spread_regions(t, &outside, region_triangles);
     }
     let keep: Vec<bool> = outside.iter().map(|&gone| !gone).collect();
     let (vertex_map, _) = compact_keeping(t, vertex_input, &keep);
@@ -219,7 +220,7 @@ fn mark_wall(t: &mut Triangulation, id: u32, i: usize) {
 fn eat_outside(
     t: &Triangulation,
     vertex_input: &[u32],
-    holes: &[Location],
+    holes: &[Option<u32>],
     hull: bool,
 ) -> Vec<bool> {
     let mut outside = vec![false; t.len()];
@@ -228,7 +229,7 @@ fn eat_outside(
         let inside = touches_no_added_vertex(t, vertex_input);
         queue.extend((0..t.len() as u32).filter(|&id| !inside[id as usize]));
     }
-    queue.extend(holes.iter().filter_map(|&place| triangle_of(t, place)));
+    queue.extend(holes.iter().flatten());
     for &id in &queue {
         outside[id as usize] = true;
     }
@@ -331,17 +332,20 @@ fn locate_all(t: &Triangulation, points: &[DVec2]) -> Vec<Location> {
     places
 }
 
-/// The triangle at `place`, if any (a vertex gets one of its triangles).
-fn triangle_of(t: &Triangulation, place: Location) -> Option<u32> {
-    match place {
-        Location::Inside(id) => Some(id),
-        Location::Vertex(v) => t
-            .corners
-            .iter()
-            .position(|c| c.contains(&v))
-            .map(|id| id as u32),
-        Location::Outside { .. } | Location::Foreign => None,
-    }
+/// The triangle at each place, if any. A place on a vertex gets one of the vertex's
+/// triangles: the check of the seeds refused those on segments' ends, so no wall meets the
+/// vertex and its triangles lie in one region.
+fn triangles_at(t: &Triangulation, places: &[Location]) -> Vec<Option<u32>> {
+    let on_vertex = places.iter().any(|p| matches!(p, Location::Vertex(_)));
+    let stars = on_vertex.then(|| Stars::of(t));
+    places
+        .iter()
+        .map(|&place| match place {
+            Location::Inside(id) => Some(id),
+            Location::Vertex(v) => stars.as_ref()?.around(t, v).next().map(|(id, _)| id),
+            Location::Outside { .. } | Location::Foreign => None,
+        })
+        .collect()
 }
 
 /// Spreads from the queued triangles across every link that is not a wall, to each triangle
@@ -358,11 +362,11 @@ fn spread(t: &Triangulation, queue: &mut VecDeque<u32>, mut visit: impl FnMut(u3
 
 /// Per triangle, the last region seed (in input order) whose region holds it, or [`NONE`]:
 /// each seed's triangle and all it reaches without crossing a wall.
-fn spread_regions(t: &Triangulation, outside: &[bool], seeds: &[Location]) -> Vec<u32> {
+fn spread_regions(t: &Triangulation, outside: &[bool], seeds: &[Option<u32>]) -> Vec<u32> {
     let mut region = vec![NONE; t.len()];
     let mut stamp = vec![NONE; t.len()];
     for (k, &seed) in seeds.iter().enumerate() {
-        let Some(start) = triangle_of(t, seed).filter(|&id| !outside[id as usize]) else {
+        let Some(start) = seed.filter(|&id| !outside[id as usize]) else {
             continue;
         };
         let k = k as u32;
