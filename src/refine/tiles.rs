@@ -861,9 +861,13 @@ impl Levels {
     }
 
     /// The grid that takes a bad triangle of size class `class` and extent `extent`: the one
-    /// of its class, or a coarser one that holds it.
+    /// of its class if its cells are wider than the triangle (then some tile holds it), else a
+    /// coarser one that holds it.
     fn level_for(&self, class: u32, extent: f64) -> usize {
         let by_class = self.level_of_class[class as usize] as usize;
+        if extent < self.side / 2f64.powi(by_class as i32) {
+            return by_class;
+        }
         let fits = by_class.min(self.holding(extent));
         self.used().find(|&l| l <= fits).unwrap_or(COARSEST)
     }
@@ -1206,17 +1210,28 @@ mod tests {
                     corners.iter().fold(corners[0], |m, &c| m.min(c)),
                     corners.iter().fold(corners[0], |m, &c| m.max(c)),
                 );
-                let level = levels.level_for(0, (b - a).max_element());
                 let held = |level| {
                     let tiling = Tiling::at_level(origin, side, level);
                     (0..4).any(|colour| tiling.owner(colour, corners).is_some())
                 };
+                // Class 0 belongs to the finest grid, which holds none of these.
+                let level = levels.level_for(0, (b - a).max_element());
                 assert!(held(level), "{corners:?} at level {level}");
                 let finest_holding = (level..=FINEST).rev().find(|&l| held(l)).unwrap();
                 assert!(
                     level + 3 >= finest_holding,
                     "{corners:?}: {level} for {finest_holding}"
                 );
+                // A triangle narrower than its class's cells stays with its class.
+                let limit = levels.limits[rng.random_range(COARSEST..=FINEST)];
+                let class = limit.saturating_sub(rng.random_range(0..8)) as u32;
+                let own = levels.level_of_class[class as usize] as usize;
+                let level = levels.level_for(class, (b - a).max_element());
+                if (b - a).max_element() < side / 2f64.powi(own as i32) {
+                    assert_eq!(level, own, "{corners:?} of class {class}");
+                } else {
+                    assert!(level < own && held(level), "{corners:?} of class {class}");
+                }
             }
         }
     }
