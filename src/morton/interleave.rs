@@ -45,6 +45,14 @@ pub(crate) fn interleave32(x: u32, y: u32) -> u64 {
     (spread_even(x) << 1) | spread_even(y)
 }
 
+/// The Morton key of `p` on a 2^16 grid over the box from `lo` of `size` (clamped to it): an
+/// order in which walks from one point to the next stay short.
+pub(crate) fn box_key(p: DVec2, lo: DVec2, size: DVec2) -> u64 {
+    let size = size.max(DVec2::splat(f64::MIN_POSITIVE));
+    let u = ((p - lo) / size).clamp(DVec2::ZERO, DVec2::ONE) * 65535.0;
+    interleave32(u.x as u32, u.y as u32)
+}
+
 /// Points per task when encoding: large enough to amortize the task, small enough to balance.
 const ENCODE_CHUNK: usize = 1 << 14;
 

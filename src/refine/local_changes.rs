@@ -23,7 +23,7 @@ use glam::DVec2;
 use super::delaunay::{Location, Triangulation, beyond, in_circumcircle, locate};
 use super::replay::Window;
 use crate::mesh::{Domain, NONE};
-use crate::morton::interleave::interleave32;
+use crate::morton::interleave::box_key;
 
 /// A point by the bits of its coordinates, +0 and -0 alike.
 pub(crate) fn point_bits(p: DVec2) -> [u64; 2] {
@@ -108,11 +108,7 @@ fn mark_conflicts(t: &Triangulation, p: DVec2, start: u32, found: &mut [bool]) {
 /// domain's corners, inserted in Morton order over the window; `None` where one cannot be
 /// placed.
 fn triangulate(domain: Domain, window: &Window, points: &[DVec2]) -> Option<Triangulation> {
-    let size = (window.hi - window.lo).max(DVec2::splat(f64::MIN_POSITIVE));
-    let key = |p: DVec2| {
-        let u = ((p - window.lo) / size).clamp(DVec2::ZERO, DVec2::ONE) * 65535.0;
-        interleave32(u.x as u32, u.y as u32)
-    };
+    let key = |p: DVec2| box_key(p, window.lo, window.hi - window.lo);
     let mut order: Vec<(u64, DVec2)> = points.iter().map(|&p| (key(p), p)).collect();
     order.sort_unstable_by(|a, b| {
         a.0.cmp(&b.0)

@@ -25,7 +25,7 @@ use super::hull::{
 use crate::domain::SubSegment;
 use crate::error::Error;
 use crate::mesh::{BoundaryEdge, NONE};
-use crate::morton::interleave::interleave32;
+use crate::morton::interleave::box_key;
 use crate::options::Input;
 use crate::predicates::{Orientation, orientation};
 
@@ -167,7 +167,7 @@ pub(super) fn constrain(
         .chain(input.regions.iter().map(|r| r.seed))
         .collect();
     let places = locate_all(t, &seeds);
-    check_seeds(t, input, &vertex_of, &places)?;
+    check_seeds(t, input, &vertex_of, &seeds, &places)?;
     let seed_triangles = triangles_at(t, &places);
     let (hole_triangles, region_triangles) = seed_triangles.split_at(input.holes.len());
 
@@ -242,7 +242,8 @@ fn eat_outside(
 }
 
 /// Refuses a hole or region seed on a segment or on a segment's end, where it would name
-/// either of the regions beside it.
+/// either of the regions beside it. `seeds` are the hole seeds then the region seeds, with the
+/// places [`locate_all`] found for them.
 ///
 /// # Errors
 /// [`Error::SeedOnSegment`] naming the first such seed, holes first.
@@ -250,6 +251,7 @@ fn check_seeds(
     t: &Triangulation,
     input: &Input,
     vertex_of: &[u32],
+    seeds: &[DVec2],
     places: &[Location],
 ) -> Result<(), Error> {
     let mut ends = vec![false; t.vertices.len()];
@@ -272,19 +274,13 @@ fn check_seeds(
         }
         Location::Outside { .. } | Location::Foreign => false,
     };
-    let seeds = input
-        .holes
-        .iter()
-        .enumerate()
-        .map(|(k, &p)| ("hole", k, p))
-        .chain(
-            input
-                .regions
-                .iter()
-                .enumerate()
-                .map(|(k, r)| ("region", k, r.seed)),
-        );
-    for ((kind, index, p), &place) in seeds.zip(places) {
+    let holes = input.holes.len();
+    for (k, (&p, &place)) in seeds.iter().zip(places).enumerate() {
+        let (kind, index) = if k < holes {
+            ("hole", k)
+        } else {
+            ("region", k - holes)
+        };
         if on_segment(p, place) {
             return Err(Error::SeedOnSegment {
                 kind,
@@ -312,14 +308,8 @@ fn locate_all(t: &Triangulation, points: &[DVec2]) -> Vec<Location> {
         (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
         |(lo, hi), &k| (lo.min(points[k]), hi.max(points[k])),
     );
-    // 2^31 cells a side: the offsets, at most the extent, stay below 2^32 as they round.
-    let scale = (2f64.powi(31) / (hi - lo).max_element()).min(f64::MAX);
-    let key = |p: DVec2| {
-        let g = (p - lo) * scale;
-        interleave32(g.x as u32, g.y as u32)
-    };
     let mut order = finite;
-    order.sort_by_key(|&k| (key(points[k]), k));
+    order.sort_by_key(|&k| (box_key(points[k], lo, hi - lo), k));
     let mut start = 0;
     for k in order {
         let place = locate_across_segments(t, points[k], start);

@@ -868,7 +868,8 @@ impl Levels {
         if extent < self.side / 2f64.powi(by_class as i32) {
             return by_class;
         }
-        let fits = by_class.min(self.holding(extent));
+        // The triangle is at least a cell of `by_class` wide: `holding` is no finer.
+        let fits = self.holding(extent);
         self.used().find(|&l| l <= fits).unwrap_or(COARSEST)
     }
 
@@ -1210,12 +1211,13 @@ mod tests {
                     corners.iter().fold(corners[0], |m, &c| m.min(c)),
                     corners.iter().fold(corners[0], |m, &c| m.max(c)),
                 );
+                let width = (b - a).max_element();
                 let held = |level| {
                     let tiling = Tiling::at_level(origin, side, level);
                     (0..4).any(|colour| tiling.owner(colour, corners).is_some())
                 };
                 // Class 0 belongs to the finest grid, which holds none of these.
-                let level = levels.level_for(0, (b - a).max_element());
+                let level = levels.level_for(0, width);
                 assert!(held(level), "{corners:?} at level {level}");
                 let finest_holding = (level..=FINEST).rev().find(|&l| held(l)).unwrap();
                 assert!(
@@ -1226,8 +1228,8 @@ mod tests {
                 let limit = levels.limits[rng.random_range(COARSEST..=FINEST)];
                 let class = limit.saturating_sub(rng.random_range(0..8)) as u32;
                 let own = levels.level_of_class[class as usize] as usize;
-                let level = levels.level_for(class, (b - a).max_element());
-                if (b - a).max_element() < side / 2f64.powi(own as i32) {
+                let level = levels.level_for(class, width);
+                if width < side / 2f64.powi(own as i32) {
                     assert_eq!(level, own, "{corners:?} of class {class}");
                 } else {
                     assert!(level < own && held(level), "{corners:?} of class {class}");
