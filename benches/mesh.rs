@@ -1,8 +1,9 @@
 //! End-to-end warped meshing (`mesh_points`: Morton order, framework, quadtree, separation,
-//! warp), the warp stage alone, and the nonobtuse split of the same tree, on generated points.
+//! warp) by the compact and the block warp, the block warp stage alone, and the nonobtuse split
+//! of the same tree, on generated points.
 //!
-//! Group `mesh/<dist>/t<threads>`, ids `mesh/<n>` (throughput: input points), `warp/<n>` and
-//! `split/<n>` (throughput: output triangles). Sizes default to 1e4 and 1e5 (`QUADMESH_BENCH_MESH_SIZES`);
+//! Group `mesh/<dist>/t<threads>`, ids `compact/<n>` and `mesh/<n>` (the block warp;
+//! throughput: input points), `warp/<n>` and `split/<n>` (throughput: output triangles). Sizes default to 1e4 and 1e5 (`QUADMESH_BENCH_MESH_SIZES`);
 //! threads come from `QUADMESH_BENCH_THREADS` like the other benches. Triangle counts are printed
 //! to stderr.
 
@@ -10,7 +11,7 @@ mod common;
 
 use common::{DISTRIBUTIONS, SEED, configure, env_counts, pools};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use quadmesh::balance::BalancedTree;
+use quadmesh::balance::{BalancedTree, Separation};
 use quadmesh::generate::points;
 use quadmesh::mesh::AngleQuality;
 use quadmesh::mesh::StageTimes;
@@ -32,7 +33,7 @@ fn bench_warp<K: MortonKey>(
     let m = &build.morton;
     let mut group = c.benchmark_group(group_name);
     configure(&mut group, pts.len());
-    for (name, stage) in [("warp", warp::<K> as Stage<K>), ("split", split::<K>)] {
+    for (name, stage) in [("warp", block_warp::<K> as Stage<K>), ("split", split::<K>)] {
         let run = || {
             pool.install(|| {
                 stage(tree, &m.order, &m.grid, pts, &mut StageTimes::default()).expect("a mesh")
@@ -45,6 +46,17 @@ fn bench_warp<K: MortonKey>(
         });
     }
     group.finish();
+}
+
+/// The block warp of a separated tree.
+fn block_warp<K: MortonKey>(
+    tree: &BalancedTree<K>,
+    order: &[u32],
+    grid: &Grid,
+    pts: &[DVec2],
+    times: &mut StageTimes,
+) -> Result<(Mesh, AngleQuality), Error> {
+    warp(tree, (order, None), grid, pts, times)
 }
 
 /// The warp and the nonobtuse split: a separated tree to its mesh.
@@ -70,8 +82,23 @@ fn mesh_benches(c: &mut Criterion) {
                     report.triangles,
                     report.triangles as f64 / n as f64
                 );
+                let compact_options = MeshOptions {
+                    separation: Separation::Corner,
+                    ..MeshOptions::default()
+                };
+                let compact =
+                    || pool.install(|| mesh_points(&pts, &compact_options).expect("a mesh"));
+                let (_, compact_report) = compact();
+                eprintln!(
+                    "{group_name}: {n} points, {} compact-warped triangles ({:.1} per point)",
+                    compact_report.triangles,
+                    compact_report.triangles as f64 / n as f64
+                );
                 let mut group = c.benchmark_group(&group_name);
                 configure(&mut group, n);
+                group.bench_function(BenchmarkId::new("compact", n), |b| {
+                    b.iter_with_large_drop(compact)
+                });
                 group.bench_function(BenchmarkId::new("mesh", n), |b| {
                     b.iter_with_large_drop(mesh)
                 });

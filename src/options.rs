@@ -6,7 +6,7 @@ use crate::error::Error;
 use crate::mesh::{AngleBounds, Domain};
 use crate::morton::SortAlgorithm;
 use crate::refine::{GUARANTEED_MIN_ANGLE_DEG, MAX_MIN_ANGLE_DEG};
-use crate::warp::{ANGLE_BOUNDS, NONOBTUSE_MAX_DEG};
+use crate::warp::{ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS, NONOBTUSE_MAX_DEG};
 
 /// The geometry to mesh: a point set, or a planar straight-line graph (points, segments, holes
 /// and regions, as in Triangle's `.poly` files).
@@ -80,8 +80,13 @@ pub enum Mode {
     /// (default [`DEFAULT_MIN_ANGLE_DEG`]) and every area at most the area bound, if given.
     #[default]
     Delaunay,
-    /// The warped quadtree mesh: every angle in [22.5°, 112.5°], about 104 triangles per point.
+    /// The warped quadtree mesh: every angle in [26°, 120°], about 35 triangles per point
+    /// (points separated by the blocks around their leaves' nearest corners). On a given
+    /// rectangle ([`Region::Rectangle`], [`Region::BoundingBox`]) it is the block warp's mesh.
     Warp,
+    /// The block warp: every angle in [22.5°, 112.5°], about 104 triangles per point (each
+    /// point's leaf centred in a 5×5 block of empty leaves); the tree the dynamic mesh keeps.
+    BlockWarp,
     /// The quadtree mesh split into right triangles at the points: every angle at most 90°,
     /// none bounded below, a few more triangles than the warp mode's.
     Nonobtuse,
@@ -91,7 +96,7 @@ impl Mode {
     /// Whether the mode meshes the well-separated quadtree (warp or nonobtuse), which takes
     /// rectangles and no area bound or vertex budget.
     pub fn is_quadtree(self) -> bool {
-        matches!(self, Mode::Warp | Mode::Nonobtuse)
+        matches!(self, Mode::Warp | Mode::BlockWarp | Mode::Nonobtuse)
     }
 }
 
@@ -167,6 +172,11 @@ impl Options {
     /// The warp mode.
     pub fn warp(self) -> Self {
         self.with_mode(Mode::Warp)
+    }
+
+    /// The block warp mode.
+    pub fn block_warp(self) -> Self {
+        self.with_mode(Mode::BlockWarp)
     }
 
     /// The nonobtuse mode.
@@ -263,10 +273,16 @@ impl Options {
 
     /// The angles every mesh of these options has, outside input angles smaller than the bound
     /// (the corners of a convex hull): at least the bound and at most 180° minus twice it in the
-    /// Delaunay mode, [22.5°, 112.5°] in the warp mode, at most 90° in the nonobtuse mode.
+    /// Delaunay mode, [26°, 120°] in the warp mode ([22.5°, 112.5°] on a given rectangle and
+    /// in the block warp mode), at most 90° in the nonobtuse mode.
     pub fn angle_bounds(&self) -> AngleBounds {
+        let on_rectangle = matches!(self.region, Region::Rectangle(_) | Region::BoundingBox);
         match self.mode {
-            Mode::Warp => AngleBounds {
+            Mode::Warp if !on_rectangle => AngleBounds {
+                min_deg: COMPACT_ANGLE_BOUNDS.0,
+                max_deg: COMPACT_ANGLE_BOUNDS.1,
+            },
+            Mode::Warp | Mode::BlockWarp => AngleBounds {
                 min_deg: ANGLE_BOUNDS.0,
                 max_deg: ANGLE_BOUNDS.1,
             },

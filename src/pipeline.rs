@@ -4,7 +4,8 @@
 use glam::DVec2;
 
 use crate::balance::{
-    BalancedTree, Band, BandError, DomainSides, balance, coarsest_band_level, separate, separate_in,
+    BalancedTree, Band, BandError, DomainSides, Separation, balance, coarsest_band_level, separate,
+    separate_in,
 };
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
@@ -152,6 +153,22 @@ pub struct MeshOptions {
     /// Split the leaves by the lines through the points into right triangles (every angle at
     /// most 90°, see [`crate::warp::split`]) instead of warping their corners.
     pub nonobtuse: bool,
+    /// The separation rule of the tree the warp moves: [`Separation::Corner`] for the compact
+    /// warp (every angle in [`crate::warp::COMPACT_ANGLE_BOUNDS`]), [`Separation::Block`] for
+    /// the block warp ([`crate::warp::ANGLE_BOUNDS`]). The nonobtuse split and a given domain
+    /// use the block rule whatever this says.
+    pub separation: Separation,
+}
+
+impl MeshOptions {
+    /// The rule the tree is built by: the one asked for where it applies.
+    fn effective_separation(&self) -> Separation {
+        if self.nonobtuse || self.domain.is_some() {
+            Separation::Block
+        } else {
+            self.separation
+        }
+    }
 }
 
 /// The well-separated tree the warp needs, on the narrow grid if it resolves the points finely
@@ -194,7 +211,9 @@ fn separated_tree_on(
     let morton = times.time("morton", || morton_order_on(points, domain, options.sort))?;
     let m = match morton {
         Morton::Narrow(m) => {
-            let Some(build) = separated_build(m, points, columns, times)? else {
+            let Some(build) =
+                separated_build(m, points, (columns, options.effective_separation()), times)?
+            else {
                 return Ok(None);
             };
             if deepest_point_leaf(&build).is_none() {
@@ -208,7 +227,8 @@ fn separated_tree_on(
         }
         Morton::Wide(m) => m,
     };
-    let Some(build) = separated_build(m, points, columns, times)? else {
+    let Some(build) = separated_build(m, points, (columns, options.effective_separation()), times)?
+    else {
         return Ok(None);
     };
     if let Some(p) = deepest_point_leaf(&build) {
@@ -225,7 +245,7 @@ fn separated_tree_on(
 fn separated_build<K: MortonKey>(
     mut morton: MortonOrder<K>,
     points: &[DVec2],
-    columns: Option<GradedColumns>,
+    (columns, separation): (Option<GradedColumns>, Separation),
     times: &mut StageTimes,
 ) -> Result<Option<TreeBuild<K>>, Error> {
     let mut sides = DomainSides::of(points, &morton.order, &morton.grid);
@@ -247,7 +267,7 @@ fn separated_build<K: MortonKey>(
     let framework = times.time("framework", || build_framework(keys));
     let quadtree = times.time("quadtree", || expand(&framework, keys));
     let separated = times.time("separate", || {
-        separate_in(&quadtree, keys, sides.as_ref(), limit)
+        separate_in(&quadtree, keys, sides.as_ref(), limit, separation)
     });
     let (balanced, band) = match separated {
         Ok(tree) => tree,
@@ -322,10 +342,10 @@ pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, Mes
 /// [`mesh_points`] once the domain, if any, is at least as wide as it is tall.
 fn mesh_on(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport), Error> {
     let (tree, mut times) = separated_tree(points, options)?;
-    let nonobtuse = options.nonobtuse;
+    let separation = (!options.nonobtuse).then(|| options.effective_separation());
     let (mesh, quality, duplicates) = match tree {
-        Tree::Narrow(build) => warp_build(build, points, nonobtuse, &mut times)?,
-        Tree::Wide(build) => warp_build(build, points, nonobtuse, &mut times)?,
+        Tree::Narrow(build) => warp_build(build, points, separation, &mut times)?,
+        Tree::Wide(build) => warp_build(build, points, separation, &mut times)?,
     };
     let report = report_of(
         &mesh,
@@ -339,10 +359,12 @@ fn mesh_on(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport)
 
 type Warped = (Mesh, AngleQuality, usize);
 
+/// The mesh of a separated tree: the nonobtuse split (`separation` `None`), or the warp of the
+/// tree `separation` built.
 fn warp_build<K: MortonKey>(
     build: TreeBuild<K>,
     points: &[DVec2],
-    nonobtuse: bool,
+    separation: Option<Separation>,
     times: &mut StageTimes,
 ) -> Result<Warped, Error> {
     // The framework and the unbalanced tree go here; the warp reads the separated tree's leaves,
@@ -365,10 +387,11 @@ fn warp_build<K: MortonKey>(
                 unresolvable(points[index as usize], index)
             })?;
     }
-    let (mesh, quality) = if nonobtuse {
-        split(&tree, &morton.order, &morton.grid, points, times)?
+    let (mesh, quality) = if let Some(separation) = separation {
+        let keys = (separation == Separation::Corner).then_some(&morton.keys[..]);
+        warp(&tree, (&morton.order, keys), &morton.grid, points, times)?
     } else {
-        warp(&tree, &morton.order, &morton.grid, points, times)?
+        split(&tree, &morton.order, &morton.grid, points, times)?
     };
     Ok((mesh, quality, morton.duplicates.count))
 }
@@ -404,11 +427,16 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
         Region::Auto | Region::ConvexHull | Region::Square => None,
     };
     match options.mode() {
-        Mode::Warp | Mode::Nonobtuse => {
+        Mode::Warp | Mode::BlockWarp | Mode::Nonobtuse => {
             let warp = MeshOptions {
                 sort: options.sort_algorithm(),
                 domain: rectangle,
                 nonobtuse: options.mode() == Mode::Nonobtuse,
+                separation: if options.mode() == Mode::Warp {
+                    Separation::Corner
+                } else {
+                    Separation::Block
+                },
             };
             mesh_points(points, &warp)
         }

@@ -7,11 +7,18 @@ use cli_support::{
     TempDir, bench_json, generate, json_number, quadmesh, read_triangle_files, s, stderr,
 };
 use quadmesh::mesh::AngleBounds;
-use quadmesh::warp::ANGLE_BOUNDS;
+use quadmesh::warp::{ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS};
 
+/// The block warp's bounds, which `--warp` keeps on a given domain.
 const WARP: AngleBounds = AngleBounds {
     min_deg: ANGLE_BOUNDS.0,
     max_deg: ANGLE_BOUNDS.1,
+};
+
+/// The compact warp's bounds, `--warp` on the square around the points.
+const COMPACT: AngleBounds = AngleBounds {
+    min_deg: COMPACT_ANGLE_BOUNDS.0,
+    max_deg: COMPACT_ANGLE_BOUNDS.1,
 };
 
 #[test]
@@ -23,9 +30,23 @@ fn mesh_files_read_back_as_a_valid_mesh() {
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(stderr(&out).contains("check                   passed"));
     let mesh = read_triangle_files(&prefix);
-    if let Err(fault) = mesh.validate(&points, WARP) {
+    if let Err(fault) = mesh.validate(&points, COMPACT) {
         panic!("mesh read back from files is invalid: {fault}");
     }
+    // The block warp keeps the narrower range, with about three times the triangles.
+    let block = dir.file("block");
+    let out = quadmesh(&["mesh", s(&input), "-o", s(&block), "--block-warp"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let block = read_triangle_files(&block);
+    if let Err(fault) = block.validate(&points, WARP) {
+        panic!("block-warped mesh read back from files is invalid: {fault}");
+    }
+    assert!(
+        block.triangles.len() > 2 * mesh.triangles.len(),
+        "{} block-warped triangles, {} compact",
+        block.triangles.len(),
+        mesh.triangles.len()
+    );
 }
 
 #[test]
@@ -160,8 +181,8 @@ fn bench_prints_one_json_object_last() {
         assert!(last.contains(key), "{key} missing from {last}");
     }
     let field = |key: &str| json_number(&last, key);
-    assert!(field("min_angle") >= ANGLE_BOUNDS.0 - 1e-9);
-    assert!(field("max_angle") <= ANGLE_BOUNDS.1 + 1e-9);
+    assert!(field("min_angle") >= COMPACT_ANGLE_BOUNDS.0 - 1e-9);
+    assert!(field("max_angle") <= COMPACT_ANGLE_BOUNDS.1 + 1e-9);
     assert!(field("triangles") > 3000.0);
 }
 

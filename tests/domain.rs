@@ -8,7 +8,7 @@ use common::{
     FAMILIES, check_warped, distinct_count, mixed_point_sets, on_threads, refused_beyond_f64,
 };
 use proptest::prelude::*;
-use quadmesh::balance::{DomainSides, check_separated_in, separate_in};
+use quadmesh::balance::{DomainSides, Separation, check_separated_in, separate_in};
 use quadmesh::framework::build_framework;
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::mesh::{BoundarySide, Domain, Reflection};
@@ -207,7 +207,8 @@ fn uniform_band_shape(points: &[DVec2], domain: Domain) -> BandShape {
     };
     let quadtree = expand(&build_framework(&m.keys), &m.keys);
     let sides = DomainSides::of(points, &m.order, &m.grid);
-    let (tree, band) = separate_in(&quadtree, &m.keys, sides.as_ref(), 60).unwrap();
+    let (tree, band) =
+        separate_in(&quadtree, &m.keys, sides.as_ref(), 60, Separation::Block).unwrap();
     tree.check(&m.keys).unwrap();
     check_separated_in(&tree.tree, &m.keys, sides.as_ref(), band).unwrap();
     let (band, top) = (band.unwrap(), m.grid.inner_top().unwrap());

@@ -5,8 +5,10 @@ mod common;
 use common::{FAMILIES, on_threads, with_keys};
 
 use quadmesh::DVec2;
-use quadmesh::balance::reference::separated_closure;
-use quadmesh::balance::{check_separated, separate};
+use quadmesh::balance::reference::{corner_separated_closure, separated_closure};
+use quadmesh::balance::{
+    Separation, check_corner_separated, check_separated, separate, separate_with,
+};
 use quadmesh::framework::build_framework;
 use quadmesh::generate::{Distribution2d, points};
 use quadmesh::morton::MortonKey;
@@ -110,5 +112,91 @@ fn keys_closer_than_the_guard_levels_do_not_panic() {
             .leaves
             .iter()
             .all(|l| (l.cell.level as u32) <= u64::AXIS_BITS)
+    );
+}
+
+fn corner_separated_like_brute_force<K: MortonKey>(keys: &[K]) {
+    let tree = expand(&build_framework(keys), keys);
+    let separated = separate_with(&tree, keys, Separation::Corner);
+    separated.check(keys).unwrap();
+    check_corner_separated(&separated.tree, keys).unwrap();
+    let cells: Vec<Cell<K>> = separated.tree.internal.iter().map(|s| s.cell).collect();
+    assert_eq!(
+        cells,
+        corner_separated_closure(keys),
+        "differs from the brute-force fixed point"
+    );
+}
+
+#[test]
+fn corner_separation_matches_its_brute_force_fixed_point() {
+    for dist in FAMILIES {
+        for n in [1, 2, 3, 10, 120] {
+            with_keys!(
+                points(dist, n, n as u64 + 1),
+                corner_separated_like_brute_force
+            );
+        }
+    }
+    // Points on the middle lines of their squares, where the nearest corner is a tie.
+    let dyadic: Vec<DVec2> = (0..=6)
+        .flat_map(|i| (0..=6).map(move |j| DVec2::new(i as f64 / 6.0, j as f64 / 8.0)))
+        .collect();
+    with_keys!(dyadic, corner_separated_like_brute_force);
+    let close = [
+        DVec2::ZERO,
+        DVec2::ONE,
+        DVec2::new(0.5, 0.5),
+        DVec2::new(0.5 + 1e-7, 0.5),
+    ];
+    with_keys!(close, corner_separated_like_brute_force);
+    let row = (0..120u64).map(|i| ((1 << 30) + 3 * i * 4096 + 2048, (1 << 31) + 2048));
+    corner_separated_like_brute_force(&keys_of(row));
+}
+
+fn corner_separated_on_any_thread_count<K: MortonKey>(keys: &[K]) {
+    let tree = expand(&build_framework(keys), keys);
+    let one = on_threads(1, || separate_with(&tree, keys, Separation::Corner));
+    let two = on_threads(2, || separate_with(&tree, keys, Separation::Corner));
+    assert_eq!(one, two, "1 and 2 threads differ");
+    one.check(keys).unwrap();
+    check_corner_separated(&one.tree, keys).unwrap();
+    let block = separate(&tree, keys);
+    assert!(
+        one.tree.leaves.len() * 2 < block.tree.leaves.len(),
+        "{} leaves by corners, {} by blocks",
+        one.tree.leaves.len(),
+        block.tree.leaves.len()
+    );
+}
+
+#[test]
+fn larger_inputs_are_corner_separated_identically_on_one_and_two_threads() {
+    for dist in [
+        Distribution2d::Uniform,
+        Distribution2d::Cluster,
+        Distribution2d::Kuzmin,
+    ] {
+        with_keys!(
+            points(dist, 20_000, 9),
+            corner_separated_on_any_thread_count
+        );
+    }
+}
+
+fn balanced_is_not_corner_separated<K: MortonKey>(keys: &[K]) {
+    let tree = expand(&build_framework(keys), keys);
+    let balanced = quadmesh::balance::balance(&tree, keys);
+    assert!(
+        check_corner_separated(&balanced.tree, keys).is_err(),
+        "a merely balanced tree passed"
+    );
+}
+
+#[test]
+fn the_corner_checker_refuses_a_merely_balanced_tree() {
+    with_keys!(
+        points(Distribution2d::Uniform, 500, 3),
+        balanced_is_not_corner_separated
     );
 }

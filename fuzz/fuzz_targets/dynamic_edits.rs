@@ -20,7 +20,7 @@ use triangle_changes::{changed, triangle_set};
 fn rebuilt(dynamic: &DynamicMesh) -> Option<quadmesh::Mesh> {
     let (_, points) = dynamic.live_points();
     let options = Options::default()
-        .warp()
+        .block_warp()
         .region(Region::Rectangle(dynamic.domain()));
     quadmesh::mesh(&Input::points(points), &options)
         .ok()
@@ -72,7 +72,7 @@ fuzz_target!(|data: &[u8]| {
                 }
                 if let Some(mesh) = mesh {
                     let (_, points) = dynamic.live_points();
-                    mesh.validate(&points, Options::default().warp().angle_bounds())
+                    mesh.validate(&points, Options::default().block_warp().angle_bounds())
                         .unwrap_or_else(|e| panic!("{edit:?}: {e}"));
                 }
             }

@@ -64,7 +64,11 @@ fuzz_target!(|data: &[u8]| {
             .min_angle(f64::from((choice >> 1) % 34))
             .max_vertices(20_000)
     } else if choice & 0x80 == 0 {
-        Options::default().warp()
+        if choice & 0x20 == 0 {
+            Options::default().warp()
+        } else {
+            Options::default().block_warp()
+        }
     } else {
         Options::default().nonobtuse()
     };

@@ -323,10 +323,11 @@ fn _mesh<'py>(
     let mode = match mode {
         "delaunay" => Mode::Delaunay,
         "warp" => Mode::Warp,
+        "block_warp" => Mode::BlockWarp,
         "nonobtuse" => Mode::Nonobtuse,
         other => {
             return Err(QuadmeshError::new_err(format!(
-                "mode must be \"delaunay\", \"warp\" or \"nonobtuse\", not {other:?}"
+                "mode must be \"delaunay\", \"warp\", \"block_warp\" or \"nonobtuse\", not {other:?}"
             )));
         }
     };

@@ -25,7 +25,7 @@ use super::separate::{
     walk,
 };
 use super::split_set::{SplitSet, Squares, at_position, grid_position, last_position};
-use super::{BalancedTree, forced_by, linked_tree, separate_in};
+use super::{BalancedTree, Separation, forced_by, linked_tree, separate_in};
 use crate::framework::build_framework;
 use crate::morton::{Cell, MortonKey, Side};
 use crate::quadtree::expand;
@@ -63,7 +63,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
         let mut levels = Vec::new();
         if !keys.is_empty() {
             let quadtree = expand(&build_framework(&keys), &keys);
-            let (tree, _) = separate_in(&quadtree, &keys, Some(&sides), u8::MAX)
+            let (tree, _) = separate_in(&quadtree, &keys, Some(&sides), u8::MAX, Separation::Block)
                 .expect("no band without a side inside the root");
             levels = tree
                 .point_leaf
@@ -687,7 +687,7 @@ mod tests {
         };
         let quadtree = expand(&build_framework(keys), keys);
         Some(
-            separate_in(&quadtree, keys, Some(&sides), u8::MAX)
+            separate_in(&quadtree, keys, Some(&sides), u8::MAX, Separation::Block)
                 .unwrap()
                 .0,
         )

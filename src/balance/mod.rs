@@ -18,8 +18,9 @@ pub use incremental::{GridRect, SeparatedPoints};
 use links::cross_links_by;
 pub use links::{Links, across, cross_links, point_leaves};
 pub use separate::{
-    Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, block, check_separated,
-    check_separated_in, coarsest_band_level, separate, separate_in, sides_of,
+    Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, Separation, block,
+    check_corner_separated, check_separated, check_separated_in, coarsest_band_level,
+    nearest_corner, separate, separate_in, separate_with, sides_of,
 };
 
 use crate::framework::NONE;

@@ -104,3 +104,56 @@ fn crowded<K: MortonKey>(split: &HashSet<Cell<K>>, keys: &[K], i: usize, leaf: C
     }
     false
 }
+
+/// The split squares of the [`super::Separation::Corner`] tree by brute force, in preorder:
+/// quadratic in the points, for tests on small inputs. A point's leaf is split while its
+/// corner block sticks out of the root, holds a split square, or shares a square with another
+/// point's corner block at that level (the other point's nearest corner at most a square
+/// away); every square holding a point has the parents of its corner block split.
+pub fn corner_separated_closure<K: MortonKey>(keys: &[K]) -> Vec<Cell<K>> {
+    use super::separate::nearest_corner;
+    let unbalanced = crate::quadtree::reference::build_reference(keys);
+    let mut split: Vec<Cell<K>> = unbalanced.internal.iter().map(|s| s.cell).collect();
+    let block = |cell: Cell<K>, key: K| -> Option<Vec<Cell<K>>> {
+        let (cx, cy) = nearest_corner(cell, key);
+        let (x, y) = super::split_set::grid_position(cell);
+        let (dx, dy) = (cx as i64 - x as i64, cy as i64 - y as i64);
+        [(-1, -1), (0, -1), (-1, 0), (0, 0)]
+            .into_iter()
+            .map(|(ox, oy)| cell.offset(dx + ox, dy + oy))
+            .collect()
+    };
+    loop {
+        split = ripple_closure(&split);
+        let set: HashSet<Cell<K>> = split.iter().copied().collect();
+        let mut demanded: Vec<Cell<K>> = Vec::new();
+        for (i, &key) in keys.iter().enumerate() {
+            let leaf = leaf_of(&set, key);
+            let corner = nearest_corner(leaf, key);
+            let shares = keys.iter().enumerate().any(|(j, &other)| {
+                let (ox, oy) = nearest_corner(Cell::containing(other, leaf.level), other);
+                j != i && ox.abs_diff(corner.0) <= 1 && oy.abs_diff(corner.1) <= 1
+            });
+            let crowded = match block(leaf, key) {
+                None => true,
+                Some(squares) => shares || squares.iter().any(|s| set.contains(s)),
+            };
+            if crowded && (leaf.level as u32) < K::AXIS_BITS {
+                demanded.push(leaf);
+            }
+        }
+        for &p in &split {
+            for &key in keys.iter().filter(|&&k| p.contains(k)) {
+                let child = Cell::containing(key, p.level + 1);
+                if let Some(squares) = block(child, key) {
+                    demanded.extend(squares.iter().map(|s| s.parent()));
+                }
+            }
+        }
+        demanded.retain(|c| !set.contains(c));
+        if demanded.is_empty() {
+            return split;
+        }
+        split.extend(demanded);
+    }
+}

@@ -40,6 +40,20 @@ use crate::par::collect_indexed;
 use crate::quadtree::Quadtree;
 use glam::DVec2;
 
+/// What a point's leaf keeps clear around it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Separation {
+    /// The 5×5 block of same-size leaves centred on the point's leaf holds no other point
+    /// (rules R1–R3): the tree of the block warp and of the nonobtuse split.
+    #[default]
+    Block,
+    /// The 2×2 block of same-size leaves around the leaf's corner nearest the point (the
+    /// corner the warp moves, see [`nearest_corner`]) holds no other point, and no other
+    /// point's block shares a leaf with it: the compact warp's tree, about a third the size.
+    /// Only on the root square (no [`DomainSides`]).
+    Corner,
+}
+
 /// The well-separated refinement of `tree`, with links and point location.
 ///
 /// Points must be at least a few finest-grid cells apart for their blocks to be separable; the
@@ -53,7 +67,17 @@ use glam::DVec2;
 /// rounds; a chain of points placed so that each split forces the next one takes a round per
 /// point, each as cheap as the splits it adds.
 pub fn separate<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> BalancedTree<K> {
-    let (separated, _) = separate_in(tree, keys, None, u8::MAX).expect("no band without a domain");
+    separate_with(tree, keys, Separation::Block)
+}
+
+/// [`separate`] by the given rule, on the root square.
+pub fn separate_with<K: MortonKey>(
+    tree: &Quadtree<K>,
+    keys: &[K],
+    separation: Separation,
+) -> BalancedTree<K> {
+    let (separated, _) =
+        separate_in(tree, keys, None, u8::MAX, separation).expect("no band without a domain");
     separated
 }
 
@@ -70,8 +94,13 @@ pub fn separate_in<K: MortonKey>(
     keys: &[K],
     sides: Option<&DomainSides>,
     max_band_level: u8,
+    separation: Separation,
 ) -> Result<(BalancedTree<K>, Option<Band>), BandError> {
-    let rules = Rules::new(sides);
+    assert!(
+        separation == Separation::Block || sides.is_none(),
+        "corner separation is on the root square only"
+    );
+    let rules = Rules::new(sides).separating(separation);
     let mut set = SplitSet::new();
     set.insert_closed(tree.internal.iter().map(|s| Squares::one(s.cell)));
     let graded = sides.and_then(|s| s.graded_top).zip(rules.top);
@@ -88,7 +117,10 @@ pub fn separate_in<K: MortonKey>(
                 .map(|chunk| {
                     let mut out = Vec::new();
                     for &m in chunk {
-                        demands_of(&set, keys, m, &mut out);
+                        match rules.separation {
+                            Separation::Block => demands_of(&set, keys, m, &mut out),
+                            Separation::Corner => corner_demands_of(&set, keys, m, &mut out),
+                        }
                     }
                     out
                 })
@@ -433,19 +465,32 @@ pub(super) struct Rules<'a> {
     sides: Option<&'a DomainSides>,
     top: Option<InnerTop>,
     right: Option<u128>,
+    separation: Separation,
 }
 
 impl<'a> Rules<'a> {
     pub(super) fn new(sides: Option<&'a DomainSides>) -> Self {
         let top = sides.and_then(|s| s.inner_top).map(InnerTop::new);
         let right = sides.and_then(|s| s.inner_right);
-        Rules { sides, top, right }
+        Rules {
+            sides,
+            top,
+            right,
+            separation: Separation::Block,
+        }
+    }
+
+    fn separating(self, separation: Separation) -> Self {
+        Rules { separation, ..self }
     }
 
     /// The squares of point `i`'s 5×5 block around `cell` that the rules look at: all of them,
     /// less those beyond a domain side the point lies on; `None` when the block crosses the
     /// root's side or the domain's top side elsewhere (the point's square must then be split).
-    fn window<K: MortonKey>(&self, i: usize, cell: Cell<K>) -> Option<Rect> {
+    fn window<K: MortonKey>(&self, i: usize, cell: Cell<K>, key: K) -> Option<Rect> {
+        if self.separation == Separation::Corner {
+            return corner_block(cell, key);
+        }
         let (x, y) = grid_position(cell);
         let last = last_position(cell.level);
         let on = self.sides.map_or(0, |s| s.on[i]);
@@ -559,9 +604,7 @@ pub(super) fn descend<K: MortonKey>(
 ) -> u8 {
     let mut level = from;
     // Squares below an unsplit one are unsplit, so the path need not be walked again.
-    while (level as u32) < K::AXIS_BITS
-        && crowded_by_splits(set, rules, i, Cell::containing(keys[i], level))
-    {
+    while (level as u32) < K::AXIS_BITS && crowded_by_splits(set, rules, i, keys[i], level) {
         level += 1;
     }
     level
@@ -576,16 +619,17 @@ pub(super) fn walk<K: MortonKey>(set: &SplitSet<K>, key: K, from: u8) -> u8 {
     level
 }
 
-/// Whether point `i`'s 5×5 block around `cell` sticks out where it may not or holds a split
-/// square.
+/// Whether point `i`'s block at `level` sticks out where it may not or holds a split square.
 fn crowded_by_splits<K: MortonKey>(
     set: &SplitSet<K>,
     rules: &Rules,
     i: usize,
-    cell: Cell<K>,
+    key: K,
+    level: u8,
 ) -> bool {
+    let cell = Cell::containing(key, level);
     rules
-        .window(i, cell)
+        .window(i, cell, key)
         .is_none_or(|window| set.any_in(cell.level, window))
 }
 
@@ -606,6 +650,111 @@ pub(super) fn demands_of<K: MortonKey>(
             set.missing_near(square, u64::from(first), out);
         }
     }
+}
+
+/// Appends the squares a move demands under [`Separation::Corner`] that are not split yet: the
+/// path it passed, and for each square of it the parents of its child's corner block, so that
+/// the block's squares exist wherever the point's square does.
+fn corner_demands_of<K: MortonKey>(
+    set: &SplitSet<K>,
+    keys: &[K],
+    m: Move,
+    out: &mut Vec<Squares<K>>,
+) {
+    let key = keys[m.point as usize];
+    for level in m.from..m.to {
+        let mut want = |cell: Cell<K>| {
+            if !set.contains(cell) {
+                out.push(Squares::one(cell));
+            }
+        };
+        want(Cell::containing(key, level));
+        let Some(block) = corner_block(Cell::containing(key, level + 1), key) else {
+            continue;
+        };
+        for x in block.columns.0 >> 1..=block.columns.1 >> 1 {
+            for y in block.rows.0 >> 1..=block.rows.1 >> 1 {
+                want(at_position(x, y, level));
+            }
+        }
+    }
+}
+
+/// The grid corner of `cell` nearest to `key`, as a column and row of the corners of its
+/// level: the nearer end of each axis by the half of the square the key lies in (a key on the
+/// middle line takes the upper end). The warp moves this corner onto the point.
+pub fn nearest_corner<K: MortonKey>(cell: Cell<K>, key: K) -> (u64, u64) {
+    let (x, y) = grid_position(cell);
+    if cell.level as u32 >= K::AXIS_BITS {
+        return (x, y);
+    }
+    let (hx, hy) = grid_position(Cell::containing(key, cell.level + 1));
+    (x + (hx & 1), y + (hy & 1))
+}
+
+/// The 2×2 squares of `cell`'s level around its corner nearest to `key`, or `None` when they
+/// stick out of the root.
+fn corner_block<K: MortonKey>(cell: Cell<K>, key: K) -> Option<Rect> {
+    let (cx, cy) = nearest_corner(cell, key);
+    let last = last_position(cell.level);
+    let inside = |c: u64| c >= 1 && c <= last;
+    (inside(cx) && inside(cy)).then_some(Rect {
+        columns: (cx - 1, cx),
+        rows: (cy - 1, cy),
+    })
+}
+
+/// Whether another point crowds point `i` at `level` under [`Separation::Corner`]: lies in
+/// its corner block, or has its own nearest corner at most one square from `i`'s, so that the
+/// blocks would share a square. Those are exactly the points in the 6×6 squares of the next
+/// level centred on the corner, looked up as [`crowded_by_points`] does.
+fn crowded_around_corner<K: MortonKey>(keys: &[K], i: usize, level: u8) -> bool {
+    let (cx, cy) = nearest_corner(Cell::containing(keys[i], level), keys[i]);
+    let finer = level + 1;
+    let last = last_position(finer);
+    let span = |c: u64| ((2 * c).saturating_sub(3), (2 * c + 2).min(last));
+    let near = Rect {
+        columns: span(cx),
+        rows: span(cy),
+    };
+    let inside = |c: Cell<K>| {
+        let (x, y) = grid_position(c);
+        (near.columns.0..=near.columns.1).contains(&x) && (near.rows.0..=near.rows.1).contains(&y)
+    };
+    let coarse_level = finer.saturating_sub(2);
+    let shift = finer - coarse_level;
+    for gx in near.columns.0 >> shift..=near.columns.1 >> shift {
+        for gy in near.rows.0 >> shift..=near.rows.1 >> shift {
+            let coarse: Cell<K> = at_position(gx, gy, coarse_level);
+            let start = partition_from(keys, i, |k| *k < { coarse.anchor });
+            let end = partition_from(keys, start, |k| {
+                k.cell_anchor(coarse.level) <= { coarse.anchor }
+            });
+            let crowds = |j: usize| j != i && inside(Cell::containing(keys[j], finer));
+            let crowded = if end - start <= 32 {
+                (start..end).any(crowds)
+            } else {
+                // Many points close by: look up the squares instead.
+                rect_cells(near, finer)
+                    .filter(|c| coarse.contains(c.anchor))
+                    .any(|c| {
+                        let first = keys.partition_point(|k| *k < { c.anchor });
+                        let after = keys[first..].partition_point(|k| c.contains(*k)) + first;
+                        (first..after).any(|j| j != i)
+                    })
+            };
+            if crowded {
+                return true;
+            }
+        }
+    }
+    false
+}
+
+/// The squares of `rect` at `level`.
+fn rect_cells<K: MortonKey>(rect: Rect, level: u8) -> impl Iterator<Item = Cell<K>> {
+    (rect.columns.0..=rect.columns.1)
+        .flat_map(move |x| (rect.rows.0..=rect.rows.1).map(move |y| at_position(x, y, level)))
 }
 
 /// Each point's leaf level, and an index from tiles to the point leaves whose block meets them.
@@ -700,8 +849,11 @@ fn crowded_by_points<K: MortonKey>(rules: &Rules, keys: &[K], i: usize, level: u
     let cell = Cell::containing(keys[i], level);
     let centre = grid_position(cell);
     // No point lies beyond a side the window is cut at, so the whole block is searched.
-    if rules.window(i, cell).is_none() {
+    if rules.window(i, cell, keys[i]).is_none() {
         return true;
+    }
+    if rules.separation == Separation::Corner {
+        return crowded_around_corner(keys, i, level);
     }
     let crowds = |&k: &K| {
         let other = Cell::containing(k, level);
@@ -806,6 +958,40 @@ fn square_offsets(radius: i64) -> impl Iterator<Item = (i64, i64)> {
         .filter(|&d| d != (0, 0))
 }
 
+/// Checks [`Separation::Corner`] on a tree, with hash maps: every point leaf's corner block
+/// lies in the root and consists of leaves of its size holding no other point, and no leaf is
+/// in two points' blocks.
+pub fn check_corner_separated<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> Result<(), String> {
+    use std::collections::HashMap;
+    let leaf_point: HashMap<Cell<K>, u32> = tree.leaves.iter().map(|l| (l.cell, l.point)).collect();
+    let mut claimed: HashMap<Cell<K>, u32> = HashMap::new();
+    for leaf in tree.leaves.iter().filter(|l| l.point != NONE) {
+        let cell = leaf.cell;
+        let key = keys[leaf.point as usize];
+        let Some(block) = corner_block(cell, key) else {
+            return Err(format!("corner block of {cell:?} leaves the root"));
+        };
+        for square in rect_cells::<K>(block, cell.level) {
+            match leaf_point.get(&square) {
+                Some(&p) if p == NONE || square == cell => {}
+                Some(_) => return Err(format!("corner block of {cell:?} holds another point")),
+                None => {
+                    return Err(format!(
+                        "corner block of {cell:?} has {square:?}, not a leaf"
+                    ));
+                }
+            }
+            let point = leaf.point;
+            if let Some(other) = claimed.insert(square, point) {
+                return Err(format!(
+                    "{square:?} is in the corner blocks of points {other} and {point}"
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Checks the well-separation rules on a tree, with hash sets: every point leaf's 5×5 block
 /// lies in the root and consists of leaves of its size holding no other point, and every split
 /// square holding a point has its 8 neighbours split.
@@ -828,7 +1014,8 @@ pub fn check_separated_in<K: MortonKey>(
     let leaf_point: HashMap<Cell<K>, u32> = tree.leaves.iter().map(|l| (l.cell, l.point)).collect();
     for leaf in tree.leaves.iter().filter(|l| l.point != NONE) {
         let cell = leaf.cell;
-        let Some(window) = rules.window(leaf.point as usize, cell) else {
+        let point = leaf.point as usize;
+        let Some(window) = rules.window(point, cell, keys[point]) else {
             return Err(format!("block of {cell:?} leaves the domain"));
         };
         let (columns, rows) = (window.columns, window.rows);

@@ -198,15 +198,19 @@ enum Command {
 /// Which mesh: a quality Delaunay mesh (the default) or the warped quadtree mesh.
 #[derive(clap::Args, Clone)]
 struct QualityArgs {
-    /// The warped quadtree mesh instead: every angle in [22.5°, 112.5°], about 104 triangles
-    /// per point, on a rectangle (by default the points' bounding box centred in a square
-    /// twice its larger side).
+    /// The warped quadtree mesh instead: every angle in [26°, 120°], about 35 triangles per
+    /// point, on the points' bounding box centred in a square twice its larger side; on a
+    /// given `--domain` rectangle, the `--block-warp` mesh of it.
     #[arg(long, conflicts_with_all = ["min_angle", "max_area", "max_vertices"])]
     warp: bool,
+    /// The block warp instead: every angle in [22.5°, 112.5°], about 104 triangles per point,
+    /// on a rectangle as for `--warp`.
+    #[arg(long, conflicts_with_all = ["warp", "min_angle", "max_area", "max_vertices"])]
+    block_warp: bool,
     /// The quadtree mesh split into right triangles at the points instead: every angle at most
     /// 90° (none bounded below; a point near a grid line of its leaf makes thin triangles), on
     /// a rectangle as for `--warp`, with a few more triangles.
-    #[arg(long, conflicts_with_all = ["warp", "min_angle", "max_area", "max_vertices"])]
+    #[arg(long, conflicts_with_all = ["warp", "block_warp", "min_angle", "max_area", "max_vertices"])]
     nonobtuse: bool,
     /// Every angle at least A degrees (0 to 45) [default: 20, below the 20.7° up to which
     /// termination is proven]. Above 20.7° refinement usually finishes up to about 34° and
@@ -287,6 +291,9 @@ impl QualityArgs {
         if self.warp {
             options = options.warp();
         }
+        if self.block_warp {
+            options = options.block_warp();
+        }
         if self.nonobtuse {
             options = options.nonobtuse();
         }
@@ -347,7 +354,7 @@ fn cli_terms(e: &quadmesh::Error) -> String {
                 "min_angle" => "--min-angle",
                 "max_area" => "--max-area",
                 "region" | "domain" => "--domain",
-                "mode" => "--warp/--nonobtuse",
+                "mode" => "--warp/--block-warp/--nonobtuse",
                 other => other,
             };
             format!("{flag}: {message}")

@@ -404,7 +404,7 @@ impl<K: MortonKey> Keyed<K> {
         let (mesh, _) = if nonobtuse {
             split_leaves(&tree, &order, &self.grid, &places, &mut times)?
         } else {
-            warp(&tree, &order, &self.grid, &places, &mut times)?
+            warp(&tree, (&order, None), &self.grid, &places, &mut times)?
         };
         let mut triangles: Vec<TriangleBits> = mesh
             .triangles

@@ -819,7 +819,7 @@ impl<K: MortonKey> Keyed<K> {
         let meshed = if nonobtuse {
             split(&tree, &order, &self.grid, live_points, &mut times)
         } else {
-            warp(&tree, &order, &self.grid, live_points, &mut times)
+            warp(&tree, (&order, None), &self.grid, live_points, &mut times)
         };
         meshed.map(|(mesh, _)| mesh)
     }

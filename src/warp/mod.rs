@@ -20,6 +20,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::balance::BalancedTree;
+use crate::balance::nearest_corner;
 use crate::error::Error;
 use crate::mesh::{
     AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, StageTimes, angles_deg,
@@ -27,14 +28,24 @@ use crate::mesh::{
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
 use crate::par::{GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, exclusive_scan_u32_by};
 use crate::predicates::{Orientation, orientation};
-use templates::{Across, Kind, Part, RingSide, template};
+use templates::{
+    Across, CENTRE, Kind, Part, RingSide, WARPED_CANDIDATES, template, uses_centre, warped_centre,
+};
 use vertices::{LeafGeometry, Numbering};
 
-/// The angles every warped mesh keeps, in degrees: the max-min rule's proven range.
+/// The angles every block-warped mesh keeps, in degrees: the max-min rule's proven range.
 pub const ANGLE_BOUNDS: (f64, f64) = (22.5, 112.5);
 
-/// The mesh of a well-separated tree (see [`crate::balance::separate`]) of the points `points`
-/// (input order), with `order[i]` the input index of the `i`-th point in Morton order.
+/// The angles every compact-warped mesh keeps, in degrees. The sweep proves [26.5°, 118.1°]
+/// for a point within half a leaf of its corner; the bounds leave room for a point a key's
+/// rounding puts a hair past that.
+pub const COMPACT_ANGLE_BOUNDS: (f64, f64) = (26.0, 120.0);
+
+/// The mesh of a separated tree of the points `points` (input order), with `order[i]` the
+/// input index of the `i`-th point in Morton order: the block warp of a
+/// [`crate::balance::Separation::Block`] tree (`keys` `None`; every angle in [`ANGLE_BOUNDS`]),
+/// or the compact warp of a [`crate::balance::Separation::Corner`] tree of the points' Morton
+/// keys `keys` (every angle in [`COMPACT_ANGLE_BOUNDS`]).
 ///
 /// # Errors
 /// [`Error::TooLarge`] past 32-bit indices; [`Error::Unresolvable`] when a point's leaf is finer
@@ -42,35 +53,60 @@ pub const ANGLE_BOUNDS: (f64, f64) = (22.5, 112.5);
 /// vertices near a point apart.
 pub fn warp<K: MortonKey>(
     tree: &BalancedTree<K>,
-    order: &[u32],
+    (order, keys): (&[u32], Option<&[K]>),
     grid: &Grid,
     points: &[DVec2],
     times: &mut StageTimes,
 ) -> Result<(Mesh, AngleQuality), Error> {
     let geometry = resolved_geometry(tree, order, grid, points)?;
-    let (numbering, vertices, vertex_input, moves) = times.time("warp vertices", || {
-        let numbering = Numbering::new(&geometry)?;
-        let (mut vertices, mut vertex_input) = numbering.vertices(&geometry);
-        let moves = move_corners(
-            &geometry,
-            &numbering,
-            order,
-            points,
-            &mut vertices,
-            &mut vertex_input,
-        );
-        Ok::<_, Error>((numbering, vertices, vertex_input, moves))
-    })?;
+    let bounds = if keys.is_some() {
+        COMPACT_ANGLE_BOUNDS
+    } else {
+        ANGLE_BOUNDS
+    };
+    let (numbering, vertices, vertex_input, moves, compact) =
+        times.time("warp vertices", || {
+            let moves = corner_moves(&geometry, order, points, keys);
+            let compact = match keys {
+                Some(_) => Some(compact_templates(&geometry, &moves, order, points)?),
+                None => None,
+            };
+            let centred = |leaf: usize| {
+                compact
+                    .as_ref()
+                    .is_some_and(|(kinds, _)| kinds[leaf] != 0 && uses_centre(kinds[leaf] & !MOVED))
+            };
+            let numbering = Numbering::new(&geometry, centred)?;
+            let (mut vertices, mut vertex_input) = numbering.vertices(&geometry);
+            place_moved(
+                (&geometry, &numbering),
+                (order, points),
+                &moves,
+                compact.as_ref().map(|(kinds, _)| &kinds[..]),
+                (&mut vertices, &mut vertex_input),
+            );
+            Ok::<_, Error>((numbering, vertices, vertex_input, moves, compact))
+        })?;
     let labels = |leaf: usize| numbering.labels(&geometry, leaf);
     let (kinds, moved_quality, offsets) = times.time("warp templates", || {
         let mut kinds = unmoved_templates(&geometry, order, points)?;
-        let moved_quality = warped_templates(
-            &geometry,
-            &labels,
-            &moves,
-            (&vertices, &vertex_input),
-            &mut kinds,
-        )?;
+        let moved_quality = match compact {
+            Some((warped, quality)) => {
+                kinds
+                    .par_iter_mut()
+                    .zip(warped)
+                    .filter(|(_, w)| *w != 0)
+                    .for_each(|(k, w)| *k = w);
+                quality
+            }
+            None => warped_templates(
+                &geometry,
+                &labels,
+                &moves,
+                (&vertices, &vertex_input),
+                &mut kinds,
+            )?,
+        };
         let offsets = triangle_offsets(&kinds)?;
         Ok::<_, Error>((kinds, moved_quality, offsets))
     })?;
@@ -98,10 +134,10 @@ pub fn warp<K: MortonKey>(
                 .merge(measured),
         )
     });
-    if !(quality.min >= ANGLE_BOUNDS.0 - ROUNDING_SLACK_DEG
-        && quality.max <= ANGLE_BOUNDS.1 + ROUNDING_SLACK_DEG)
+    if !(quality.min >= bounds.0 - ROUNDING_SLACK_DEG
+        && quality.max <= bounds.1 + ROUNDING_SLACK_DEG)
     {
-        let bent = bent_leaf(&geometry, &offsets, (&triangles, &vertices));
+        let bent = bent_leaf(&geometry, &offsets, (&triangles, &vertices), bounds);
         return Err(point_near(&geometry, bent, order, points));
     }
     let mesh = leaf_mesh(
@@ -281,40 +317,199 @@ struct Move {
     corner: u8,
 }
 
-/// Moves, for every point, the corner of its leaf nearest to it onto it (ties to the smallest
-/// `(y, x)`), keeping its exact coordinates. No corner is claimed twice in a separated tree.
-fn move_corners<K: MortonKey>(
+/// For every point, the corner of its leaf that moves onto it: the nearest one (ties to the
+/// smallest `(y, x)`) for the block warp; for the compact warp, the one the tree was separated
+/// by, from the point's key ([`nearest_corner`]), which f64 may place a hair farther.
+fn corner_moves<K: MortonKey>(
     geometry: &LeafGeometry<K>,
-    numbering: &Numbering,
     order: &[u32],
     points: &[DVec2],
-    vertices: &mut [DVec2],
-    vertex_input: &mut [u32],
+    keys: Option<&[K]>,
 ) -> Vec<Move> {
-    let moves: Vec<(Move, u32, u32)> = (0..order.len())
+    (0..order.len())
         .into_par_iter()
         .map(|p| {
             let leaf = geometry.point_leaf[p];
-            let input = order[p];
-            let x = points[input as usize];
-            let (lo, hi) = geometry.rect(leaf as usize);
-            let right = x.x - lo.x > hi.x - x.x;
-            let top = x.y - lo.y > hi.y - x.y;
+            let (right, top) = match keys {
+                Some(keys) => {
+                    let cell = geometry.cell(leaf as usize);
+                    let (cx, cy) = nearest_corner(cell, keys[p]);
+                    let (x, y) = cell.anchor.decode();
+                    let shift = K::AXIS_BITS - cell.level as u32;
+                    let column = |v: u64| v.checked_shr(shift).unwrap_or(0);
+                    (cx != column(x), cy != column(y))
+                }
+                None => {
+                    let x = points[order[p] as usize];
+                    let (lo, hi) = geometry.rect(leaf as usize);
+                    (x.x - lo.x > hi.x - x.x, x.y - lo.y > hi.y - x.y)
+                }
+            };
             let corner = match (right, top) {
                 (false, false) => 0,
                 (true, false) => 2,
                 (true, true) => 4,
                 (false, true) => 6,
             };
-            let vertex = numbering.labels(geometry, leaf as usize)[corner as usize];
-            (Move { leaf, corner }, vertex, input)
+            Move { leaf, corner }
         })
-        .collect();
-    for &(_, vertex, input) in &moves {
+        .collect()
+}
+
+/// Puts every moved corner's vertex on its point, with the exact coordinates, and each compact
+/// warped leaf's centre (if its template uses one) where [`warped_centre`] says.
+fn place_moved<K: MortonKey>(
+    (geometry, numbering): (&LeafGeometry<K>, &Numbering),
+    (order, points): (&[u32], &[DVec2]),
+    moves: &[Move],
+    compact: Option<&[u8]>,
+    (vertices, vertex_input): (&mut [DVec2], &mut [u32]),
+) {
+    for (p, m) in moves.iter().enumerate() {
+        let input = order[p];
+        let vertex = numbering.labels(geometry, m.leaf as usize)[m.corner as usize];
         vertices[vertex as usize] = points[input as usize];
         vertex_input[vertex as usize] = input;
     }
-    moves.into_iter().map(|(m, _, _)| m).collect()
+    let Some(kinds) = compact else {
+        return;
+    };
+    for (p, &m) in moves.iter().enumerate() {
+        let x = points[order[p] as usize];
+        for (leaf, corner) in block_around(geometry, m).into_iter().flatten() {
+            if leaf == NONE || !uses_centre(kinds[leaf as usize] & !MOVED) {
+                continue;
+            }
+            let centre = numbering.labels(geometry, leaf as usize)[CENTRE as usize];
+            vertices[centre as usize] =
+                warped_centre(&geometry.ring_positions(leaf as usize), corner, x);
+        }
+    }
+}
+
+/// The compact warp's template of every leaf around a moved corner (`0` elsewhere), chosen by
+/// [`choose_warped`], with the angles of their triangles.
+///
+/// # Errors
+/// [`Error::Unresolvable`] naming the point when a leaf around it has a midpoint on a side at
+/// the moved corner (the tree is not corner-separated) or no candidate f64 can orient.
+fn compact_templates<K: MortonKey>(
+    geometry: &LeafGeometry<K>,
+    moves: &[Move],
+    order: &[u32],
+    points: &[DVec2],
+) -> Result<(Vec<u8>, AngleQuality), Error> {
+    let block = |p: usize, quality: &mut AngleQuality| -> Option<WarpedBlock> {
+        let m = moves[p];
+        let x = points[order[p] as usize];
+        let mut out = [(NONE, 0); 4];
+        for (slot, (leaf, corner)) in out.iter_mut().zip(block_around(geometry, m)?) {
+            if leaf == NONE {
+                continue;
+            }
+            let ring = geometry.ring_positions(leaf as usize);
+            let mask = geometry.midpoint_mask(leaf as usize);
+            let (kind, angles) = choose_warped(&ring, mask, corner, x)?;
+            *slot = (leaf, kind.code() | MOVED);
+            *quality = quality.merge(angles);
+        }
+        Some(out)
+    };
+    let parts: Vec<(Vec<Option<WarpedBlock>>, AngleQuality)> = (0..moves.len())
+        .into_par_iter()
+        .chunks(GRAIN)
+        .map(|chunk| {
+            let mut quality = AngleQuality::empty();
+            let blocks = chunk.into_iter().map(|p| block(p, &mut quality)).collect();
+            (blocks, quality)
+        })
+        .collect();
+    let blocks = || parts.iter().flat_map(|(blocks, _)| blocks);
+    if let Some(bad) = blocks().position(|b| b.is_none()) {
+        let input = order[bad];
+        return Err(unresolvable(points[input as usize], input));
+    }
+    let mut kinds = vec![0u8; geometry.leaves()];
+    for &(leaf, kind) in blocks().flatten().flatten().filter(|(l, _)| *l != NONE) {
+        kinds[leaf as usize] = kind;
+    }
+    let quality = parts.iter().map(|(_, q)| *q);
+    Ok((
+        kinds,
+        quality.fold(AngleQuality::empty(), AngleQuality::merge),
+    ))
+}
+
+/// Candidates whose smallest angle reaches this are equally good; the smaller largest angle
+/// decides between them (the sweep's rule, which keeps the largest at 118.1°).
+const WARPED_MIN_TARGET_DEG: f64 = 26.5;
+/// No candidate with a larger angle is taken.
+const WARPED_MAX_CAP_DEG: f64 = 120.0;
+/// Angles this close count as equal, so that choices do not hang on f64 noise.
+const WARPED_TIE_DEG: f64 = 1e-9;
+
+/// The compact warp's template of a leaf whose ring (labels 0–7, as placed on the grid) has
+/// split sides `mask` and corner `moved` on point `x`, with its angles: of
+/// [`WARPED_CANDIDATES`] turned to the corner, those whose triangles f64 orients
+/// counter-clockwise and whose largest angle is at most 120°, the one whose smallest angle is
+/// largest up to 26.5°, then whose largest angle is smallest, then the first. `None` when a
+/// split side meets the moved corner or no candidate qualifies.
+pub(crate) fn choose_warped(
+    ring: &[DVec2; 8],
+    mask: u8,
+    moved: u8,
+    x: DVec2,
+) -> Option<(Kind, AngleQuality)> {
+    let turn = moved / 2;
+    let side_bit = |frame_side: u8| 1u8 << ((frame_side + turn) % 4);
+    if mask & (side_bit(0) | side_bit(3)) != 0 {
+        return None;
+    }
+    let far = u8::from(mask & side_bit(1) != 0) | u8::from(mask & side_bit(2) != 0) << 1;
+    let centre = warped_centre(ring, moved, x);
+    let at = |label: u8| match label {
+        CENTRE => centre,
+        l if l == moved => x,
+        l => ring[l as usize],
+    };
+    let mut best: Option<(Kind, AngleQuality)> = None;
+    for choice in 0..WARPED_CANDIDATES[far as usize].len() as u8 {
+        let kind = Kind::Warped { turn, far, choice };
+        let Some(quality) = oriented_angles(kind, at) else {
+            continue;
+        };
+        if quality.max > WARPED_MAX_CAP_DEG {
+            continue;
+        }
+        let better = best.is_none_or(|(_, b)| {
+            let (score, best_score) = (
+                quality.min.min(WARPED_MIN_TARGET_DEG),
+                b.min.min(WARPED_MIN_TARGET_DEG),
+            );
+            score > best_score + WARPED_TIE_DEG
+                || (score >= best_score - WARPED_TIE_DEG && quality.max < b.max - WARPED_TIE_DEG)
+        });
+        if better {
+            best = Some((kind, quality));
+        }
+    }
+    best
+}
+
+/// The angles of template `kind` with vertices `at(label)`, or `None` if f64 does not orient
+/// every triangle counter-clockwise.
+fn oriented_angles(kind: Kind, at: impl Fn(u8) -> DVec2) -> Option<AngleQuality> {
+    let mut quality = AngleQuality::empty();
+    for tri in &template(kind.code()).triangles {
+        let [a, b, c] = tri.map(&at);
+        if orientation(a, b, c) != Orientation::Left {
+            return None;
+        }
+        angles_deg(a, b, c)
+            .into_iter()
+            .for_each(|angle| quality.add(angle, 1));
+    }
+    Some(quality)
 }
 
 /// Marks, in a leaf's template code, that one of its corners moved onto a point.
@@ -354,11 +549,9 @@ fn bent_leaf<K: MortonKey>(
     geometry: &LeafGeometry<K>,
     offsets: &[u32],
     (triangles, vertices): (&[[u32; 3]], &[DVec2]),
+    bounds: (f64, f64),
 ) -> usize {
-    let (lo, hi) = (
-        ANGLE_BOUNDS.0 - ROUNDING_SLACK_DEG,
-        ANGLE_BOUNDS.1 + ROUNDING_SLACK_DEG,
-    );
+    let (lo, hi) = (bounds.0 - ROUNDING_SLACK_DEG, bounds.1 + ROUNDING_SLACK_DEG);
     (0..geometry.leaves())
         .into_par_iter()
         .position_first(|leaf| {
@@ -628,6 +821,79 @@ fn boundary_edges<K: MortonKey>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The unit square's ring: corners and side midpoints, labels 0–7.
+    fn unit_ring() -> [DVec2; 8] {
+        [
+            (0.0, 0.0),
+            (0.5, 0.0),
+            (1.0, 0.0),
+            (1.0, 0.5),
+            (1.0, 1.0),
+            (0.5, 1.0),
+            (0.0, 1.0),
+            (0.0, 0.5),
+        ]
+        .map(|(x, y)| DVec2::new(x, y))
+    }
+
+    /// The smallest and largest angle [`choose_warped`] gives over every offset of the point
+    /// from the moved corner on a `steps`×`steps` grid spanning `reach` each way (boundary lines
+    /// included), for every corner and every set of midpoints on the sides away from it.
+    fn sweep(steps: u32, reach: f64) -> (f64, f64) {
+        let ring = unit_ring();
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for moved in [0u8, 2, 4, 6] {
+            let turn = moved / 2;
+            let far = [1u8 << ((turn + 1) % 4), 1 << ((turn + 2) % 4)];
+            for mask in [0, far[0], far[1], far[0] | far[1]] {
+                for i in 0..=steps {
+                    for j in 0..=steps {
+                        let step = |k: u32| reach * (2.0 * k as f64 / steps as f64 - 1.0);
+                        let x = ring[moved as usize] + DVec2::new(step(i), step(j));
+                        let (_, q) = choose_warped(&ring, mask, moved, x)
+                            .unwrap_or_else(|| panic!("corner {moved}, mask {mask}, at {x}"));
+                        lo = lo.min(q.min);
+                        hi = hi.max(q.max);
+                    }
+                }
+            }
+        }
+        (lo, hi)
+    }
+
+    #[test]
+    fn the_sweep_bounds_every_warped_leaf() {
+        // Every leaf around a moved corner, whatever its far midpoints, with the point anywhere
+        // within half a leaf of the corner (the nearest corner's range): [26.5°, 118.1°], and
+        // the sweep does reach both ends.
+        let (lo, hi) = sweep(240, 0.5);
+        assert!(lo >= WARPED_MIN_TARGET_DEG - 1e-9, "smallest angle {lo}");
+        assert!(hi <= 118.1, "largest angle {hi}");
+        assert!(
+            lo < WARPED_MIN_TARGET_DEG + 0.1 && hi > 118.0,
+            "[{lo}, {hi}]"
+        );
+        // A key's rounding may put the point a hair past half a leaf: the mode's bounds hold
+        // well beyond that.
+        let (lo, hi) = sweep(60, 0.5 + 1.0 / 1024.0);
+        assert!(
+            lo >= COMPACT_ANGLE_BOUNDS.0 && hi <= COMPACT_ANGLE_BOUNDS.1,
+            "[{lo}, {hi}]"
+        );
+    }
+
+    #[test]
+    fn a_midpoint_at_the_moved_corner_is_refused() {
+        let ring = unit_ring();
+        for moved in [0u8, 2, 4, 6] {
+            let turn = moved / 2;
+            for near in [turn, (turn + 3) % 4] {
+                let x = ring[moved as usize] + DVec2::splat(0.1);
+                assert!(choose_warped(&ring, 1 << near, moved, x).is_none());
+            }
+        }
+    }
 
     /// The smallest and largest angle of the 2×2 block around a corner at the origin moved to
     /// `x`, each of the four unit leaves split by the max-min rule.

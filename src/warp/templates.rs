@@ -61,6 +61,72 @@ pub enum Kind {
     OneMidpoint(RingSide),
     /// Two or more midpoints (bit `s` for ring side `s`): a star from the centre.
     Star(u8),
+    /// A leaf of the compact warp whose corner `2 * turn` moved: candidate `choice` of
+    /// [`WARPED_CANDIDATES`] for the midpoints `far` on the two sides away from that corner
+    /// (bit 0 the side after the next, bit 1 the one after that), turned by `turn` quarters.
+    Warped { turn: u8, far: u8, choice: u8 },
+}
+
+/// The compact warp's candidate triangulations of a leaf whose lower-left corner moved, for
+/// each set of midpoints on its east (bit 0) and north (bit 1) sides, by ring label (8 is a
+/// centre placed by [`warped_centre`]), in the order ties go. The exhaustive sweep of
+/// `beg-quadtree-meshing.md` §2.5 (the test `the_sweep_bounds_every_warped_leaf`) proves that
+/// choosing among them as [`super::choose_warped`] does keeps every angle in
+/// [26.5°, 118.1°].
+pub const WARPED_CANDIDATES: [&[&[[u8; 3]]]; 4] = [
+    &[
+        &[[0, 2, 6], [2, 4, 6]],
+        &[[0, 2, 4], [0, 4, 6]],
+        &[[8, 0, 2], [8, 2, 4], [8, 4, 6], [8, 6, 0]],
+    ],
+    &[
+        &[[0, 2, 3], [0, 3, 6], [3, 4, 6]],
+        &[[0, 2, 3], [0, 3, 4], [0, 4, 6]],
+        &[[8, 0, 2], [8, 2, 3], [8, 3, 4], [8, 4, 6], [8, 6, 0]],
+        &[[0, 2, 3], [8, 0, 3], [8, 3, 4], [8, 4, 6], [8, 6, 0]],
+    ],
+    &[
+        &[[0, 2, 5], [2, 4, 5], [0, 5, 6]],
+        &[[0, 2, 4], [0, 4, 5], [0, 5, 6]],
+        &[[8, 0, 2], [8, 2, 4], [8, 4, 5], [8, 5, 6], [8, 6, 0]],
+        &[[0, 5, 6], [8, 0, 2], [8, 2, 4], [8, 4, 5], [8, 5, 0]],
+    ],
+    &[
+        &[[0, 2, 3], [0, 3, 5], [3, 4, 5], [0, 5, 6]],
+        &[
+            [8, 0, 2],
+            [8, 2, 3],
+            [8, 3, 4],
+            [8, 4, 5],
+            [8, 5, 6],
+            [8, 6, 0],
+        ],
+        &[
+            [0, 5, 6],
+            [8, 0, 2],
+            [8, 2, 3],
+            [8, 3, 4],
+            [8, 4, 5],
+            [8, 5, 0],
+        ],
+        &[
+            [0, 2, 3],
+            [8, 0, 3],
+            [8, 3, 4],
+            [8, 4, 5],
+            [8, 5, 6],
+            [8, 6, 0],
+        ],
+    ],
+];
+
+/// Where a compact-warp leaf whose corner `moved` (ring label) went to `x` puts its centre:
+/// `(x + LR + 2·UR + UL) / 5` in the frame turned so the moved corner is the lower left, the
+/// position that keeps the sweep's smallest angle at 26.5° (the leaf's centre or the corners'
+/// mean leave 18.4° where the point sits beyond the leaf's side).
+pub fn warped_centre(ring: &[glam::DVec2; 8], moved: u8, x: glam::DVec2) -> glam::DVec2 {
+    let at = |k: u8| ring[((moved + k) % 8) as usize];
+    (x + at(2) + 2.0 * at(4) + at(6)) / 5.0
 }
 
 /// What lies across the edge opposite a corner of a template triangle.
@@ -84,8 +150,10 @@ pub struct Template {
     pub facing: [[(u8, u8); 3]; 4],
 }
 
-/// Number of distinct templates: 2 diagonals, 4 single midpoints, 11 stars.
+/// Number of distinct unwarped templates: 2 diagonals, 4 single midpoints, 11 stars.
 pub const KINDS: usize = 17;
+/// Number of codes, the compact warp's 4 turns × 4 midpoint sets × 4 candidates included.
+pub const CODES: usize = KINDS + 64;
 
 impl Kind {
     /// A dense code for table lookups.
@@ -95,6 +163,7 @@ impl Kind {
             Kind::DiagonalDown => 1,
             Kind::OneMidpoint(side) => 2 + side as u8,
             Kind::Star(mask) => 6 + STAR_MASKS.iter().position(|&m| m == mask).expect("star") as u8,
+            Kind::Warped { turn, far, choice } => KINDS as u8 + 16 * turn + 4 * far + choice,
         }
     }
 
@@ -112,7 +181,15 @@ impl Kind {
             0 => Kind::DiagonalUp,
             1 => Kind::DiagonalDown,
             2..=5 => Kind::OneMidpoint(RingSide::ALL[code as usize - 2]),
-            _ => Kind::Star(STAR_MASKS[code as usize - 6]),
+            6..17 => Kind::Star(STAR_MASKS[code as usize - 6]),
+            _ => {
+                let c = code - KINDS as u8;
+                Kind::Warped {
+                    turn: c / 16,
+                    far: c / 4 % 4,
+                    choice: c % 4,
+                }
+            }
         }
     }
 
@@ -122,8 +199,22 @@ impl Kind {
             Kind::DiagonalUp | Kind::DiagonalDown => 0,
             Kind::OneMidpoint(side) => 1 << side as u8,
             Kind::Star(mask) => mask,
+            // The east side (1) and the north side (2) of the turned frame.
+            Kind::Warped { turn, far, .. } => (0..2)
+                .filter(|bit| far & (1 << bit) != 0)
+                .map(|bit| 1 << ((1 + bit + turn) % 4))
+                .sum(),
         }
     }
+}
+
+/// Whether template `code` uses the centre vertex.
+pub fn uses_centre(code: u8) -> bool {
+    template(code)
+        .triangles
+        .iter()
+        .flatten()
+        .any(|&label| label == CENTRE)
 }
 
 /// The sides carrying a midpoint in template `code`, one bit per ring side.
@@ -137,7 +228,7 @@ const STAR_MASKS: [u8; 11] = [3, 5, 6, 7, 9, 10, 11, 12, 13, 14, 15];
 /// The template of `code`, built once.
 pub fn template(code: u8) -> &'static Template {
     static TABLE: OnceLock<Vec<Template>> = OnceLock::new();
-    &TABLE.get_or_init(|| (0..KINDS as u8).map(|c| build(Kind::of_code(c))).collect())
+    &TABLE.get_or_init(|| (0..CODES as u8).map(|c| build(Kind::of_code(c))).collect())
         [code as usize]
 }
 
@@ -162,6 +253,21 @@ fn triangles_of(kind: Kind) -> Vec<[u8; 3]> {
             let ring = ring(mask);
             (0..ring.len())
                 .map(|i| [CENTRE, ring[i], ring[(i + 1) % ring.len()]])
+                .collect()
+        }
+        Kind::Warped { turn, far, choice } => {
+            let turned = |label: u8| {
+                if label == CENTRE {
+                    CENTRE
+                } else {
+                    (label + 2 * turn) % 8
+                }
+            };
+            // The fourth choice with no midpoints repeats the third: codes stay dense.
+            let list = WARPED_CANDIDATES[far as usize];
+            list[(choice as usize).min(list.len() - 1)]
+                .iter()
+                .map(|t| t.map(turned))
                 .collect()
         }
     }
@@ -271,7 +377,7 @@ mod tests {
 
     #[test]
     fn every_template_tiles_the_square_counter_clockwise() {
-        for code in 0..KINDS as u8 {
+        for code in 0..CODES as u8 {
             let t = template(code);
             assert!(t.triangles.iter().all(|&tri| area(tri) > 0.0), "{code}");
             let total: f64 = t.triangles.iter().map(|&tri| area(tri)).sum();
@@ -281,7 +387,7 @@ mod tests {
 
     #[test]
     fn every_boundary_segment_has_one_facing_triangle() {
-        for code in 0..KINDS as u8 {
+        for code in 0..CODES as u8 {
             let kind = Kind::of_code(code);
             assert_eq!(kind.code(), code);
             let t = template(code);

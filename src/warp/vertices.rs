@@ -136,6 +136,29 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
     fn vertex(&self, x: u128, y: u128) -> DVec2 {
         self.grid.vertex(x, y)
     }
+
+    /// The leaf's square.
+    pub fn cell(&self, leaf: usize) -> crate::morton::Cell<K> {
+        self.leaves[leaf].cell
+    }
+
+    /// The positions of the leaf's ring labels 0–7 on the grid (corners and side midpoints,
+    /// whether or not the sides are split), as the numbering places them.
+    pub fn ring_positions(&self, leaf: usize) -> [DVec2; 8] {
+        let (x, y, size) = self.grid_square(leaf);
+        let half = size / 2;
+        [
+            (x, y),
+            (x + half, y),
+            (x + size, y),
+            (x + size, y + half),
+            (x + size, y + size),
+            (x + half, y + size),
+            (x, y + size),
+            (x, y + half),
+        ]
+        .map(|(gx, gy)| self.vertex(gx, gy))
+    }
 }
 
 /// F64 spacings a leaf's half side spans at [`LeafGeometry::resolvable`]'s coarse levels: its
@@ -190,10 +213,15 @@ pub struct Numbering {
 }
 
 impl Numbering {
-    pub fn new<K: MortonKey>(geometry: &LeafGeometry<K>) -> Result<Numbering, Error> {
+    /// The numbering of the leaves' vertices; a leaf `centred` says owns its centre whatever
+    /// its midpoints (a compact-warp leaf whose template uses one).
+    pub fn new<K: MortonKey>(
+        geometry: &LeafGeometry<K>,
+        centred: impl Fn(usize) -> bool + Sync,
+    ) -> Result<Numbering, Error> {
         let owns: Vec<u8> = (0..geometry.leaves())
             .into_par_iter()
-            .map(|leaf| owned(geometry, leaf))
+            .map(|leaf| owned(geometry, leaf) | if centred(leaf) { own::CENTRE } else { 0 })
             .collect();
         let first = leaf_offsets(
             owns.len(),

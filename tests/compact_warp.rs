@@ -1,0 +1,153 @@
+//! The compact warp (`Mode::Warp` on the square around the points): the corner-separated tree
+//! warped by the swept templates. Every mesh passes `Mesh::validate` with the mode's bounds
+//! ([26°, 120°]), is the same on 1 and 2 threads, and has about a third of the block warp's
+//! triangles.
+
+mod common;
+
+use common::{FAMILIES, mesh_angles, mixed_point_sets, on_threads, refused_beyond_f64};
+use proptest::prelude::*;
+use quadmesh::generate::{Distribution2d, points};
+use quadmesh::mesh::AngleBounds;
+use quadmesh::warp::COMPACT_ANGLE_BOUNDS;
+use quadmesh::{DVec2, Domain, Error, Input, Mesh, MeshReport, Options, Region, mesh};
+
+const COMPACT: AngleBounds = AngleBounds {
+    min_deg: COMPACT_ANGLE_BOUNDS.0,
+    max_deg: COMPACT_ANGLE_BOUNDS.1,
+};
+
+/// The compact warp of `points`, checked: valid with its bounds, its report measuring the
+/// mesh, and the same bytes on 1 and 2 threads.
+fn compact(points: &[DVec2]) -> (Mesh, MeshReport) {
+    let input = Input::points(points.to_vec());
+    let options = Options::default().warp();
+    assert_eq!(options.angle_bounds(), COMPACT);
+    let (one, report) = on_threads(1, || mesh(&input, &options)).expect("meshed");
+    let (two, _) = on_threads(2, || mesh(&input, &options)).expect("meshed");
+    assert!(one == two, "1 and 2 threads differ");
+    if let Err(fault) = one.validate(points, COMPACT) {
+        panic!("invalid compact warp of {} points: {fault}", points.len());
+    }
+    let (lo, hi) = mesh_angles(&one).fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
+        (lo.min(a), hi.max(a))
+    });
+    assert!(
+        (report.min_angle - lo).abs() < 0.01,
+        "{} {lo}",
+        report.min_angle
+    );
+    assert!(
+        (report.max_angle - hi).abs() < 0.01,
+        "{} {hi}",
+        report.max_angle
+    );
+    assert_eq!(report.triangles, one.triangles.len());
+    (one, report)
+}
+
+/// The block warp's triangle count of `points`.
+fn block_triangles(points: &[DVec2]) -> usize {
+    let options = Options::default().block_warp();
+    let (m, _) = mesh(&Input::points(points.to_vec()), &options).expect("meshed");
+    m.validate(points, options.angle_bounds()).expect("valid");
+    m.triangles.len()
+}
+
+#[test]
+fn every_family_meshes_within_the_bounds_with_a_third_of_the_triangles() {
+    for dist in FAMILIES {
+        for n in [1, 10, 300, 4000] {
+            let pts = points(dist, n, n as u64 + 7);
+            let (m, _) = compact(&pts);
+            if n >= 300 {
+                let block = block_triangles(&pts);
+                assert!(
+                    m.triangles.len() * 2 < block,
+                    "{dist:?} {n}: {} compact, {block} block",
+                    m.triangles.len()
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn uniform_points_take_under_forty_triangles_each() {
+    let pts = points(Distribution2d::Uniform, 20_000, 3);
+    let (m, report) = compact(&pts);
+    let per_point = m.triangles.len() as f64 / pts.len() as f64;
+    assert!(per_point < 40.0, "{per_point} triangles per point");
+    // The sweep's bounds, met with the margin the mode claims beyond them.
+    assert!(report.min_angle >= 26.5 - 1e-6, "{}", report.min_angle);
+    assert!(report.max_angle <= 118.1, "{}", report.max_angle);
+}
+
+#[test]
+fn grid_aligned_collinear_and_centred_points() {
+    // On a lattice every point is a corner of its leaf; at the centres of a lattice's squares
+    // every corner ties; on lines the blocks line up.
+    let lattice: Vec<DVec2> = (0..=16)
+        .flat_map(|i| (0..=16).map(move |j| DVec2::new(i as f64 / 16.0, j as f64 / 16.0)))
+        .collect();
+    compact(&lattice);
+    let centres: Vec<DVec2> = (0..16)
+        .flat_map(|i| {
+            (0..16).map(move |j| DVec2::new((i as f64 + 0.5) / 16.0, (j as f64 + 0.5) / 16.0))
+        })
+        .collect();
+    compact(&centres);
+    let dyadic: Vec<DVec2> = (0..=6)
+        .flat_map(|i| (0..=6).map(move |j| DVec2::new(i as f64 / 6.0, j as f64 / 8.0)))
+        .collect();
+    compact(&dyadic);
+    let line: Vec<DVec2> = (0..500).map(|i| DVec2::new(i as f64 * 0.37, 2.0)).collect();
+    compact(&line);
+    let diagonal: Vec<DVec2> = (0..500).map(|i| DVec2::splat(i as f64 / 499.0)).collect();
+    compact(&diagonal);
+    let pair = [DVec2::new(0.5, 0.5), DVec2::new(0.5 + 1e-7, 0.5)];
+    compact(&pair);
+}
+
+#[test]
+fn on_a_given_rectangle_the_warp_is_the_block_warp() {
+    let pts = points(Distribution2d::Uniform, 500, 5);
+    let domain = Domain {
+        lo: DVec2::new(-0.5, 0.0),
+        hi: DVec2::new(1.5, 1.0),
+    };
+    for region in [Region::Rectangle(domain), Region::BoundingBox] {
+        let warp = Options::default().warp().region(region);
+        let block = Options::default().block_warp().region(region);
+        assert_eq!(warp.angle_bounds(), block.angle_bounds());
+        let input = Input::points(pts.clone());
+        let (a, _) = mesh(&input, &warp).unwrap();
+        let (b, _) = mesh(&input, &block).unwrap();
+        assert!(a == b, "{region:?}");
+        a.validate(&pts, warp.angle_bounds()).unwrap();
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn mixed_inputs_mesh_or_are_refused_by_name(pts in mixed_point_sets()) {
+        match mesh(&Input::points(pts.clone()), &Options::default().warp()) {
+            Ok((m, _)) => {
+                prop_assert!(m.validate(&pts, COMPACT).is_ok());
+            }
+            Err(e) => {
+                let (lo, hi) = quadmesh::morton::bounding_box(&pts);
+                let side = (hi - lo).max_element().max(f64::MIN_POSITIVE);
+                let centre = (lo + hi) / 2.0;
+                let (lo, hi) = (centre - DVec2::splat(side), centre + DVec2::splat(side));
+                prop_assert!(
+                    matches!(e, Error::Unresolvable { .. } | Error::Inseparable { .. })
+                        && refused_beyond_f64(&pts, &e, lo, hi),
+                    "{e}"
+                );
+            }
+        }
+    }
+}
