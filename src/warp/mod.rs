@@ -365,25 +365,36 @@ fn place_moved<K: MortonKey>(
     compact: Option<&[u8]>,
     (vertices, vertex_input): (&mut [DVec2], &mut [u32]),
 ) {
-    for (p, m) in moves.iter().enumerate() {
-        let input = order[p];
-        let vertex = numbering.labels(geometry, m.leaf as usize)[m.corner as usize];
+    // Found in parallel, written in turn: every vertex is written once.
+    let corners: Vec<u32> = moves
+        .par_iter()
+        .map(|m| numbering.labels(geometry, m.leaf as usize)[m.corner as usize])
+        .collect();
+    for (&vertex, &input) in corners.iter().zip(order) {
         vertices[vertex as usize] = points[input as usize];
         vertex_input[vertex as usize] = input;
     }
     let Some(kinds) = compact else {
         return;
     };
-    for (p, &m) in moves.iter().enumerate() {
-        let x = points[order[p] as usize];
-        for (leaf, corner) in block_around(geometry, m).into_iter().flatten() {
-            if leaf == NONE || !uses_centre(kinds[leaf as usize] & !MOVED) {
-                continue;
-            }
-            let centre = numbering.labels(geometry, leaf as usize)[CENTRE as usize];
-            vertices[centre as usize] =
-                warped_centre(&geometry.ring_positions(leaf as usize), corner, x);
-        }
+    let centres: Vec<(u32, DVec2)> = moves
+        .par_iter()
+        .zip(order)
+        .flat_map_iter(|(&m, &input)| {
+            let x = points[input as usize];
+            block_around(geometry, m)
+                .into_iter()
+                .flatten()
+                .filter(|&(leaf, _)| leaf != NONE && uses_centre(kinds[leaf as usize] & !MOVED))
+                .map(move |(leaf, corner)| {
+                    let centre = numbering.labels(geometry, leaf as usize)[CENTRE as usize];
+                    let ring = geometry.ring_positions(leaf as usize);
+                    (centre, warped_centre(&ring, corner, x))
+                })
+        })
+        .collect();
+    for (vertex, position) in centres {
+        vertices[vertex as usize] = position;
     }
 }
 
@@ -440,20 +451,24 @@ fn compact_templates<K: MortonKey>(
     ))
 }
 
-/// Candidates whose smallest angle reaches this are equally good; the smaller largest angle
-/// decides between them (the sweep's rule, which keeps the largest at 118.1°).
+/// Candidates whose smallest angle reaches 26.5° are equally good; the smaller largest angle
+/// decides between them (the sweep's rule, which keeps the largest at 118.1°). As cosines:
+/// the cosine of the smallest angle at most this.
+const WARPED_MIN_TARGET_COS: f64 = 0.894_934_361_602_025; // cos 26.5°
+/// No candidate with an angle above 120° (a cosine below this) is taken.
+const WARPED_MAX_CAP_COS: f64 = -0.5;
+/// Cosines this close count as equal, so that choices do not hang on f64 noise.
+const WARPED_TIE_COS: f64 = 1e-12;
+#[cfg(test)]
 const WARPED_MIN_TARGET_DEG: f64 = 26.5;
-/// No candidate with a larger angle is taken.
-const WARPED_MAX_CAP_DEG: f64 = 120.0;
-/// Angles this close count as equal, so that choices do not hang on f64 noise.
-const WARPED_TIE_DEG: f64 = 1e-9;
 
 /// The compact warp's template of a leaf whose ring (labels 0–7, as placed on the grid) has
 /// split sides `mask` and corner `moved` on point `x`, with its angles: of
 /// [`WARPED_CANDIDATES`] turned to the corner, those whose triangles f64 orients
 /// counter-clockwise and whose largest angle is at most 120°, the one whose smallest angle is
 /// largest up to 26.5°, then whose largest angle is smallest, then the first. `None` when a
-/// split side meets the moved corner or no candidate qualifies.
+/// split side meets the moved corner or no candidate qualifies. Candidates are compared by
+/// cosines; only the choice's angles are measured.
 pub(crate) fn choose_warped(
     ring: &[DVec2; 8],
     mask: u8,
@@ -472,44 +487,55 @@ pub(crate) fn choose_warped(
         l if l == moved => x,
         l => ring[l as usize],
     };
-    let mut best: Option<(Kind, AngleQuality)> = None;
+    // The best so far: its kind, the cosine of its smallest angle (floored at the target's)
+    // and of its largest.
+    let mut best: Option<(Kind, f64, f64)> = None;
     for choice in 0..WARPED_CANDIDATES[far as usize].len() as u8 {
         let kind = Kind::Warped { turn, far, choice };
-        let Some(quality) = oriented_angles(kind, at) else {
+        let Some((of_min, of_max)) = oriented_cosines(kind, at) else {
             continue;
         };
-        if quality.max > WARPED_MAX_CAP_DEG {
+        if of_max < WARPED_MAX_CAP_COS {
             continue;
         }
-        let better = best.is_none_or(|(_, b)| {
-            let (score, best_score) = (
-                quality.min.min(WARPED_MIN_TARGET_DEG),
-                b.min.min(WARPED_MIN_TARGET_DEG),
-            );
-            score > best_score + WARPED_TIE_DEG
-                || (score >= best_score - WARPED_TIE_DEG && quality.max < b.max - WARPED_TIE_DEG)
+        let score = of_min.max(WARPED_MIN_TARGET_COS);
+        let better = best.is_none_or(|(_, best_score, best_max)| {
+            score < best_score - WARPED_TIE_COS
+                || (score <= best_score + WARPED_TIE_COS && of_max > best_max + WARPED_TIE_COS)
         });
         if better {
-            best = Some((kind, quality));
+            best = Some((kind, score, of_max));
         }
     }
-    best
+    let (kind, ..) = best?;
+    let mut quality = AngleQuality::empty();
+    for tri in &template(kind.code()).triangles {
+        let [a, b, c] = tri.map(at);
+        angles_deg(a, b, c)
+            .into_iter()
+            .for_each(|angle| quality.add(angle, 1));
+    }
+    Some((kind, quality))
 }
 
-/// The angles of template `kind` with vertices `at(label)`, or `None` if f64 does not orient
-/// every triangle counter-clockwise.
-fn oriented_angles(kind: Kind, at: impl Fn(u8) -> DVec2) -> Option<AngleQuality> {
-    let mut quality = AngleQuality::empty();
+/// The cosines of the smallest and the largest angle of template `kind` with vertices
+/// `at(label)`, or `None` if f64 does not orient every triangle counter-clockwise.
+fn oriented_cosines(kind: Kind, at: impl Fn(u8) -> DVec2) -> Option<(f64, f64)> {
+    let (mut of_min, mut of_max) = (f64::NEG_INFINITY, f64::INFINITY);
     for tri in &template(kind.code()).triangles {
         let [a, b, c] = tri.map(&at);
         if orientation(a, b, c) != Orientation::Left {
             return None;
         }
-        angles_deg(a, b, c)
-            .into_iter()
-            .for_each(|angle| quality.add(angle, 1));
+        for (p, q, r) in [(a, b, c), (b, c, a), (c, a, b)] {
+            let (u, v) = (q - p, r - p);
+            let (dot, cross) = (u.dot(v), u.perp_dot(v));
+            let cos = dot / (dot * dot + cross * cross).sqrt();
+            of_min = of_min.max(cos);
+            of_max = of_max.min(cos);
+        }
     }
-    Some(quality)
+    Some((of_min, of_max))
 }
 
 /// Marks, in a leaf's template code, that one of its corners moved onto a point.
