@@ -80,7 +80,7 @@ pub enum Mode {
     /// (default [`DEFAULT_MIN_ANGLE_DEG`]) and every area at most the area bound, if given.
     #[default]
     Delaunay,
-    /// The warped quadtree mesh: every angle in [26°, 120°], about 35 triangles per point
+    /// The warped quadtree mesh: every angle in [26°, 120°], about 36 triangles per point
     /// (points separated by the blocks around their leaves' nearest corners). On a given
     /// rectangle ([`Region::Rectangle`], [`Region::BoundingBox`]) it is the block warp's mesh.
     Warp,

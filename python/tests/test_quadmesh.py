@@ -106,7 +106,11 @@ def test_point_sets_and_keyword_interface():
     assert len(e.edge_markers) == len(e.edges)
     warped = quadmesh.mesh(points[:200], mode="warp")
     smallest = min_angles(warped.vertices, warped.triangles)
-    assert smallest.min() >= 22.5 - 1e-6
+    assert smallest.min() >= 26 - 1e-6
+    assert max_angles(warped.vertices, warped.triangles).max() <= 120 + 1e-6
+    block = quadmesh.mesh(points[:200], mode="block_warp")
+    assert min_angles(block.vertices, block.triangles).min() >= 22.5 - 1e-6
+    assert len(block.triangles) > 2 * len(warped.triangles)
     # Nonobtuse: every angle at most 90° (to rounding), and every point a vertex.
     split = quadmesh.mesh(points[:200], mode="nonobtuse")
     assert max_angles(split.vertices, split.triangles).max() <= 90 + 1e-6

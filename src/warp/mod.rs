@@ -1,11 +1,15 @@
-//! Warping the well-separated quadtree onto the points and triangulating its leaves by templates
-//! (`beg-quadtree-meshing.md` §2.3–2.5): every angle in [22.5°, 112.5°].
+//! Warping a separated quadtree onto the points and triangulating its leaves by templates
+//! (`beg-quadtree-meshing.md` §2.3–2.5).
 //!
-//! Each point moves the corner of its leaf nearest to it; the four leaves around that corner are
-//! split by the max-min diagonal, every other leaf by the template of its side midpoints. All of
-//! it runs per leaf in parallel, reading the leaf's cross links only, and numbers vertices and
-//! triangles by prefix sums over the leaves in Morton order, so the mesh does not depend on the
-//! thread count.
+//! Each point moves the corner of its leaf nearest to it. In the block warp (a tree separated by
+//! 5×5 blocks) the four leaves around that corner have no midpoints and are split by the max-min
+//! diagonal: every angle in [22.5°, 112.5°]. In the compact warp (a tree separated by the 2×2
+//! blocks around the corners, a third the size) they may carry midpoints on their sides away
+//! from the corner, and each takes the best of a few swept candidates, some with a centre
+//! vertex: every angle in [26.5°, 118.1°]. Every other leaf takes the template of its side
+//! midpoints. All of it runs per leaf (or per point) in parallel, reading the leaves' cross
+//! links only, and numbers vertices and triangles by prefix sums over the leaves in Morton
+//! order, so the mesh does not depend on the thread count.
 
 mod cut;
 pub mod placement;
