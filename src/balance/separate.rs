@@ -661,7 +661,8 @@ fn corner_demands_of<K: MortonKey>(
     m: Move,
     out: &mut Vec<Squares<K>>,
 ) {
-    let key = keys[m.point as usize];
+    let i = m.point as usize;
+    let key = keys[i];
     for level in m.from..m.to {
         let mut want = |cell: Cell<K>| {
             if !set.contains(cell) {
@@ -669,6 +670,12 @@ fn corner_demands_of<K: MortonKey>(
             }
         };
         want(Cell::containing(key, level));
+        // The points of one square two levels down share the child's nearest corner: the
+        // first of them demands its block.
+        let grandchild = Cell::containing(key, (level + 2).min(K::AXIS_BITS as u8));
+        if i > 0 && grandchild.contains(keys[i - 1]) {
+            continue;
+        }
         let Some(block) = corner_block(Cell::containing(key, level + 1), key) else {
             continue;
         };
