@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{FAMILIES, mesh_angles, mixed_point_sets, on_threads, refused_beyond_f64};
+use common::{FAMILIES, assert_report_extremes, mixed_point_sets, on_threads, refused_beyond_f64};
 use proptest::prelude::*;
 use quadmesh::generate::{Distribution2d, points};
 use quadmesh::mesh::AngleBounds;
@@ -29,19 +29,7 @@ fn compact(points: &[DVec2]) -> (Mesh, MeshReport) {
     if let Err(fault) = one.validate(points, COMPACT) {
         panic!("invalid compact warp of {} points: {fault}", points.len());
     }
-    let (lo, hi) = mesh_angles(&one).fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
-        (lo.min(a), hi.max(a))
-    });
-    assert!(
-        (report.min_angle - lo).abs() < 0.01,
-        "{} {lo}",
-        report.min_angle
-    );
-    assert!(
-        (report.max_angle - hi).abs() < 0.01,
-        "{} {hi}",
-        report.max_angle
-    );
+    assert_report_extremes(&one, &report);
     assert_eq!(report.triangles, one.triangles.len());
     (one, report)
 }

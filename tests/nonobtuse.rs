@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{FAMILIES, mesh_angles, mixed_point_sets, on_threads};
+use common::{FAMILIES, assert_report_extremes, mixed_point_sets, on_threads};
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::mesh::Domain;
@@ -28,19 +28,7 @@ fn mesh_checked(points: &[DVec2], domain: Option<Domain>) -> (Mesh, MeshReport) 
     assert_eq!(report.triangles, mesh.triangles.len());
     // The report's extremes are the mesh's: measured where the points split leaves, the
     // templates' elsewhere, which rounding moves by less than 0.01°.
-    let (lo, hi) = mesh_angles(&mesh).fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
-        (lo.min(a), hi.max(a))
-    });
-    assert!(
-        (report.min_angle - lo).abs() < 0.01,
-        "{} {lo}",
-        report.min_angle
-    );
-    assert!(
-        (report.max_angle - hi).abs() < 0.01,
-        "{} {hi}",
-        report.max_angle
-    );
+    assert_report_extremes(&mesh, &report);
     (mesh, report)
 }
 

@@ -854,17 +854,7 @@ mod tests {
 
     /// The unit square's ring: corners and side midpoints, labels 0–7.
     fn unit_ring() -> [DVec2; 8] {
-        [
-            (0.0, 0.0),
-            (0.5, 0.0),
-            (1.0, 0.0),
-            (1.0, 0.5),
-            (1.0, 1.0),
-            (0.5, 1.0),
-            (0.0, 1.0),
-            (0.0, 0.5),
-        ]
-        .map(|(x, y)| DVec2::new(x, y))
+        std::array::from_fn(|label| templates::unit_position(label as u8))
     }
 
     /// The smallest and largest angle [`choose_warped`] gives over every offset of the point

@@ -334,7 +334,7 @@ fn build(kind: Kind) -> Template {
 }
 
 /// Position of a label on the unit square.
-fn unit_position(label: u8) -> glam::DVec2 {
+pub(super) fn unit_position(label: u8) -> glam::DVec2 {
     let (x, y) = [
         (0.0, 0.0),
         (0.5, 0.0),

@@ -116,6 +116,24 @@ fn assert_report_measures(mesh: &Mesh, report: &MeshReport) {
     );
 }
 
+/// The report's smallest and largest angle are the mesh's, measured, to 0.01° (where the report
+/// takes a leaf's angles from its template, rounding bends them by less).
+pub fn assert_report_extremes(mesh: &Mesh, report: &MeshReport) {
+    let (lo, hi) = mesh_angles(mesh).fold((f64::INFINITY, 0.0f64), |(lo, hi), a| {
+        (lo.min(a), hi.max(a))
+    });
+    assert!(
+        (report.min_angle - lo).abs() < 0.01,
+        "{} {lo}",
+        report.min_angle
+    );
+    assert!(
+        (report.max_angle - hi).abs() < 0.01,
+        "{} {hi}",
+        report.max_angle
+    );
+}
+
 /// Every angle of every triangle of `mesh`, in degrees, measured on its f64 vertices.
 pub fn mesh_angles(mesh: &Mesh) -> impl Iterator<Item = f64> + '_ {
     mesh.triangles.iter().flat_map(|t| {
