@@ -5,7 +5,7 @@ use glam::DVec2;
 
 use crate::balance::{
     BalancedTree, Band, BandError, DomainSides, Separation, balance, coarsest_band_level, separate,
-    separate_in,
+    separate_in, separate_with,
 };
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
@@ -55,6 +55,9 @@ pub enum Refinement {
     Balanced,
     /// Balanced, and every point's leaf centred in a 5×5 block of same-size empty leaves.
     Separated,
+    /// Balanced, and separated by the blocks around the points' nearest corners
+    /// ([`Separation::Corner`], the warp's tree).
+    CornerSeparated,
 }
 
 /// What [`build_tree`] builds and how.
@@ -132,6 +135,9 @@ fn trees_of<K: MortonKey>(
         Refinement::Unbalanced => None,
         Refinement::Balanced => Some(times.time("balance", || balance(&quadtree, keys))),
         Refinement::Separated => Some(times.time("separate", || separate(&quadtree, keys))),
+        Refinement::CornerSeparated => Some(times.time("separate", || {
+            separate_with(&quadtree, keys, Separation::Corner)
+        })),
     };
     TreeBuild {
         morton,

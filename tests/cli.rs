@@ -362,6 +362,14 @@ fn balanced_and_separated_leaves_are_valid_and_thread_independent() {
         );
         previous = leaves;
     }
+    // The warp's tree lies between: finer than the balanced one, coarser than the 5×5 blocks'.
+    let (one, report) = tree(&input.0, &["--separated", "--corners", "--threads", "1"]);
+    let (two, _) = tree(&input.0, &["--separated", "--corners", "--threads", "2"]);
+    assert!(one == two, "--corners: --threads 1 and --threads 2 differ");
+    check_leaves(&one, &report, &points);
+    let (balanced, _) = tree(&input.0, &["--balanced"]);
+    let corners = rows(&one).len();
+    assert!(rows(&balanced).len() < corners && 2 * corners < previous);
     let both = quadmesh(&[
         "tree",
         path_str(&input.0),

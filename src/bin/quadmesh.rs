@@ -59,9 +59,13 @@ enum Command {
         #[arg(long, conflicts_with = "separated")]
         balanced: bool,
         /// Write the leaves of the well-separated tree: balanced, and every point's leaf centred in
-        /// a 5×5 block of same-size leaves holding no other point.
+        /// a 5×5 block of same-size leaves holding no other point (the block warp's tree).
         #[arg(long)]
         separated: bool,
+        /// With `--separated`: separate the points by the 2×2 blocks around their leaves'
+        /// nearest corners instead (the warp's tree).
+        #[arg(long, requires = "separated")]
+        corners: bool,
     },
     /// Mesh a point file or a planar straight-line graph (`.poly`): a Delaunay mesh with every
     /// angle at least `--min-angle` (of the points' convex hull, or of what the segments
@@ -386,8 +390,10 @@ fn main() -> ExitCode {
             threads,
             balanced,
             separated,
+            corners,
         } => {
             let refinement = match (balanced, separated) {
+                (_, true) if corners => Refinement::CornerSeparated,
                 (_, true) => Refinement::Separated,
                 (true, _) => Refinement::Balanced,
                 _ => Refinement::Unbalanced,
