@@ -222,7 +222,7 @@ fn separated_tree_on(
             else {
                 return Ok(None);
             };
-            if deepest_point_leaf(&build).is_none() {
+            if deepest_point_leaf(&build, options.effective_separation()).is_none() {
                 return Ok(Some(Tree::Narrow(build)));
             }
             // Points so close that their leaves are finer than the narrow grid resolves the
@@ -237,7 +237,7 @@ fn separated_tree_on(
     else {
         return Ok(None);
     };
-    if let Some(p) = deepest_point_leaf(&build) {
+    if let Some(p) = deepest_point_leaf(&build, options.effective_separation()) {
         let index = build.morton.order[p];
         return Err(unresolvable(points[index as usize], index));
     }
@@ -404,8 +404,13 @@ fn warp_build<K: MortonKey>(
     Ok((mesh, quality, morton.duplicates.count))
 }
 
-fn deepest_point_leaf<K: MortonKey>(build: &TreeBuild<K>) -> Option<usize> {
-    build.balanced.as_ref().and_then(point_finer_than_grid)
+/// A point whose leaf is finer than the build's grid resolves for the tree's warp, if any.
+fn deepest_point_leaf<K: MortonKey>(build: &TreeBuild<K>, separation: Separation) -> Option<usize> {
+    let corners = separation == Separation::Corner;
+    build
+        .balanced
+        .as_ref()
+        .and_then(|tree| point_finer_than_grid(tree, corners))
 }
 
 /// The mesh of `input` as `options` ask, on the current rayon pool, with its report: the one

@@ -139,3 +139,18 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn points_whose_leaves_are_the_narrow_grids_finest_move_to_the_wide_grid() {
+    // Two points 1.4e-8 apart in a unit square: their leaves are the finest the 32-bit grid
+    // resolves, where a key no longer says which half of its leaf the point lies in, so the
+    // nearest corner needs the 64-bit grid (a proptest found this: the corner taken was 0.8 of
+    // a leaf away, and the mesh was refused).
+    let pts = [
+        DVec2::ZERO,
+        DVec2::new(0.250_000_751_960_790_5, 0.5),
+        DVec2::new(0.250_000_765_898_846_1, 0.5),
+    ];
+    let (_, report) = compact(&pts);
+    assert!(report.min_angle >= 26.5 - 1e-6, "{}", report.min_angle);
+}

@@ -62,7 +62,7 @@ pub fn warp<K: MortonKey>(
     points: &[DVec2],
     times: &mut StageTimes,
 ) -> Result<(Mesh, AngleQuality), Error> {
-    let geometry = resolved_geometry(tree, order, grid, points)?;
+    let geometry = resolved_geometry(tree, (order, keys.is_some()), grid, points)?;
     let bounds = if keys.is_some() {
         COMPACT_ANGLE_BOUNDS
     } else {
@@ -157,11 +157,11 @@ pub fn warp<K: MortonKey>(
 /// ([`Error::Unresolvable`] naming it).
 fn resolved_geometry<'a, K: MortonKey>(
     tree: &'a BalancedTree<K>,
-    order: &[u32],
+    (order, corners): (&[u32], bool),
     grid: &'a Grid,
     points: &[DVec2],
 ) -> Result<LeafGeometry<'a, K>, Error> {
-    if let Some(p) = point_finer_than_grid(tree) {
+    if let Some(p) = point_finer_than_grid(tree, corners) {
         let index = order[p] as usize;
         return Err(unresolvable(points[index], index as u32));
     }
@@ -250,8 +250,10 @@ where
 
 /// The Morton position of a point whose leaf is finer than the grid resolves the points, if
 /// any: the point then need not lie in its leaf, and the tree must be built on the wide grid.
-pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>) -> Option<usize> {
-    let finest = (K::AXIS_BITS - GUARD_LEVELS) as u8;
+/// With `corners` (the compact warp) a leaf at the finest resolved level counts too: its
+/// nearest corner needs the half of it the point lies in, one level finer.
+pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>, corners: bool) -> Option<usize> {
+    let finest = (K::AXIS_BITS - GUARD_LEVELS) as u8 - u8::from(corners);
     tree.point_leaf
         .par_iter()
         .position_first(|&leaf| tree.tree.leaves[leaf as usize].cell.level > finest)

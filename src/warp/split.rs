@@ -243,7 +243,7 @@ pub fn split<K: MortonKey>(
     points: &[DVec2],
     times: &mut StageTimes,
 ) -> Result<(Mesh, AngleQuality), Error> {
-    let geometry = resolved_geometry(tree, order, grid, points)?;
+    let geometry = resolved_geometry(tree, (order, false), grid, points)?;
     let point_at = |p: usize| points[order[p] as usize];
     let (numbering, vertices, vertex_input, splits) = times.time("split vertices", || {
         let numbering = Numbering::new(&geometry, |_| false)?;
