@@ -20,7 +20,7 @@ pub use links::{Links, across, cross_links, point_leaves};
 pub use separate::{
     Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, Separation, block,
     check_corner_separated, check_separated, check_separated_in, coarsest_band_level,
-    nearest_corner, separate, separate_in, separate_with, sides_of,
+    nearest_corner, separate, separate_in, separate_with, sides_of, upper_halves,
 };
 
 use crate::framework::NONE;

@@ -687,16 +687,23 @@ fn corner_demands_of<K: MortonKey>(
     }
 }
 
-/// The grid corner of `cell` nearest to `key`, as a column and row of the corners of its
-/// level: the nearer end of each axis by the half of the square the key lies in (a key on the
-/// middle line takes the upper end). The warp moves this corner onto the point.
-pub fn nearest_corner<K: MortonKey>(cell: Cell<K>, key: K) -> (u64, u64) {
-    let (x, y) = grid_position(cell);
+/// Whether `key` lies in the upper half of `cell` along x and along y (a key on the middle
+/// line counts as upper): the ends of the square's axes its nearest corner lies at. The warp
+/// moves that corner onto the point.
+pub fn upper_halves<K: MortonKey>(cell: Cell<K>, key: K) -> (bool, bool) {
     if cell.level as u32 >= K::AXIS_BITS {
-        return (x, y);
+        return (false, false);
     }
     let (hx, hy) = grid_position(Cell::containing(key, cell.level + 1));
-    (x + (hx & 1), y + (hy & 1))
+    (hx & 1 == 1, hy & 1 == 1)
+}
+
+/// The grid corner of `cell` nearest to `key` (see [`upper_halves`]), as a column and row of
+/// the corners of its level.
+pub fn nearest_corner<K: MortonKey>(cell: Cell<K>, key: K) -> (u64, u64) {
+    let (x, y) = grid_position(cell);
+    let (right, top) = upper_halves(cell, key);
+    (x + u64::from(right), y + u64::from(top))
 }
 
 /// The 2×2 squares of `cell`'s level around its corner nearest to `key`, or `None` when they

@@ -24,7 +24,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::balance::BalancedTree;
-use crate::balance::nearest_corner;
+use crate::balance::upper_halves;
 use crate::error::Error;
 use crate::mesh::{
     AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, StageTimes, angles_deg,
@@ -78,7 +78,7 @@ pub fn warp<K: MortonKey>(
             let centred = |leaf: usize| {
                 compact
                     .as_ref()
-                    .is_some_and(|(kinds, _)| kinds[leaf] != 0 && uses_centre(kinds[leaf] & !MOVED))
+                    .is_some_and(|c| c.kinds[leaf] != 0 && uses_centre(c.kinds[leaf] & !MOVED))
             };
             let numbering = Numbering::new(&geometry, centred)?;
             let (mut vertices, mut vertex_input) = numbering.vertices(&geometry);
@@ -86,7 +86,7 @@ pub fn warp<K: MortonKey>(
                 (&geometry, &numbering),
                 (order, points),
                 &moves,
-                compact.as_ref().map(|(kinds, _)| &kinds[..]),
+                compact.as_ref().map_or(&[], |c| &c.centres[..]),
                 (&mut vertices, &mut vertex_input),
             );
             Ok::<_, Error>((numbering, vertices, vertex_input, moves, compact))
@@ -95,7 +95,11 @@ pub fn warp<K: MortonKey>(
     let (kinds, moved_quality, offsets) = times.time("warp templates", || {
         let mut kinds = unmoved_templates(&geometry, order, points)?;
         let moved_quality = match compact {
-            Some((warped, quality)) => {
+            Some(CompactWarp {
+                kinds: warped,
+                quality,
+                ..
+            }) => {
                 kinds
                     .par_iter_mut()
                     .zip(warped)
@@ -325,7 +329,7 @@ struct Move {
 
 /// For every point, the corner of its leaf that moves onto it: the nearest one (ties to the
 /// smallest `(y, x)`) for the block warp; for the compact warp, the one the tree was separated
-/// by, from the point's key ([`nearest_corner`]), which f64 may place a hair farther.
+/// by, from the point's key ([`upper_halves`]), which f64 may place a hair farther.
 fn corner_moves<K: MortonKey>(
     geometry: &LeafGeometry<K>,
     order: &[u32],
@@ -337,14 +341,7 @@ fn corner_moves<K: MortonKey>(
         .map(|p| {
             let leaf = geometry.point_leaf[p];
             let (right, top) = match keys {
-                Some(keys) => {
-                    let cell = geometry.cell(leaf as usize);
-                    let (cx, cy) = nearest_corner(cell, keys[p]);
-                    let (x, y) = cell.anchor.decode();
-                    let shift = K::AXIS_BITS - cell.level as u32;
-                    let column = |v: u64| v.checked_shr(shift).unwrap_or(0);
-                    (cx != column(x), cy != column(y))
-                }
+                Some(keys) => upper_halves(geometry.cell(leaf as usize), keys[p]),
                 None => {
                     let x = points[order[p] as usize];
                     let (lo, hi) = geometry.rect(leaf as usize);
@@ -362,13 +359,13 @@ fn corner_moves<K: MortonKey>(
         .collect()
 }
 
-/// Puts every moved corner's vertex on its point, with the exact coordinates, and each compact
-/// warped leaf's centre (if its template uses one) where [`warped_centre`] says.
+/// Puts every moved corner's vertex on its point, with the exact coordinates, and each of
+/// `centres` (a compact-warp leaf and where its centre goes) in place.
 fn place_moved<K: MortonKey>(
     (geometry, numbering): (&LeafGeometry<K>, &Numbering),
     (order, points): (&[u32], &[DVec2]),
     moves: &[Move],
-    compact: Option<&[u8]>,
+    centres: &[(u32, DVec2)],
     (vertices, vertex_input): (&mut [DVec2], &mut [u32]),
 ) {
     // Found in parallel, written in turn: every vertex is written once.
@@ -380,32 +377,25 @@ fn place_moved<K: MortonKey>(
         vertices[vertex as usize] = points[input as usize];
         vertex_input[vertex as usize] = input;
     }
-    let Some(kinds) = compact else {
-        return;
-    };
-    let centres: Vec<(u32, DVec2)> = moves
+    let centre_vertices: Vec<u32> = centres
         .par_iter()
-        .zip(order)
-        .flat_map_iter(|(&m, &input)| {
-            let x = points[input as usize];
-            block_around(geometry, m)
-                .into_iter()
-                .flatten()
-                .filter(|&(leaf, _)| leaf != NONE && uses_centre(kinds[leaf as usize] & !MOVED))
-                .map(move |(leaf, corner)| {
-                    let centre = numbering.labels(geometry, leaf as usize)[CENTRE as usize];
-                    let ring = geometry.ring_positions(leaf as usize);
-                    (centre, warped_centre(&ring, corner, x))
-                })
-        })
+        .map(|&(leaf, _)| numbering.labels(geometry, leaf as usize)[CENTRE as usize])
         .collect();
-    for (vertex, position) in centres {
+    for (&vertex, &(_, position)) in centre_vertices.iter().zip(centres) {
         vertices[vertex as usize] = position;
     }
 }
 
-/// The compact warp's template of every leaf around a moved corner (`0` elsewhere), chosen by
-/// [`choose_warped`], with the angles of their triangles.
+/// The compact warp's choices: the template of every leaf around a moved corner (`0`
+/// elsewhere), the centres of those whose template uses one (by leaf), and the angles of
+/// their triangles.
+struct CompactWarp {
+    kinds: Vec<u8>,
+    centres: Vec<(u32, DVec2)>,
+    quality: AngleQuality,
+}
+
+/// The compact warp's templates, chosen by [`choose_warped`].
 ///
 /// # Errors
 /// [`Error::Unresolvable`] naming the point when a leaf around it has a midpoint on a side at
@@ -415,33 +405,41 @@ fn compact_templates<K: MortonKey>(
     moves: &[Move],
     order: &[u32],
     points: &[DVec2],
-) -> Result<(Vec<u8>, AngleQuality), Error> {
-    let block = |p: usize, quality: &mut AngleQuality| -> Option<WarpedBlock> {
+) -> Result<CompactWarp, Error> {
+    // One point's block, its centres appended to `centres`.
+    let block = |p: usize, centres: &mut Vec<(u32, DVec2)>, quality: &mut AngleQuality| {
         let m = moves[p];
         let x = points[order[p] as usize];
-        let mut out = [(NONE, 0); 4];
+        let mut out: WarpedBlock = [(NONE, 0); 4];
         for (slot, (leaf, corner)) in out.iter_mut().zip(block_around(geometry, m)?) {
             if leaf == NONE {
                 continue;
             }
             let ring = geometry.ring_positions(leaf as usize);
             let mask = geometry.midpoint_mask(leaf as usize);
-            let (kind, angles) = choose_warped(&ring, mask, corner, x)?;
+            let (kind, angles, centre) = choose_warped(&ring, mask, corner, x)?;
+            if uses_centre(kind.code()) {
+                centres.push((leaf, centre));
+            }
             *slot = (leaf, kind.code() | MOVED);
             *quality = quality.merge(angles);
         }
         Some(out)
     };
-    let parts: Vec<(Vec<Option<WarpedBlock>>, AngleQuality)> = (0..moves.len())
+    type Part = (Vec<Option<WarpedBlock>>, Vec<(u32, DVec2)>, AngleQuality);
+    let parts: Vec<Part> = (0..moves.len())
         .into_par_iter()
         .chunks(GRAIN)
         .map(|chunk| {
-            let mut quality = AngleQuality::empty();
-            let blocks = chunk.into_iter().map(|p| block(p, &mut quality)).collect();
-            (blocks, quality)
+            let (mut centres, mut quality) = (Vec::new(), AngleQuality::empty());
+            let blocks = chunk
+                .into_iter()
+                .map(|p| block(p, &mut centres, &mut quality))
+                .collect();
+            (blocks, centres, quality)
         })
         .collect();
-    let blocks = || parts.iter().flat_map(|(blocks, _)| blocks);
+    let blocks = || parts.iter().flat_map(|(blocks, ..)| blocks);
     if let Some(bad) = blocks().position(|b| b.is_none()) {
         let input = order[bad];
         return Err(unresolvable(points[input as usize], input));
@@ -450,11 +448,14 @@ fn compact_templates<K: MortonKey>(
     for &(leaf, kind) in blocks().flatten().flatten().filter(|(l, _)| *l != NONE) {
         kinds[leaf as usize] = kind;
     }
-    let quality = parts.iter().map(|(_, q)| *q);
-    Ok((
+    Ok(CompactWarp {
         kinds,
-        quality.fold(AngleQuality::empty(), AngleQuality::merge),
-    ))
+        centres: parts.iter().flat_map(|(_, c, _)| c).copied().collect(),
+        quality: parts
+            .iter()
+            .map(|(.., q)| *q)
+            .fold(AngleQuality::empty(), AngleQuality::merge),
+    })
 }
 
 /// Candidates whose smallest angle reaches 26.5° are equally good; the smaller largest angle
@@ -472,15 +473,16 @@ const WARPED_MIN_TARGET_DEG: f64 = 26.5;
 /// split sides `mask` and corner `moved` on point `x`, with its angles: of
 /// [`WARPED_CANDIDATES`] turned to the corner, those whose triangles f64 orients
 /// counter-clockwise and whose largest angle is at most 120°, the one whose smallest angle is
-/// largest up to 26.5°, then whose largest angle is smallest, then the first. `None` when a
-/// split side meets the moved corner or no candidate qualifies. Candidates are compared by
-/// cosines; only the choice's angles are measured.
+/// largest up to 26.5°, then whose largest angle is smallest, then the first; and where its
+/// centre goes if it uses one ([`warped_centre`]). `None` when a split side meets the moved
+/// corner or no candidate qualifies. Candidates are compared by cosines; only the choice's
+/// angles are measured.
 pub(crate) fn choose_warped(
     ring: &[DVec2; 8],
     mask: u8,
     moved: u8,
     x: DVec2,
-) -> Option<(Kind, AngleQuality)> {
+) -> Option<(Kind, AngleQuality, DVec2)> {
     let turn = moved / 2;
     let side_bit = |frame_side: u8| 1u8 << ((frame_side + turn) % 4);
     if mask & (side_bit(0) | side_bit(3)) != 0 {
@@ -521,7 +523,7 @@ pub(crate) fn choose_warped(
             .into_iter()
             .for_each(|angle| quality.add(angle, 1));
     }
-    Some((kind, quality))
+    Some((kind, quality, centre))
 }
 
 /// The cosines of the smallest and the largest angle of template `kind` with vertices
@@ -873,7 +875,7 @@ mod tests {
                     for j in 0..=steps {
                         let step = |k: u32| reach * (2.0 * k as f64 / steps as f64 - 1.0);
                         let x = ring[moved as usize] + DVec2::new(step(i), step(j));
-                        let (_, q) = choose_warped(&ring, mask, moved, x)
+                        let (_, q, _) = choose_warped(&ring, mask, moved, x)
                             .unwrap_or_else(|| panic!("corner {moved}, mask {mask}, at {x}"));
                         lo = lo.min(q.min);
                         hi = hi.max(q.max);

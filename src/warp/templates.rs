@@ -152,6 +152,7 @@ pub struct Template {
 
 /// Number of distinct unwarped templates: 2 diagonals, 4 single midpoints, 11 stars.
 pub const KINDS: usize = 17;
+const KINDS_U8: u8 = KINDS as u8;
 /// Number of codes, the compact warp's 4 turns × 4 midpoint sets × 4 candidates included.
 pub const CODES: usize = KINDS + 64;
 
@@ -181,7 +182,7 @@ impl Kind {
             0 => Kind::DiagonalUp,
             1 => Kind::DiagonalDown,
             2..=5 => Kind::OneMidpoint(RingSide::ALL[code as usize - 2]),
-            6..17 => Kind::Star(STAR_MASKS[code as usize - 6]),
+            6..KINDS_U8 => Kind::Star(STAR_MASKS[code as usize - 6]),
             _ => {
                 let c = code - KINDS as u8;
                 Kind::Warped {
