@@ -24,6 +24,12 @@ impl Domain {
         d.x * d.y
     }
 
+    /// Whether the rectangle is a square: its sides equal in f64.
+    pub fn is_square(&self) -> bool {
+        let d = self.hi - self.lo;
+        d.x == d.y
+    }
+
     /// Whether `p` lies in the closed rectangle.
     pub fn contains(&self, p: DVec2) -> bool {
         self.lo.x <= p.x && p.x <= self.hi.x && self.lo.y <= p.y && p.y <= self.hi.y

@@ -273,10 +273,15 @@ impl Options {
 
     /// The angles every mesh of these options has, outside input angles smaller than the bound
     /// (the corners of a convex hull): at least the bound and at most 180° minus twice it in the
-    /// Delaunay mode, [26°, 120°] in the warp mode ([22.5°, 112.5°] on a given rectangle and
-    /// in the block warp mode), at most 90° in the nonobtuse mode.
+    /// Delaunay mode, [26°, 120°] in the warp mode ([22.5°, 112.5°] on a given rectangle that
+    /// is not a square, on the bounding box, and in the block warp mode), at most 90° in the
+    /// nonobtuse mode.
     pub fn angle_bounds(&self) -> AngleBounds {
-        let on_rectangle = matches!(self.region, Region::Rectangle(_) | Region::BoundingBox);
+        let on_rectangle = match self.region_choice() {
+            Region::Rectangle(d) => !d.is_square(),
+            Region::BoundingBox => true,
+            _ => false,
+        };
         match self.mode {
             Mode::Warp if !on_rectangle => AngleBounds {
                 min_deg: COMPACT_ANGLE_BOUNDS.0,

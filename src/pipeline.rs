@@ -162,14 +162,14 @@ pub struct MeshOptions {
     /// The separation rule of the tree the warp moves: [`Separation::Corner`] for the compact
     /// warp (every angle in [`crate::warp::COMPACT_ANGLE_BOUNDS`]), [`Separation::Block`] for
     /// the block warp ([`crate::warp::ANGLE_BOUNDS`]). The nonobtuse split and a given domain
-    /// use the block rule whatever this says.
+    /// that is not a square use the block rule whatever this says.
     pub separation: Separation,
 }
 
 impl MeshOptions {
     /// The rule the tree is built by: the one asked for where it applies.
-    fn effective_separation(&self) -> Separation {
-        if self.nonobtuse || self.domain.is_some() {
+    pub fn effective_separation(&self) -> Separation {
+        if self.nonobtuse || self.domain.is_some_and(|d| !d.is_square()) {
             Separation::Block
         } else {
             self.separation
@@ -445,7 +445,11 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
                 sort: options.sort_algorithm(),
                 domain: rectangle,
                 nonobtuse: options.mode() == Mode::Nonobtuse,
-                separation: if options.mode() == Mode::Warp {
+                // The compact warp meshes the root square or a given square; a bounding box
+                // takes the block warp, as the options' bounds say, even when it is a square.
+                separation: if options.mode() == Mode::Warp
+                    && !matches!(options.region_choice(), Region::BoundingBox)
+                {
                     Separation::Corner
                 } else {
                     Separation::Block

@@ -97,6 +97,85 @@ fn grid_aligned_collinear_and_centred_points() {
     compact(&pair);
 }
 
+/// The compact warp of `points` on the square `domain`, checked as [`compact`] checks.
+fn compact_on(points: &[DVec2], domain: Domain) -> (Mesh, MeshReport) {
+    let input = Input::points(points.to_vec());
+    let options = Options::default().warp().region(Region::Rectangle(domain));
+    assert_eq!(options.angle_bounds(), COMPACT);
+    let (one, report) = on_threads(1, || mesh(&input, &options)).expect("meshed");
+    let (two, _) = on_threads(2, || mesh(&input, &options)).expect("meshed");
+    assert!(one == two, "1 and 2 threads differ");
+    if let Err(fault) = one.validate(points, COMPACT) {
+        panic!(
+            "invalid compact warp of {} points on {domain:?}: {fault}",
+            points.len()
+        );
+    }
+    assert_eq!(one.domain, domain);
+    assert_report_extremes(&one, &report);
+    (one, report)
+}
+
+/// Points on every side and corner of a square, and inside it near the sides.
+fn touching(domain: Domain, n: usize, seed: u64) -> Vec<DVec2> {
+    let (lo, hi) = (domain.lo, domain.hi);
+    let at = |t: DVec2| lo + (hi - lo) * t;
+    let mut pts: Vec<DVec2> = points(Distribution2d::Uniform, n, seed)
+        .into_iter()
+        .map(at)
+        .collect();
+    pts.extend([lo, hi, DVec2::new(lo.x, hi.y), DVec2::new(hi.x, lo.y)]);
+    for k in 1..16 {
+        let t = k as f64 / 16.0 + 0.01 * (k % 3) as f64;
+        pts.extend([
+            DVec2::new(at(DVec2::splat(t)).x, lo.y),
+            DVec2::new(at(DVec2::splat(t)).x, hi.y),
+            DVec2::new(lo.x, at(DVec2::splat(1.0 - t)).y),
+            DVec2::new(hi.x, at(DVec2::splat(t * 0.9)).y),
+            at(DVec2::new(t, 1e-3)),
+            at(DVec2::new(1.0 - 1e-4, t)),
+        ]);
+    }
+    pts
+}
+
+#[test]
+fn on_a_given_square_points_on_its_sides_and_corners_move_corners_along_them() {
+    let squares = [
+        Domain {
+            lo: DVec2::ZERO,
+            hi: DVec2::ONE,
+        },
+        Domain {
+            lo: DVec2::new(-3.0, 2.0),
+            hi: DVec2::new(5.0, 10.0),
+        },
+    ];
+    for domain in squares {
+        for (n, seed) in [(0, 1), (40, 2), (3000, 3)] {
+            let pts = touching(domain, n, seed);
+            let (m, report) = compact_on(&pts, domain);
+            let block = Options::default()
+                .block_warp()
+                .region(Region::Rectangle(domain));
+            let (b, _) = mesh(&Input::points(pts.clone()), &block).unwrap();
+            assert!(
+                m.triangles.len() * 2 < b.triangles.len(),
+                "{} compact, {} block",
+                m.triangles.len(),
+                b.triangles.len()
+            );
+            assert!(report.min_angle >= 26.5 - 1e-6, "{}", report.min_angle);
+            assert!(report.max_angle <= 118.1, "{}", report.max_angle);
+        }
+    }
+    // One point alone, at a corner, and on a side's middle.
+    let unit = squares[0];
+    for p in [DVec2::ZERO, DVec2::new(1.0, 0.5), DVec2::new(0.3, 0.0)] {
+        compact_on(&[p], unit);
+    }
+}
+
 #[test]
 fn on_a_given_rectangle_the_warp_is_the_block_warp() {
     let pts = points(Distribution2d::Uniform, 500, 5);

@@ -2,6 +2,7 @@
 //! the live points in id order, warped or nonobtuse; bad edits change nothing.
 
 use glam::DVec2;
+use quadmesh::balance::Separation;
 use quadmesh::dynamic::{DynamicMesh, Edit};
 use quadmesh::mesh::Domain;
 use quadmesh::{Error, Input, Mesh, Mode, Options, Region};
@@ -26,16 +27,24 @@ fn rebuilt_in(dynamic: &DynamicMesh, mode: Mode) -> Mesh {
         .0
 }
 
-/// The warped rebuild: the block warp, which the dynamic mesh keeps (and `Mode::Warp` gives on
-/// a rectangle).
-fn rebuilt(dynamic: &DynamicMesh) -> Mesh {
-    let block = rebuilt_in(dynamic, Mode::BlockWarp);
-    assert!(block == rebuilt_in(dynamic, Mode::Warp));
-    block
+/// Both trees a dynamic mesh keeps: the compact warp's (the default) and the block warp's.
+const SEPARATIONS: [Separation; 2] = [Separation::Corner, Separation::Block];
+
+/// The warp mode of a dynamic mesh's tree.
+fn warp_mode(dynamic: &DynamicMesh) -> Mode {
+    match dynamic.separation() {
+        Separation::Corner => Mode::Warp,
+        Separation::Block => Mode::BlockWarp,
+    }
 }
 
-/// The dynamic mesh equals the rebuild, in the warp and the nonobtuse mode, and passes the
-/// crate's check.
+/// The warped rebuild in the mode of the dynamic mesh's tree.
+fn rebuilt(dynamic: &DynamicMesh) -> Mesh {
+    rebuilt_in(dynamic, warp_mode(dynamic))
+}
+
+/// The dynamic mesh equals the rebuild, warped and (on the block tree) nonobtuse, and passes
+/// the crate's check with the bounds of its mode; a corner tree refuses the nonobtuse split.
 fn check(dynamic: &DynamicMesh, what: &str) {
     let mesh = dynamic.mesh().expect("the dynamic mesh warps");
     let expected = rebuilt(dynamic);
@@ -44,8 +53,18 @@ fn check(dynamic: &DynamicMesh, what: &str) {
         "{what}: the dynamic mesh differs from a rebuild"
     );
     let (_, points) = dynamic.live_points();
-    mesh.validate(&points, Options::default().block_warp().angle_bounds())
+    let options = Options::default()
+        .with_mode(warp_mode(dynamic))
+        .region(Region::Rectangle(dynamic.domain()));
+    mesh.validate(&points, options.angle_bounds())
         .unwrap_or_else(|e| panic!("{what}: {e}"));
+    if dynamic.separation() == Separation::Corner {
+        assert!(
+            matches!(dynamic.mesh_nonobtuse(), Err(Error::InvalidOption { .. })),
+            "{what}: a corner tree split nonobtuse"
+        );
+        return;
+    }
     let split = dynamic.mesh_nonobtuse().expect("the dynamic mesh splits");
     assert!(
         split == rebuilt_in(dynamic, Mode::Nonobtuse),
@@ -98,13 +117,19 @@ fn cycled_edit(step: usize, dynamic: &DynamicMesh, rng: &mut Rng) -> Edit {
 
 #[test]
 fn random_edits_give_the_rebuilt_mesh_after_every_step() {
+    for separation in SEPARATIONS {
+        random_edits_give_the_rebuilt_mesh_after_every_step_with(separation);
+    }
+}
+
+fn random_edits_give_the_rebuilt_mesh_after_every_step_with(separation: Separation) {
     for seed in 1..=4u64 {
         let mut rng = Rng::seed_from_u64(seed * 0x2545_F491_4F6C_DD1D);
         let initial: Vec<DVec2> = (0..30).map(|_| point(&mut rng)).collect();
         let mut initial = initial;
         initial.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
         initial.dedup();
-        let mut dynamic = DynamicMesh::new(&initial, unit()).unwrap();
+        let mut dynamic = DynamicMesh::with_separation(&initial, unit(), separation).unwrap();
         check(&dynamic, "the initial build");
         for step in 0..120 {
             let edit = match rng.random_range(0..if dynamic.len() > 1 { 3 } else { 1 }) {
@@ -123,11 +148,17 @@ fn random_edits_give_the_rebuilt_mesh_after_every_step() {
 
 #[test]
 fn deleting_down_to_one_point_and_back() {
+    for separation in SEPARATIONS {
+        deleting_down_to_one_point_and_back_with(separation);
+    }
+}
+
+fn deleting_down_to_one_point_and_back_with(separation: Separation) {
     let mut rng = Rng::seed_from_u64(99);
     let points: Vec<DVec2> = (0..25)
         .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
         .collect();
-    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    let mut dynamic = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
     for id in 0..24 {
         dynamic.delete(id).unwrap();
         check(&dynamic, &format!("after deleting {id}"));
@@ -145,8 +176,16 @@ fn deleting_down_to_one_point_and_back() {
 
 #[test]
 fn points_closer_than_the_narrow_grid_move_the_tree_to_the_wide_one_and_back() {
+    for separation in SEPARATIONS {
+        points_closer_than_the_narrow_grid_move_the_tree_to_the_wide_one_and_back_with(separation);
+    }
+}
+
+fn points_closer_than_the_narrow_grid_move_the_tree_to_the_wide_one_and_back_with(
+    separation: Separation,
+) {
     let points = [DVec2::new(0.25, 0.25), DVec2::new(0.75, 0.6)];
-    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    let mut dynamic = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
     dynamic.track_changes(true);
     let first = dynamic.mesh().unwrap();
     assert!(!dynamic.is_wide());
@@ -169,12 +208,18 @@ fn points_closer_than_the_narrow_grid_move_the_tree_to_the_wide_one_and_back() {
 
 #[test]
 fn bad_edits_are_refused_and_change_nothing() {
+    for separation in SEPARATIONS {
+        bad_edits_are_refused_and_change_nothing_with(separation);
+    }
+}
+
+fn bad_edits_are_refused_and_change_nothing_with(separation: Separation) {
     let points = [
         DVec2::new(0.2, 0.3),
         DVec2::new(0.7, 0.8),
         DVec2::new(0.5, 0.1),
     ];
-    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    let mut dynamic = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
     let before = dynamic.mesh().unwrap();
     let refused = [
         (Edit::Insert(DVec2::new(f64::NAN, 0.5)), "NonFinite"),
@@ -208,6 +253,12 @@ fn bad_edits_are_refused_and_change_nothing() {
 /// and the tracked changes say nothing changed.
 #[test]
 fn a_batch_failing_past_its_checks_takes_back_what_it_did() {
+    for separation in SEPARATIONS {
+        a_batch_failing_past_its_checks_takes_back_what_it_did_with(separation);
+    }
+}
+
+fn a_batch_failing_past_its_checks_takes_back_what_it_did_with(separation: Separation) {
     // Near the origin a step of f64 is a few cells of the wide grid: too few to separate.
     let points = [DVec2::new(0.01, 0.01), DVec2::new(0.75, 0.6)];
     let crowded = DVec2::new(0.01f64.next_up(), 0.01);
@@ -217,7 +268,7 @@ fn a_batch_failing_past_its_checks_takes_back_what_it_did() {
         Edit::Insert(crowded),
         Edit::Delete(1),
     ];
-    let mut one_by_one = DynamicMesh::new(&points, unit()).unwrap();
+    let mut one_by_one = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
     one_by_one.track_changes(true);
     let before = one_by_one.mesh().unwrap();
     let mut batched = one_by_one.clone();
@@ -247,11 +298,19 @@ fn a_batch_failing_past_its_checks_takes_back_what_it_did() {
 
 #[test]
 fn a_batch_equals_its_edits_one_by_one_and_a_bad_batch_changes_nothing() {
+    for separation in SEPARATIONS {
+        a_batch_equals_its_edits_one_by_one_and_a_bad_batch_changes_nothing_with(separation);
+    }
+}
+
+fn a_batch_equals_its_edits_one_by_one_and_a_bad_batch_changes_nothing_with(
+    separation: Separation,
+) {
     let mut rng = Rng::seed_from_u64(5);
     let points: Vec<DVec2> = (0..40)
         .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
         .collect();
-    let mut batched = DynamicMesh::new(&points, unit()).unwrap();
+    let mut batched = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
     let mut single = batched.clone();
     let edits: Vec<Edit> = (0..30)
         .map(|k| match k % 3 {
@@ -285,6 +344,12 @@ fn a_batch_equals_its_edits_one_by_one_and_a_bad_batch_changes_nothing() {
 
 #[test]
 fn random_batches_equal_their_edits_one_by_one() {
+    for separation in SEPARATIONS {
+        random_batches_equal_their_edits_one_by_one_with(separation);
+    }
+}
+
+fn random_batches_equal_their_edits_one_by_one_with(separation: Separation) {
     for seed in 1..=6u64 {
         let mut rng = Rng::seed_from_u64(seed * 0x1234_5678_9ABC_DEF1);
         let initial: Vec<DVec2> = {
@@ -293,7 +358,7 @@ fn random_batches_equal_their_edits_one_by_one() {
             v.dedup();
             v
         };
-        let mut batched = DynamicMesh::new(&initial, unit()).unwrap();
+        let mut batched = DynamicMesh::with_separation(&initial, unit(), separation).unwrap();
         let mut single = batched.clone();
         for round in 0..8 {
             // Edits that may name points inserted or moved earlier in the same batch.
@@ -334,6 +399,12 @@ fn random_batches_equal_their_edits_one_by_one() {
 
 #[test]
 fn a_time_step_of_moving_points_equals_a_rebuild() {
+    for separation in SEPARATIONS {
+        a_time_step_of_moving_points_equals_a_rebuild_with(separation);
+    }
+}
+
+fn a_time_step_of_moving_points_equals_a_rebuild_with(separation: Separation) {
     let mut rng = Rng::seed_from_u64(11);
     let points: Vec<DVec2> = (0..200)
         .map(|_| {
@@ -343,7 +414,7 @@ fn a_time_step_of_moving_points_equals_a_rebuild() {
             )
         })
         .collect();
-    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    let mut dynamic = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
     for step in 0..3 {
         let (ids, _) = dynamic.live_points();
         let shifts: Vec<DVec2> = ids
@@ -357,6 +428,12 @@ fn a_time_step_of_moving_points_equals_a_rebuild() {
 
 #[test]
 fn one_and_several_threads_give_the_same_mesh() {
+    for separation in SEPARATIONS {
+        one_and_several_threads_give_the_same_mesh_with(separation);
+    }
+}
+
+fn one_and_several_threads_give_the_same_mesh_with(separation: Separation) {
     let mut rng = Rng::seed_from_u64(21);
     let points: Vec<DVec2> = (0..300).map(|_| point(&mut rng)).collect();
     let mut points = points;
@@ -374,7 +451,7 @@ fn one_and_several_threads_give_the_same_mesh() {
             .build()
             .unwrap();
         pool.install(|| {
-            let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+            let mut dynamic = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
             dynamic.apply(&edits).unwrap();
             dynamic.mesh().unwrap()
         })
@@ -400,11 +477,19 @@ fn a_domain_that_is_not_square_is_refused() {
 
 #[test]
 fn the_change_between_meshes_is_local_and_turns_the_old_mesh_into_the_new() {
+    for separation in SEPARATIONS {
+        the_change_between_meshes_is_local_and_turns_the_old_mesh_into_the_new_with(separation);
+    }
+}
+
+fn the_change_between_meshes_is_local_and_turns_the_old_mesh_into_the_new_with(
+    separation: Separation,
+) {
     let mut rng = Rng::seed_from_u64(41);
     let points: Vec<DVec2> = (0..2000)
         .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
         .collect();
-    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    let mut dynamic = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
     let corners = |m: &Mesh, t: u32| m.triangles[t as usize].map(|v| m.vertices[v as usize]);
     for step in 0..12 {
         let before = dynamic.mesh().unwrap();
@@ -511,11 +596,11 @@ fn check_changes(dynamic: &mut DynamicMesh, before: &Mesh, what: &str) -> (Mesh,
 }
 
 /// A dynamic mesh of `n` uniform points of the unit square that tracks changes, and its mesh.
-fn tracked_uniform(rng: &mut Rng, n: usize) -> (DynamicMesh, Mesh) {
+fn tracked_uniform(rng: &mut Rng, separation: Separation, n: usize) -> (DynamicMesh, Mesh) {
     let points: Vec<DVec2> = (0..n)
         .map(|_| DVec2::new(rng.random::<f64>(), rng.random::<f64>()))
         .collect();
-    let mut dynamic = DynamicMesh::new(&points, unit()).unwrap();
+    let mut dynamic = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
     dynamic.track_changes(true);
     let mesh = dynamic.mesh().unwrap();
     (dynamic, mesh)
@@ -523,15 +608,26 @@ fn tracked_uniform(rng: &mut Rng, n: usize) -> (DynamicMesh, Mesh) {
 
 #[test]
 fn tracked_changes_turn_the_old_mesh_into_the_new_after_every_edit() {
+    for separation in SEPARATIONS {
+        tracked_changes_turn_the_old_mesh_into_the_new_after_every_edit_with(separation);
+    }
+}
+
+fn tracked_changes_turn_the_old_mesh_into_the_new_after_every_edit_with(separation: Separation) {
     for seed in 1..=3u64 {
         let mut rng = Rng::seed_from_u64(seed * 0x9E37_79B9_7F4A_7C15);
         let mut initial: Vec<DVec2> = (0..60).map(|_| point(&mut rng)).collect();
         initial.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
         initial.dedup();
-        let mut dynamic = DynamicMesh::new(&initial, unit()).unwrap();
+        let mut dynamic = DynamicMesh::with_separation(&initial, unit(), separation).unwrap();
         dynamic.track_changes(true);
         let mut mesh = dynamic.mesh().unwrap();
-        let mut split = dynamic.mesh_nonobtuse().unwrap();
+        let block = separation == Separation::Block;
+        let mut split = if block {
+            dynamic.mesh_nonobtuse().unwrap()
+        } else {
+            Mesh::default()
+        };
         for step in 0..150 {
             let edit = match rng.random_range(0..if dynamic.len() > 1 { 3 } else { 1 }) {
                 0 => Edit::Insert(point(&mut rng)),
@@ -543,7 +639,9 @@ fn tracked_changes_turn_the_old_mesh_into_the_new_after_every_edit() {
                 Err((_, e)) => assert!(matches!(e, Error::DuplicatePoint { .. }), "{e}"),
             }
             let what = format!("seed {seed} step {step}: {edit:?}");
-            split = check_changes_in(&mut dynamic, &split, &what, true).0;
+            if block {
+                split = check_changes_in(&mut dynamic, &split, &what, true).0;
+            }
             mesh = check_changes(&mut dynamic, &mesh, &what).0;
         }
     }
@@ -551,8 +649,16 @@ fn tracked_changes_turn_the_old_mesh_into_the_new_after_every_edit() {
 
 #[test]
 fn tracked_changes_of_batches_and_rebuilds_turn_the_old_mesh_into_the_new() {
+    for separation in SEPARATIONS {
+        tracked_changes_of_batches_and_rebuilds_turn_the_old_mesh_into_the_new_with(separation);
+    }
+}
+
+fn tracked_changes_of_batches_and_rebuilds_turn_the_old_mesh_into_the_new_with(
+    separation: Separation,
+) {
     let mut rng = Rng::seed_from_u64(77);
-    let (mut dynamic, mut mesh) = tracked_uniform(&mut rng, 400);
+    let (mut dynamic, mut mesh) = tracked_uniform(&mut rng, separation, 400);
     for step in 0..8 {
         // Small batches stay local; every third moves all points, which builds anew.
         let count = if step % 3 == 2 { dynamic.len() } else { 5 };
@@ -571,8 +677,14 @@ fn tracked_changes_of_batches_and_rebuilds_turn_the_old_mesh_into_the_new() {
 
 #[test]
 fn the_changes_of_one_edit_among_many_points_take_few_leaves() {
+    for separation in SEPARATIONS {
+        the_changes_of_one_edit_among_many_points_take_few_leaves_with(separation);
+    }
+}
+
+fn the_changes_of_one_edit_among_many_points_take_few_leaves_with(separation: Separation) {
     let mut rng = Rng::seed_from_u64(5);
-    let (mut dynamic, mut mesh) = tracked_uniform(&mut rng, 20_000);
+    let (mut dynamic, mut mesh) = tracked_uniform(&mut rng, separation, 20_000);
     let total = mesh.triangles.len();
     let mut leaves = Vec::new();
     for step in 0..9 {

@@ -5,9 +5,12 @@ mod common;
 use common::{FAMILIES, on_threads, with_keys};
 
 use quadmesh::DVec2;
-use quadmesh::balance::reference::{corner_separated_closure, separated_closure};
+use quadmesh::balance::reference::{
+    corner_separated_closure, corner_separated_closure_in, separated_closure,
+};
 use quadmesh::balance::{
-    Separation, check_corner_separated, check_separated, separate, separate_with,
+    DomainSides, Separation, check_corner_separated, check_corner_separated_in, check_separated,
+    separate, separate_in, separate_with,
 };
 use quadmesh::framework::build_framework;
 use quadmesh::generate::{Distribution2d, points};
@@ -199,4 +202,64 @@ fn the_corner_checker_refuses_a_merely_balanced_tree() {
         points(Distribution2d::Uniform, 500, 3),
         balanced_is_not_corner_separated
     );
+}
+
+/// Points on the sides and corners of the unit square and near them, with their keys on the
+/// grid of that square: the corner tree cut at the sides, against its brute-force fixed point.
+fn corner_separated_on_the_square_like_brute_force(points: &[DVec2]) {
+    use quadmesh::SortAlgorithm;
+    use quadmesh::morton::{Morton, morton_order_on};
+    let frame = Some((DVec2::ZERO, DVec2::ONE, None));
+    let Morton::Narrow(m) = morton_order_on(points, frame, SortAlgorithm::default()).unwrap()
+    else {
+        panic!("narrow grid expected")
+    };
+    let sides = DomainSides::of(points, &m.order, &m.grid).expect("a given domain");
+    assert!(sides.on.iter().any(|&on| on != 0), "no point on a side");
+    let tree = expand(&build_framework(&m.keys), &m.keys);
+    let (one, band) = on_threads(1, || {
+        separate_in(&tree, &m.keys, Some(&sides), u8::MAX, Separation::Corner).unwrap()
+    });
+    let (two, _) = on_threads(2, || {
+        separate_in(&tree, &m.keys, Some(&sides), u8::MAX, Separation::Corner).unwrap()
+    });
+    assert!(band.is_none());
+    assert_eq!(one, two, "1 and 2 threads differ");
+    one.check(&m.keys).unwrap();
+    check_corner_separated_in(&one.tree, &m.keys, Some(&sides)).unwrap();
+    // Without the sides, a block at a side sticks out of the root.
+    assert!(check_corner_separated(&one.tree, &m.keys).is_err());
+    let cells: Vec<Cell<u64>> = one.tree.internal.iter().map(|s| s.cell).collect();
+    assert_eq!(
+        cells,
+        corner_separated_closure_in(&m.keys, &sides.on),
+        "differs from the brute-force fixed point"
+    );
+}
+
+#[test]
+fn corner_separation_on_a_square_cuts_blocks_at_the_sides_the_points_lie_on() {
+    let corners = [DVec2::ZERO, DVec2::ONE, DVec2::X, DVec2::Y];
+    corner_separated_on_the_square_like_brute_force(&corners);
+    for (n, seed) in [(3, 1), (12, 2), (40, 3)] {
+        let mut pts = points(Distribution2d::Uniform, n, seed);
+        for (k, p) in pts.clone().iter().enumerate().take(n / 2) {
+            // Half of them pushed onto a side, some nearly onto one.
+            let q = match k % 5 {
+                0 => DVec2::new(0.0, p.y),
+                1 => DVec2::new(1.0, p.y),
+                2 => DVec2::new(p.x, 0.0),
+                3 => DVec2::new(p.x, 1.0),
+                _ => DVec2::new(p.x, 1e-3),
+            };
+            pts[k] = q;
+        }
+        pts.extend(corners);
+        pts.extend([
+            DVec2::new(0.0, 0.5),
+            DVec2::new(1e-3, 0.5),
+            DVec2::new(0.0, 0.5 + 1e-3),
+        ]);
+        corner_separated_on_the_square_like_brute_force(&pts);
+    }
 }

@@ -15,14 +15,20 @@
 //! one, start again from their points-only levels; the squares that only they and the removed
 //! point demanded go, finest level first; and the rounds run on them with every other point
 //! held where it was, which is where the least fixed point keeps it.
+//!
+//! The same holds under [`Separation::Corner`], whose demands and crowding reach no farther
+//! (a point's corner block and the squares around it lie within one square of its own). One
+//! thing differs: a new point may crowd another's corner block without lying in it, so that
+//! no split square tells; the points within two squares of a new one at their own level are
+//! settled against the points as well.
 
 use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
 
 use super::separate::{
-    DomainSides, Move, Rules, around, chebyshev, clear_of_points, demands_of, descend, settle_all,
-    walk,
+    DomainSides, Move, Rules, around, chebyshev, clear_of_points, corner_block_parents, descend,
+    settle_all, walk,
 };
 use super::split_set::{SplitSet, Squares, at_position, grid_position, last_position};
 use super::{BalancedTree, Separation, forced_by, linked_tree, separate_in};
@@ -40,6 +46,8 @@ pub struct SeparatedPoints<K: MortonKey> {
     levels: Vec<u8>,
     /// The domain sides each point lies on; no side inside the root.
     sides: DomainSides,
+    /// The rule the tree is separated by.
+    separation: Separation,
     /// The split squares, closed under balance.
     set: SplitSet<K>,
     /// How many points have their leaf at each level.
@@ -52,8 +60,9 @@ pub struct SeparatedPoints<K: MortonKey> {
 
 impl<K: MortonKey> SeparatedPoints<K> {
     /// The tree of `keys` (sorted and distinct) with `on[i]` the domain sides the `i`-th lies
-    /// on ([`super::ON_LEFT`] and the others), on a grid whose root is the domain.
-    pub fn new(keys: Vec<K>, on: Vec<u8>) -> Self {
+    /// on ([`super::ON_LEFT`] and the others), on a grid whose root is the domain, separated by
+    /// `separation`.
+    pub fn new(keys: Vec<K>, on: Vec<u8>, separation: Separation) -> Self {
         assert_eq!(keys.len(), on.len(), "a side mask per key");
         let sides = DomainSides {
             on,
@@ -63,7 +72,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
         let mut levels = Vec::new();
         if !keys.is_empty() {
             let quadtree = expand(&build_framework(&keys), &keys);
-            let (tree, _) = separate_in(&quadtree, &keys, Some(&sides), u8::MAX, Separation::Block)
+            let (tree, _) = separate_in(&quadtree, &keys, Some(&sides), u8::MAX, separation)
                 .expect("no band without a side inside the root");
             levels = tree
                 .point_leaf
@@ -80,11 +89,22 @@ impl<K: MortonKey> SeparatedPoints<K> {
             keys,
             levels,
             sides,
+            separation,
             set,
             at_level,
             touched: 0,
             log: None,
         }
+    }
+
+    /// The rule the tree is separated by.
+    pub fn separation(&self) -> Separation {
+        self.separation
+    }
+
+    /// The rules of the tree's separation on its domain.
+    fn rules(&self) -> Rules<'_> {
+        Rules::new(Some(&self.sides)).separating(self.separation)
     }
 
     /// The level of the finest point leaf, 0 with no points.
@@ -256,9 +276,60 @@ impl<K: MortonKey> SeparatedPoints<K> {
         self.at_level[0] += new.len();
         self.touched = 0;
         let moves = positions.par_iter().map(|&i| self.first_move(i)).collect();
-        let crowded = self.leaves_taken(&positions);
+        let mut crowded = self.leaves_taken(&positions);
+        if self.separation == Separation::Corner {
+            crowded.extend(self.corners_crowded_by(&positions));
+            crowded.sort_unstable();
+            crowded.dedup();
+        }
         self.run_rounds(moves, crowded);
         positions
+    }
+
+    /// The older points near the new points at `positions` (sorted) whose corner block a new
+    /// point may crowd at their present level ([`Separation::Corner`]): a new point lies in
+    /// the 6×6 squares of the next level around such a point's corner, so within two squares
+    /// of its square at its level. (Under [`Separation::Block`] a new point in another's block
+    /// splits its own square there, which crowds that block by a split square.)
+    fn corners_crowded_by(&self, positions: &[usize]) -> Vec<u32> {
+        let is_new = |j: usize| positions.binary_search(&j).is_ok();
+        let deepest = self.deepest();
+        let mut found = Vec::new();
+        for &p in positions {
+            for level in 0..=deepest {
+                let centre = Cell::containing(self.keys[p], level);
+                found.extend(
+                    self.alone_near(centre, 2)
+                        .into_iter()
+                        .filter(|&q| !is_new(q) && self.levels[q] == level)
+                        .map(|q| q as u32),
+                );
+            }
+        }
+        found
+    }
+
+    /// The moves of the points `crowded`, whose leaves may be crowded by new points: down past
+    /// split squares, squares whose block holds another point, and squares whose block holds a
+    /// split square.
+    fn settle_crowded(&self, crowded: &[u32]) -> Vec<Move> {
+        let rules = self.rules();
+        crowded
+            .par_iter()
+            .filter_map(|&point| {
+                let i = point as usize;
+                let from = self.levels[i];
+                let split = walk(&self.set, self.keys[i], from);
+                let level = clear_of_points(&rules, &self.keys, i, split);
+                let to = descend(&self.set, &rules, &self.keys, i, level);
+                (to != from).then_some(Move {
+                    point,
+                    from,
+                    split,
+                    to,
+                })
+            })
+            .collect()
     }
 
     /// Puts the keys `new` (sorted) with their sides into the arrays in place, at level 0,
@@ -306,15 +377,25 @@ impl<K: MortonKey> SeparatedPoints<K> {
         taken
     }
 
-    /// Moves the point with key `from` to key `to` if that keeps it in its leaf, on the same
-    /// domain sides: the tree is then the same (every rule reads a point's squares no finer
-    /// than its leaf, and a square finer than another point's leaf holding it would have
-    /// crowded that point's block), so only the key changes. Returns whether it did.
+    /// Moves the point with key `from` to key `to` if that keeps the tree as it is; returns
+    /// whether it did. Under [`Separation::Block`] it does when the point stays in its leaf on
+    /// the same domain sides: every rule reads a point's squares no finer than its leaf, and a
+    /// square finer than another point's leaf holding it would have crowded that point's
+    /// block. Under [`Separation::Corner`] the point's own rules read the half of its leaf it
+    /// lies in, and another point reads its square one level below its own leaf when that
+    /// point's corner block comes within half a square of this leaf, which balance allows
+    /// only for leaves at most two levels finer: so the point must stay in its square three
+    /// levels below its leaf.
     pub fn move_within_leaf(&mut self, from: K, to: K, on: u8) -> bool {
         let Ok(i) = self.keys.binary_search(&from) else {
             return false;
         };
-        let leaf = Cell::containing(from, self.levels[i]);
+        let depth = match self.separation {
+            Separation::Block => 0,
+            Separation::Corner => 3,
+        };
+        let read = (self.levels[i] + depth).min(K::AXIS_BITS as u8);
+        let leaf = Cell::containing(from, read);
         if !leaf.contains(to) || self.sides.on[i] != on {
             return false;
         }
@@ -369,7 +450,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// The move of point `i` from the root: past split squares and squares whose block holds
     /// another point or leaves the root, then past squares whose block holds a split square.
     fn first_move(&self, i: usize) -> Move {
-        let rules = Rules::new(Some(&self.sides));
+        let rules = self.rules();
         let split = walk(&self.set, self.keys[i], self.lone_level(i));
         let level = clear_of_points(&rules, &self.keys, i, split);
         Move {
@@ -397,7 +478,8 @@ impl<K: MortonKey> SeparatedPoints<K> {
         while !moves.is_empty() || !crowded.is_empty() {
             let mut demanded = Vec::new();
             for &m in &moves {
-                demands_of(&self.set, &self.keys, m, &mut demanded);
+                self.rules()
+                    .demands(&self.set, &self.keys, m, &mut demanded);
             }
             let added = self.set.insert_closed(demanded);
             if let Some(log) = &mut self.log {
@@ -413,15 +495,12 @@ impl<K: MortonKey> SeparatedPoints<K> {
                 self.set_level(m.point as usize, m.to);
             }
             let mut candidates = self.near(&added);
-            // Points whose leaf took new points are settled in the first round whatever it
-            // added: their leaves are split squares now, demanded by the new points' paths.
-            if !crowded.is_empty() {
-                candidates.append(&mut crowded);
-                candidates.sort_unstable();
-                candidates.dedup();
-            }
-            let rules = Rules::new(Some(&self.sides));
+            // Points whose leaf took new points, or whose corner block new points crowd, are
+            // settled in the first round whatever it added, and against the points as well.
+            candidates.retain(|c| crowded.binary_search(c).is_err());
+            let rules = self.rules();
             moves = settle_all(&self.set, &rules, &self.keys, &self.levels, &candidates);
+            moves.extend(self.settle_crowded(&std::mem::take(&mut crowded)));
         }
     }
 
@@ -509,7 +588,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// The points whose level may have rested on the points `removed` (see the module's
     /// account), found from them transitively; Morton positions before their removal.
     fn resting_on(&self, removed: &[usize]) -> Vec<usize> {
-        let rules = Rules::new(Some(&self.sides));
+        let rules = self.rules();
         let mut points_only = std::collections::HashMap::new();
         let mut points_only_level = |q: usize| {
             *points_only
@@ -554,7 +633,8 @@ impl<K: MortonKey> SeparatedPoints<K> {
     }
 
     /// Every square that `points` demand at their present levels: their paths, the paths'
-    /// rings, and what balance then forces.
+    /// rings, and what balance then forces (under [`Separation::Corner`], more than they
+    /// demand: squares that are not split among them).
     fn demands_of_points(&self, points: impl Iterator<Item = usize>) -> SplitSet<K> {
         let mut demanded = SplitSet::new();
         for p in points {
@@ -573,7 +653,10 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// are judged on what stays at the level below.
     fn drop_unsupported(&mut self, demanded: &SplitSet<K>, held_back: &HashSet<usize>) {
         for level in (0..=K::AXIS_BITS as u8).rev() {
-            let squares: Vec<Cell<K>> = demanded.squares_at(level).collect();
+            let squares: Vec<Cell<K>> = demanded
+                .squares_at(level)
+                .filter(|&square| self.set.contains(square))
+                .collect();
             for square in squares {
                 if !self.demanded_by_others(square, held_back) {
                     self.set.remove(square);
@@ -591,6 +674,24 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// finer), or balance forces it from a split square of the level below.
     fn demanded_by_others(&self, square: Cell<K>, held_back: &HashSet<usize>) -> bool {
         let level = square.level;
+        let forced = || {
+            forcing_candidates(square)
+                .any(|finer| self.set.contains(finer) && forced_by(finer).contains(&Some(square)))
+        };
+        if self.separation == Separation::Corner {
+            // On the path of such a point, or a parent of its corner block one level down.
+            let demands = |j: usize| {
+                let key = self.keys[j];
+                self.levels[j] > level
+                    && (square.contains(key)
+                        || corner_block_parents(key, level, self.sides.on[j]).any(|c| c == square))
+            };
+            let by_a_point = around_and(square, 1).any(|cell| {
+                self.points_in(cell)
+                    .any(|j| !held_back.contains(&j) && demands(j))
+            });
+            return by_a_point || forced();
+        }
         let on_a_path = around_and(square, 1).any(|cell| {
             let mut others = 0;
             for j in self.points_in(cell) {
@@ -605,9 +706,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
             }
             false
         });
-        on_a_path
-            || forcing_candidates(square)
-                .any(|finer| self.set.contains(finer) && forced_by(finer).contains(&Some(square)))
+        on_a_path || forced()
     }
 }
 
@@ -677,7 +776,11 @@ mod tests {
     use rand_xoshiro::Xoshiro256PlusPlus as Rng;
 
     /// What `separate_in` builds for these keys from scratch.
-    fn static_tree<K: MortonKey>(keys: &[K], on: &[u8]) -> Option<BalancedTree<K>> {
+    fn static_tree<K: MortonKey>(
+        keys: &[K],
+        on: &[u8],
+        separation: Separation,
+    ) -> Option<BalancedTree<K>> {
         if keys.is_empty() {
             return None;
         }
@@ -687,14 +790,14 @@ mod tests {
         };
         let quadtree = expand(&build_framework(keys), keys);
         Some(
-            separate_in(&quadtree, keys, Some(&sides), u8::MAX, Separation::Block)
+            separate_in(&quadtree, keys, Some(&sides), u8::MAX, separation)
                 .unwrap()
                 .0,
         )
     }
 
     fn check_against_static<K: MortonKey>(points: &SeparatedPoints<K>) {
-        let Some(expected) = static_tree(&points.keys, &points.sides.on) else {
+        let Some(expected) = static_tree(&points.keys, &points.sides.on, points.separation) else {
             return;
         };
         let tree = points.tree();
@@ -780,10 +883,14 @@ mod tests {
 
     /// Random insertions and deletions, down to no point and back, each followed by a check
     /// against the static build.
-    fn random_edits<K: MortonKey>(seeds: std::ops::RangeInclusive<u64>, key: impl Fn(DVec2) -> K) {
+    fn random_edits<K: MortonKey>(
+        seeds: std::ops::RangeInclusive<u64>,
+        key: impl Fn(DVec2) -> K,
+        separation: Separation,
+    ) {
         for seed in seeds {
             let mut rng = Rng::seed_from_u64(seed * 0x9E37_79B9_7F4A_7C15);
-            let mut points = SeparatedPoints::<K>::new(Vec::new(), Vec::new());
+            let mut points = SeparatedPoints::<K>::new(Vec::new(), Vec::new(), separation);
             let mut live: Vec<K> = Vec::new();
             for step in 0..400 {
                 let delete =
@@ -805,13 +912,21 @@ mod tests {
         }
     }
 
+    const SEPARATIONS: [Separation; 2] = [Separation::Block, Separation::Corner];
+
     #[test]
     fn moves_within_a_leaf_keep_the_static_tree() {
+        for separation in SEPARATIONS {
+            moves_within_a_leaf(separation);
+        }
+    }
+
+    fn moves_within_a_leaf(separation: Separation) {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
         let mut rng = Rng::seed_from_u64(31);
         let pairs = random_keys(&mut rng, 300, &grid);
         let (mut keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
-        let mut points = SeparatedPoints::new(keys.clone(), on.clone());
+        let mut points = SeparatedPoints::new(keys.clone(), on.clone(), separation);
         let mut moved = 0;
         for _ in 0..2000 {
             let i = rng.random_range(0..keys.len());
@@ -827,14 +942,23 @@ mod tests {
             assert_eq!(points.keys(), &keys[..]);
             check_against_static(&points);
         }
-        assert!(moved > 100, "only {moved} moves stayed in their leaves");
+        assert!(
+            moved > 100,
+            "{separation:?}: only {moved} moves kept the tree"
+        );
     }
 
     #[test]
     fn batches_of_insertions_and_removals_give_the_static_tree() {
+        for separation in SEPARATIONS {
+            batches(separation);
+        }
+    }
+
+    fn batches(separation: Separation) {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
         let mut rng = Rng::seed_from_u64(57);
-        let mut points = SeparatedPoints::<u64>::new(Vec::new(), Vec::new());
+        let mut points = SeparatedPoints::<u64>::new(Vec::new(), Vec::new(), separation);
         let mut live: Vec<u64> = Vec::new();
         for round in 0..30 {
             let size = 1 + rng.random_range(0..40usize);
@@ -864,22 +988,36 @@ mod tests {
     #[test]
     fn random_edits_give_the_static_tree_after_every_step() {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
-        random_edits(1..=12, |p| key_of(&grid, p));
+        random_edits(1..=12, |p| key_of(&grid, p), Separation::Block);
+    }
+
+    #[test]
+    fn random_edits_of_the_corner_tree_give_the_static_tree_after_every_step() {
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
+        random_edits(1..=12, |p| key_of(&grid, p), Separation::Corner);
     }
 
     #[test]
     fn random_edits_on_the_wide_grid_give_the_static_tree() {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u128::AXIS_BITS).unwrap();
-        random_edits(20..=23, |p| key_of_wide(&grid, p));
+        for separation in SEPARATIONS {
+            random_edits(20..=23, |p| key_of_wide(&grid, p), separation);
+        }
     }
 
     #[test]
     fn a_built_tree_edits_like_one_grown_point_by_point() {
+        for separation in SEPARATIONS {
+            built_then_edited(separation);
+        }
+    }
+
+    fn built_then_edited(separation: Separation) {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
         let mut rng = Rng::seed_from_u64(77);
         let pairs = random_keys(&mut rng, 400, &grid);
         let (keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
-        let mut points = SeparatedPoints::new(keys, on);
+        let mut points = SeparatedPoints::new(keys, on, separation);
         check_against_static(&points);
         for (k, &(key, _)) in pairs.iter().enumerate().step_by(3) {
             points.remove(key);

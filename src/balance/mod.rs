@@ -19,8 +19,9 @@ use links::cross_links_by;
 pub use links::{Links, across, cross_links, point_leaves};
 pub use separate::{
     Band, BandError, DomainSides, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, Separation, block,
-    check_corner_separated, check_separated, check_separated_in, coarsest_band_level,
-    nearest_corner, separate, separate_in, separate_with, sides_of, upper_halves,
+    check_corner_separated, check_corner_separated_in, check_separated, check_separated_in,
+    coarsest_band_level, nearest_corner, separate, separate_in, separate_with, sides_of,
+    upper_halves,
 };
 
 use crate::framework::NONE;

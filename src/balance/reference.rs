@@ -111,15 +111,33 @@ fn crowded<K: MortonKey>(split: &HashSet<Cell<K>>, keys: &[K], i: usize, leaf: C
 /// point's corner block at that level (the other point's nearest corner at most a square
 /// away); every square holding a point has the parents of its corner block split.
 pub fn corner_separated_closure<K: MortonKey>(keys: &[K]) -> Vec<Cell<K>> {
+    corner_separated_closure_in(keys, &vec![0; keys.len()])
+}
+
+/// [`corner_separated_closure`] on a square domain, `on[i]` the sides point `i` lies on
+/// (bits as [`super::sides_of`] gives): its block is cut at those sides, and may stick out of
+/// the root across no other.
+pub fn corner_separated_closure_in<K: MortonKey>(keys: &[K], on: &[u8]) -> Vec<Cell<K>> {
     use super::separate::nearest_corner;
+    use super::{ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP};
     let unbalanced = crate::quadtree::reference::build_reference(keys);
     let mut split: Vec<Cell<K>> = unbalanced.internal.iter().map(|s| s.cell).collect();
-    let block = |cell: Cell<K>, key: K| -> Option<Vec<Cell<K>>> {
+    let block = |cell: Cell<K>, key: K, on: u8| -> Option<Vec<Cell<K>>> {
         let (cx, cy) = nearest_corner(cell, key);
         let (x, y) = super::split_set::grid_position(cell);
         let (dx, dy) = (cx as i64 - x as i64, cy as i64 - y as i64);
+        let side = 1i64 << cell.level;
+        // A square beyond the root is left out if the point lies on the side it is beyond.
+        let beyond_own_side = |(ox, oy): (i64, i64)| {
+            let (sx, sy) = (cx as i64 + ox, cy as i64 + oy);
+            (sx < 0 && on & ON_LEFT != 0)
+                || (sx >= side && on & ON_RIGHT != 0)
+                || (sy < 0 && on & ON_BOTTOM != 0)
+                || (sy >= side && on & ON_TOP != 0)
+        };
         [(-1, -1), (0, -1), (-1, 0), (0, 0)]
             .into_iter()
+            .filter(|&o| !beyond_own_side(o))
             .map(|(ox, oy)| cell.offset(dx + ox, dy + oy))
             .collect()
     };
@@ -134,7 +152,7 @@ pub fn corner_separated_closure<K: MortonKey>(keys: &[K]) -> Vec<Cell<K>> {
                 let (ox, oy) = nearest_corner(Cell::containing(other, leaf.level), other);
                 j != i && ox.abs_diff(corner.0) <= 1 && oy.abs_diff(corner.1) <= 1
             });
-            let crowded = match block(leaf, key) {
+            let crowded = match block(leaf, key, on[i]) {
                 None => true,
                 Some(squares) => shares || squares.iter().any(|s| set.contains(s)),
             };
@@ -143,9 +161,9 @@ pub fn corner_separated_closure<K: MortonKey>(keys: &[K]) -> Vec<Cell<K>> {
             }
         }
         for &p in &split {
-            for &key in keys.iter().filter(|&&k| p.contains(k)) {
+            for (i, &key) in keys.iter().enumerate().filter(|(_, k)| p.contains(**k)) {
                 let child = Cell::containing(key, p.level + 1);
-                if let Some(squares) = block(child, key) {
+                if let Some(squares) = block(child, key, on[i]) {
                     demanded.extend(squares.iter().map(|s| s.parent()));
                 }
             }

@@ -97,8 +97,9 @@ pub fn separate_in<K: MortonKey>(
     separation: Separation,
 ) -> Result<(BalancedTree<K>, Option<Band>), BandError> {
     assert!(
-        separation == Separation::Block || sides.is_none(),
-        "corner separation is on the root square only"
+        separation == Separation::Block
+            || sides.is_none_or(|s| s.inner_top.is_none() && s.inner_right.is_none()),
+        "corner separation is on square domains only"
     );
     let rules = Rules::new(sides).separating(separation);
     let mut set = SplitSet::new();
@@ -117,10 +118,7 @@ pub fn separate_in<K: MortonKey>(
                 .map(|chunk| {
                     let mut out = Vec::new();
                     for &m in chunk {
-                        match rules.separation {
-                            Separation::Block => demands_of(&set, keys, m, &mut out),
-                            Separation::Corner => corner_demands_of(&set, keys, m, &mut out),
-                        }
+                        rules.demands(&set, keys, m, &mut out);
                     }
                     out
                 })
@@ -480,7 +478,7 @@ impl<'a> Rules<'a> {
         }
     }
 
-    fn separating(self, separation: Separation) -> Self {
+    pub(super) fn separating(self, separation: Separation) -> Self {
         Rules { separation, ..self }
     }
 
@@ -488,12 +486,12 @@ impl<'a> Rules<'a> {
     /// less those beyond a domain side the point lies on; `None` when the block crosses the
     /// root's side or the domain's top side elsewhere (the point's square must then be split).
     fn window<K: MortonKey>(&self, i: usize, cell: Cell<K>, key: K) -> Option<Rect> {
+        let on = self.sides.map_or(0, |s| s.on[i]);
         if self.separation == Separation::Corner {
-            return corner_block(cell, key);
+            return corner_block(cell, key, on);
         }
         let (x, y) = grid_position(cell);
         let last = last_position(cell.level);
-        let on = self.sides.map_or(0, |s| s.on[i]);
         let low = |c: u64, on_side: bool| match c.checked_sub(2) {
             Some(c) => Some(c),
             None => on_side.then_some(0),
@@ -526,6 +524,27 @@ impl<'a> Rules<'a> {
             columns,
             rows: (bottom, top),
         })
+    }
+}
+
+impl Rules<'_> {
+    /// Appends the squares move `m` demands that are not split yet, by the rules' separation.
+    pub(super) fn demands<K: MortonKey>(
+        &self,
+        set: &SplitSet<K>,
+        keys: &[K],
+        m: Move,
+        out: &mut Vec<Squares<K>>,
+    ) {
+        match self.separation {
+            Separation::Block => demands_of(set, keys, m, out),
+            Separation::Corner => corner_demands_of(set, self, keys, m, out),
+        }
+    }
+
+    /// The domain sides point `i` lies on ([`ON_LEFT`], ...), none on the root square.
+    pub(super) fn on(&self, i: usize) -> u8 {
+        self.sides.map_or(0, |s| s.on[i])
     }
 }
 
@@ -657,12 +676,14 @@ pub(super) fn demands_of<K: MortonKey>(
 /// the block's squares exist wherever the point's square does.
 fn corner_demands_of<K: MortonKey>(
     set: &SplitSet<K>,
+    rules: &Rules,
     keys: &[K],
     m: Move,
     out: &mut Vec<Squares<K>>,
 ) {
     let i = m.point as usize;
     let key = keys[i];
+    let on = rules.on(i);
     for level in m.from..m.to {
         let mut want = |cell: Cell<K>| {
             if !set.contains(cell) {
@@ -671,20 +692,29 @@ fn corner_demands_of<K: MortonKey>(
         };
         want(Cell::containing(key, level));
         // The points of one square two levels down share the child's nearest corner: the
-        // first of them demands its block.
+        // first of them on the same domain sides demands its block.
         let grandchild = Cell::containing(key, (level + 2).min(K::AXIS_BITS as u8));
-        if i > 0 && grandchild.contains(keys[i - 1]) {
+        if i > 0 && grandchild.contains(keys[i - 1]) && rules.on(i - 1) == on {
             continue;
         }
-        let Some(block) = corner_block(Cell::containing(key, level + 1), key) else {
-            continue;
-        };
-        for x in block.columns.0 >> 1..=block.columns.1 >> 1 {
-            for y in block.rows.0 >> 1..=block.rows.1 >> 1 {
-                want(at_position(x, y, level));
-            }
-        }
+        corner_block_parents(key, level, on).for_each(want);
     }
+}
+
+/// The squares of `level` whose split makes the corner block (cut at the sides `on`) of the
+/// point with key `key` at the next level: what a split square of `level` holding the point
+/// demands under [`Separation::Corner`].
+pub(super) fn corner_block_parents<K: MortonKey>(
+    key: K,
+    level: u8,
+    on: u8,
+) -> impl Iterator<Item = Cell<K>> {
+    let block = corner_block(Cell::containing(key, level + 1), key, on);
+    block.into_iter().flat_map(move |block| {
+        (block.columns.0 >> 1..=block.columns.1 >> 1).flat_map(move |x| {
+            (block.rows.0 >> 1..=block.rows.1 >> 1).map(move |y| at_position(x, y, level))
+        })
+    })
 }
 
 /// Whether `key` lies in the upper half of `cell` along x and along y (a key on the middle
@@ -706,15 +736,21 @@ pub fn nearest_corner<K: MortonKey>(cell: Cell<K>, key: K) -> (u64, u64) {
     (x + u64::from(right), y + u64::from(top))
 }
 
-/// The 2×2 squares of `cell`'s level around its corner nearest to `key`, or `None` when they
-/// stick out of the root.
-fn corner_block<K: MortonKey>(cell: Cell<K>, key: K) -> Option<Rect> {
+/// The 2×2 squares of `cell`'s level around its corner nearest to `key`, cut at the domain
+/// sides `on` (bits as [`sides_of`] gives) the point lies on; `None` when they stick out of the
+/// root elsewhere.
+fn corner_block<K: MortonKey>(cell: Cell<K>, key: K, on: u8) -> Option<Rect> {
     let (cx, cy) = nearest_corner(cell, key);
     let last = last_position(cell.level);
-    let inside = |c: u64| c >= 1 && c <= last;
-    (inside(cx) && inside(cy)).then_some(Rect {
-        columns: (cx - 1, cx),
-        rows: (cy - 1, cy),
+    // The squares on either side of corner line `c`, less the one beyond a side the point is on.
+    let span = |c: u64, (low, high): (u8, u8)| match c {
+        0 => (on & low != 0).then_some((0, 0)),
+        c if c > last => (on & high != 0).then_some((last, last)),
+        c => Some((c - 1, c)),
+    };
+    Some(Rect {
+        columns: span(cx, (ON_LEFT, ON_RIGHT))?,
+        rows: span(cy, (ON_BOTTOM, ON_TOP))?,
     })
 }
 
@@ -976,13 +1012,24 @@ fn square_offsets(radius: i64) -> impl Iterator<Item = (i64, i64)> {
 /// lies in the root and consists of leaves of its size holding no other point, and no leaf is
 /// in two points' blocks.
 pub fn check_corner_separated<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> Result<(), String> {
+    check_corner_separated_in(tree, keys, None)
+}
+
+/// [`check_corner_separated`] on a square domain: a block is cut at the sides its point lies
+/// on, and sticks out nowhere else.
+pub fn check_corner_separated_in<K: MortonKey>(
+    tree: &Quadtree<K>,
+    keys: &[K],
+    sides: Option<&DomainSides>,
+) -> Result<(), String> {
     use std::collections::HashMap;
+    let rules = Rules::new(sides);
     let leaf_point: HashMap<Cell<K>, u32> = tree.leaves.iter().map(|l| (l.cell, l.point)).collect();
     let mut claimed: HashMap<Cell<K>, u32> = HashMap::new();
     for leaf in tree.leaves.iter().filter(|l| l.point != NONE) {
         let cell = leaf.cell;
         let key = keys[leaf.point as usize];
-        let Some(block) = corner_block(cell, key) else {
+        let Some(block) = corner_block(cell, key, rules.on(leaf.point as usize)) else {
             return Err(format!("corner block of {cell:?} leaves the root"));
         };
         for square in rect_cells::<K>(block, cell.level) {

@@ -17,6 +17,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
+use quadmesh::balance::Separation;
 use quadmesh::dynamic::{
     BatchReport, DynamicDelaunay, DynamicMesh, Edit, RefinedEdit, TriangleChanges,
 };
@@ -124,8 +125,9 @@ enum Command {
         quality: QualityArgs,
     },
     /// Build the warped mesh of a point file on a fixed square domain, apply a file of edits
-    /// to it one by one, and write the final mesh: the same files `mesh --warp --domain` writes
-    /// for the live points in id order. The input points have ids 0..n-1 in file order.
+    /// to it one by one, and write the final mesh: the same files `mesh --warp --domain` (or
+    /// `--block-warp`, `--nonobtuse`) writes for the live points in id order. The input points
+    /// have ids 0..n-1 in file order.
     Replay {
         /// The initial points: Triangle `.node`, or text with one `x y` or `x,y` per line.
         points: PathBuf,
@@ -138,17 +140,21 @@ enum Command {
         /// The square domain `X0,Y0,X1,Y1`, holding every point at every step.
         #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_square, allow_hyphen_values = true)]
         domain: Domain,
-        /// The warped mesh (the default; accepted for clarity).
+        /// The compact warped mesh (the default; accepted for clarity).
         #[arg(long)]
         warp: bool,
-        /// Write the nonobtuse mesh of the final tree instead, as `mesh --nonobtuse` would.
+        /// Keep the block warp's tree and write its mesh instead, as `mesh --block-warp` would.
         #[arg(long, conflicts_with = "warp")]
+        block_warp: bool,
+        /// Keep the block warp's tree and write its nonobtuse mesh instead, as `mesh
+        /// --nonobtuse` would.
+        #[arg(long, conflicts_with_all = ["warp", "block_warp"])]
         nonobtuse: bool,
         /// Keep a quality Delaunay mesh with every angle at least DEG instead
         /// (`DynamicDelaunay`): the final mesh is refinement in order of the live points
         /// (`--verify` compares it with one), and the JSON lines carry `windows`,
         /// `steiner_removed` and `steiner_added` instead of `cells`.
-        #[arg(long, value_name = "DEG", conflicts_with_all = ["warp", "nonobtuse"])]
+        #[arg(long, value_name = "DEG", conflicts_with_all = ["warp", "block_warp", "nonobtuse"])]
         min_angle: Option<f64>,
         /// Output formats, comma-separated, as for `mesh`.
         #[arg(long, value_delimiter = ',', default_value = "node")]
@@ -460,6 +466,7 @@ fn main() -> ExitCode {
             output,
             domain,
             warp: _,
+            block_warp,
             nonobtuse,
             min_angle: None,
             format,
@@ -475,10 +482,10 @@ fn main() -> ExitCode {
             &format,
             threads,
             (json, verify, changes, batch.get()),
-            if nonobtuse {
-                Mode::Nonobtuse
-            } else {
-                Mode::Warp
+            match (block_warp, nonobtuse) {
+                (_, true) => Mode::Nonobtuse,
+                (true, _) => Mode::BlockWarp,
+                _ => Mode::Warp,
             },
         ),
         Command::Generate {
@@ -626,7 +633,12 @@ fn replay(
 ) -> Result<()> {
     let (points, edits) = replay_inputs((points_path, edits_path), prefix)?;
     pool(threads)?.install(|| {
-        let (built, build_time) = timed(|| DynamicMesh::new(&points, domain));
+        let separation = match mode {
+            Mode::Warp => Separation::Corner,
+            _ => Separation::Block,
+        };
+        let (built, build_time) =
+            timed(|| DynamicMesh::with_separation(&points, domain, separation));
         let mut dynamic = built.map_err(|e| anyhow::anyhow!("{}: {e}", points_path.display()))?;
         let mut out = io::stdout().lock();
         let mut seconds = Vec::with_capacity(edits.len());

@@ -13,12 +13,10 @@ use std::collections::HashMap;
 
 use glam::DVec2;
 
-use super::{DynamicMesh, Keyed, Tracked};
+use super::{DynamicMesh, Keyed, Tracked, mesh_tree};
 use crate::balance::GridRect;
 use crate::error::Error;
-use crate::mesh::StageTimes;
 use crate::morton::{Cell, MortonKey};
-use crate::warp::{split as split_leaves, warp};
 
 /// Triangles of a dynamic mesh that edits took out and put in, each by its corners
 /// counter-clockwise, starting from the least corner (by coordinates' bits).
@@ -122,6 +120,7 @@ impl DynamicMesh {
     }
 
     fn take(&mut self, nonobtuse: bool) -> Result<TriangleChanges, Error> {
+        self.check_nonobtuse(nonobtuse)?;
         let Some(log) = self.log.take() else {
             return Err(Error::InvalidOption {
                 option: "changes",
@@ -400,12 +399,8 @@ impl<K: MortonKey> Keyed<K> {
         let (keys, places): (Vec<K>, Vec<DVec2>) = keyed.into_iter().unzip();
         let tree = self.separated.part_within(split, before, &keys);
         let order: Vec<u32> = (0..places.len() as u32).collect();
-        let mut times = StageTimes::default();
-        let (mesh, _) = if nonobtuse {
-            split_leaves(&tree, &order, &self.grid, &places, &mut times)?
-        } else {
-            warp(&tree, (&order, None), &self.grid, &places, &mut times)?
-        };
+        let corner_keys = self.corner_keys(&keys);
+        let mesh = mesh_tree(&tree, (&order, corner_keys), &self.grid, &places, nonobtuse)?;
         let mut triangles: Vec<TriangleBits> = mesh
             .triangles
             .iter()

@@ -18,7 +18,7 @@ pub use refined::{DynamicDelaunay, RefinedEdit};
 
 use glam::DVec2;
 
-use crate::balance::{SeparatedPoints, remove_positions, sides_of};
+use crate::balance::{SeparatedPoints, Separation, remove_positions, sides_of};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, StageTimes};
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey};
@@ -114,6 +114,22 @@ impl DynamicMesh {
     /// given twice, and [`Error::Unresolvable`] for points too close together for the wide
     /// grid.
     pub fn new(points: &[DVec2], domain: Domain) -> Result<Self, Error> {
+        Self::with_separation(points, domain, Separation::Corner)
+    }
+
+    /// [`Self::new`] with the tree separated by `separation`: [`Separation::Corner`] for the
+    /// compact warp (what [`crate::mesh()`] gives in [`crate::Mode::Warp`] on a square, every
+    /// angle in [`crate::warp::COMPACT_ANGLE_BOUNDS`]), [`Separation::Block`] for the block
+    /// warp ([`crate::Mode::BlockWarp`], [`crate::warp::ANGLE_BOUNDS`]) and the nonobtuse
+    /// split ([`Self::mesh_nonobtuse`]).
+    ///
+    /// # Errors
+    /// As [`Self::new`].
+    pub fn with_separation(
+        points: &[DVec2],
+        domain: Domain,
+        separation: Separation,
+    ) -> Result<Self, Error> {
         domain.check()?;
         let extent = domain.hi - domain.lo;
         if extent.x != extent.y {
@@ -136,7 +152,7 @@ impl DynamicMesh {
             points: points.to_vec(),
             live: vec![true; points.len()],
             live_count: points.len(),
-            tree: Tracked::Narrow(Keyed::empty(&domain, u64::AXIS_BITS)?),
+            tree: Tracked::Narrow(Keyed::empty(&domain, u64::AXIS_BITS, separation)?),
             log: None,
         };
         mesh.rebuild()?;
@@ -173,6 +189,14 @@ impl DynamicMesh {
             .filter(|&id| self.live[id as usize])
             .map(|id| (id, self.points[id as usize]))
             .unzip()
+    }
+
+    /// The rule the tree is separated by, which decides the warp [`Self::mesh`] gives.
+    pub fn separation(&self) -> Separation {
+        match &self.tree {
+            Tracked::Narrow(k) => k.separated.separation(),
+            Tracked::Wide(k) => k.separated.separation(),
+        }
     }
 
     /// Whether the tree is on the wide grid.
@@ -525,15 +549,30 @@ impl DynamicMesh {
     }
 
     /// The nonobtuse mesh of the live points, from the same tree: what [`crate::mesh()`] gives
-    /// for them in id order on this domain in the nonobtuse mode.
+    /// for them in id order on this domain in the nonobtuse mode. It needs the block tree
+    /// ([`Self::with_separation`] with [`Separation::Block`]).
     ///
     /// # Errors
-    /// As [`Self::mesh`].
+    /// As [`Self::mesh`]; [`Error::InvalidOption`] for a corner tree.
     pub fn mesh_nonobtuse(&self) -> Result<Mesh, Error> {
         self.mesh_of(true)
     }
 
+    /// Refuses the nonobtuse split of a tree not separated by blocks.
+    fn check_nonobtuse(&self, nonobtuse: bool) -> Result<(), Error> {
+        if nonobtuse && self.separation() != Separation::Block {
+            return Err(Error::InvalidOption {
+                option: "nonobtuse",
+                message: "the nonobtuse split needs a dynamic mesh separated by blocks \
+                          (Separation::Block)"
+                    .into(),
+            });
+        }
+        Ok(())
+    }
+
     fn mesh_of(&self, nonobtuse: bool) -> Result<Mesh, Error> {
+        self.check_nonobtuse(nonobtuse)?;
         if self.live_count == 0 {
             return Err(Error::Empty);
         }
@@ -608,8 +647,7 @@ impl DynamicMesh {
         let Tracked::Wide(k) = &self.tree else {
             return Ok(false);
         };
-        let narrow_finest = u64::AXIS_BITS - GUARD_LEVELS;
-        if u32::from(k.separated.deepest()) > narrow_finest {
+        if u32::from(k.separated.deepest()) > finest_resolved::<u64>(k.separated.separation()) {
             return Ok(false);
         }
         self.rebuild()?;
@@ -625,17 +663,19 @@ impl DynamicMesh {
         let ids: Vec<u32> = (0..self.points.len() as u32)
             .filter(|&id| self.live[id as usize])
             .collect();
-        if let Some(narrow) = Keyed::<u64>::build(&self.points, &ids, &self.domain)? {
+        let separation = self.separation();
+        let (points, domain) = (&self.points, &self.domain);
+        if let Some(narrow) = Keyed::<u64>::build(points, &ids, domain, separation)? {
             self.tree = Tracked::Narrow(narrow);
             return Ok(());
         }
-        match Keyed::<u128>::build(&self.points, &ids, &self.domain)? {
+        match Keyed::<u128>::build(points, &ids, domain, separation)? {
             Some(wide) => {
                 self.tree = Tracked::Wide(wide);
                 Ok(())
             }
             None => {
-                let wide = Keyed::<u128>::build_unchecked(&self.points, &ids, &self.domain)?;
+                let wide = Keyed::<u128>::build_unchecked(points, &ids, domain, separation)?;
                 let id = wide.too_deep_point();
                 let p = self.points[id as usize];
                 Err(unresolvable(p, id))
@@ -682,25 +722,35 @@ impl Tracked {
 }
 
 impl<K: MortonKey> Keyed<K> {
-    fn empty(domain: &Domain, axis_bits: u32) -> Result<Self, Error> {
+    fn empty(domain: &Domain, axis_bits: u32, separation: Separation) -> Result<Self, Error> {
         Ok(Keyed {
             grid: Grid::on_domain(domain.lo, domain.hi, axis_bits)?,
-            separated: SeparatedPoints::new(Vec::new(), Vec::new()),
+            separated: SeparatedPoints::new(Vec::new(), Vec::new(), separation),
             ids: Vec::new(),
         })
     }
 
     /// The tree of the points `ids`, or `None` if two of them share a key or a leaf is finer
     /// than this grid resolves the points.
-    fn build(points: &[DVec2], ids: &[u32], domain: &Domain) -> Result<Option<Self>, Error> {
-        let keyed = Self::build_unchecked(points, ids, domain)?;
+    fn build(
+        points: &[DVec2],
+        ids: &[u32],
+        domain: &Domain,
+        separation: Separation,
+    ) -> Result<Option<Self>, Error> {
+        let keyed = Self::build_unchecked(points, ids, domain, separation)?;
         let distinct = keyed.ids.len() == ids.len();
         Ok((distinct && !keyed.too_deep()).then_some(keyed))
     }
 
     /// The tree of the points `ids`, the first of each key only.
-    fn build_unchecked(points: &[DVec2], ids: &[u32], domain: &Domain) -> Result<Self, Error> {
-        let mut keyed = Self::empty(domain, K::AXIS_BITS)?;
+    fn build_unchecked(
+        points: &[DVec2],
+        ids: &[u32],
+        domain: &Domain,
+        separation: Separation,
+    ) -> Result<Self, Error> {
+        let mut keyed = Self::empty(domain, K::AXIS_BITS, separation)?;
         let mut pairs: Vec<(K, u32)> = ids
             .iter()
             .map(|&id| (keyed.key(points[id as usize]), id))
@@ -712,7 +762,7 @@ impl<K: MortonKey> Keyed<K> {
             .map(|&(_, id)| sides_of(points[id as usize], domain.lo, domain.hi))
             .collect();
         let (keys, ids) = pairs.into_iter().unzip();
-        keyed.separated = SeparatedPoints::new(keys, on);
+        keyed.separated = SeparatedPoints::new(keys, on, separation);
         keyed.ids = ids;
         Ok(keyed)
     }
@@ -797,12 +847,12 @@ impl<K: MortonKey> Keyed<K> {
 
     /// Whether a point's leaf is finer than the grid resolves the points.
     fn too_deep(&self) -> bool {
-        u32::from(self.separated.deepest()) > K::AXIS_BITS - GUARD_LEVELS
+        u32::from(self.separated.deepest()) > finest_resolved::<K>(self.separated.separation())
     }
 
     /// The id of a point whose leaf is finer than the grid resolves.
     fn too_deep_point(&self) -> u32 {
-        let finest = K::AXIS_BITS - GUARD_LEVELS;
+        let finest = finest_resolved::<K>(self.separated.separation());
         let i = self
             .separated
             .levels()
@@ -815,14 +865,42 @@ impl<K: MortonKey> Keyed<K> {
     fn mesh(&self, live_points: &[DVec2], rank: &[u32], nonobtuse: bool) -> Result<Mesh, Error> {
         let tree = self.separated.tree();
         let order: Vec<u32> = self.ids.iter().map(|&id| rank[id as usize]).collect();
-        let mut times = StageTimes::default();
-        let meshed = if nonobtuse {
-            split(&tree, &order, &self.grid, live_points, &mut times)
-        } else {
-            warp(&tree, (&order, None), &self.grid, live_points, &mut times)
-        };
-        meshed.map(|(mesh, _)| mesh)
+        let keys = self.corner_keys(self.separated.keys());
+        mesh_tree(&tree, (&order, keys), &self.grid, live_points, nonobtuse)
     }
+
+    /// `keys`, the points' keys in Morton order, where the tree is a corner tree: what the
+    /// compact warp needs.
+    fn corner_keys<'a>(&self, keys: &'a [K]) -> Option<&'a [K]> {
+        (self.separated.separation() == Separation::Corner).then_some(keys)
+    }
+}
+
+/// The finest leaf level at which a grid of `K` keys resolves the points for a tree separated
+/// by `separation` (as [`crate::warp::point_finer_than_grid`] judges): the compact warp needs
+/// the half of a leaf a key lies in, one level finer.
+fn finest_resolved<K: MortonKey>(separation: Separation) -> u32 {
+    let corners = u32::from(separation == Separation::Corner);
+    K::AXIS_BITS - GUARD_LEVELS - corners
+}
+
+/// The mesh of a separated tree of `points`, `order[i]` the index of the `i`-th point in Morton
+/// order: the nonobtuse split of a block tree, or the warp of the tree's rule, compact given
+/// the points' keys `corner_keys` (a [`Separation::Corner`] tree).
+fn mesh_tree<K: MortonKey>(
+    tree: &crate::balance::BalancedTree<K>,
+    (order, corner_keys): (&[u32], Option<&[K]>),
+    grid: &Grid,
+    points: &[DVec2],
+    nonobtuse: bool,
+) -> Result<Mesh, Error> {
+    let mut times = StageTimes::default();
+    let meshed = if nonobtuse {
+        split(tree, order, grid, points, &mut times)
+    } else {
+        warp(tree, (order, corner_keys), grid, points, &mut times)
+    };
+    meshed.map(|(mesh, _)| mesh)
 }
 
 /// `old` with `new` put in at the sorted `positions` of the merged list.
