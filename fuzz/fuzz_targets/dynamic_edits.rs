@@ -1,13 +1,14 @@
 //! Any bytes as initial points and a sequence of edits of a dynamic warped mesh on the unit
-//! square: after every edit the mesh equals a build from scratch of the live points, the
+//! square, compact or block-warped as the first byte's top bit says: after every edit the mesh equals a build from scratch of the live points, the
 //! triangles the tracked changes report turn the mesh before into the mesh after, and a refused
 //! edit leaves it as it was.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
+use quadmesh::balance::Separation;
 use quadmesh::dynamic::{DynamicMesh, Edit};
 use quadmesh::mesh::Domain;
-use quadmesh::{DVec2, Input, Options, Region};
+use quadmesh::{DVec2, Input, Mode, Options, Region};
 
 #[path = "edit_points.rs"]
 mod edit_points;
@@ -17,12 +18,20 @@ mod triangle_changes;
 use edit_points::point;
 use triangle_changes::{changed, triangle_set};
 
+/// The options of a build from scratch in the dynamic mesh's warp.
+fn options_of(dynamic: &DynamicMesh) -> Options {
+    let mode = match dynamic.separation() {
+        Separation::Corner => Mode::Warp,
+        Separation::Block => Mode::BlockWarp,
+    };
+    Options::default()
+        .with_mode(mode)
+        .region(Region::Rectangle(dynamic.domain()))
+}
+
 fn rebuilt(dynamic: &DynamicMesh) -> Option<quadmesh::Mesh> {
     let (_, points) = dynamic.live_points();
-    let options = Options::default()
-        .block_warp()
-        .region(Region::Rectangle(dynamic.domain()));
-    quadmesh::mesh(&Input::points(points), &options)
+    quadmesh::mesh(&Input::points(points), &options_of(dynamic))
         .ok()
         .map(|(m, _)| m)
 }
@@ -30,6 +39,11 @@ fn rebuilt(dynamic: &DynamicMesh) -> Option<quadmesh::Mesh> {
 fuzz_target!(|data: &[u8]| {
     let Some((&count, rest)) = data.split_first() else {
         return;
+    };
+    let separation = if count & 0x80 == 0 {
+        Separation::Corner
+    } else {
+        Separation::Block
     };
     let count = (count % 16) as usize;
     if rest.len() < 4 * count {
@@ -41,7 +55,7 @@ fuzz_target!(|data: &[u8]| {
         lo: DVec2::ZERO,
         hi: DVec2::ONE,
     };
-    let Ok(mut dynamic) = DynamicMesh::new(&initial, domain) else {
+    let Ok(mut dynamic) = DynamicMesh::with_separation(&initial, domain, separation) else {
         return;
     };
     dynamic.track_changes(true);
@@ -72,7 +86,7 @@ fuzz_target!(|data: &[u8]| {
                 }
                 if let Some(mesh) = mesh {
                     let (_, points) = dynamic.live_points();
-                    mesh.validate(&points, Options::default().block_warp().angle_bounds())
+                    mesh.validate(&points, options_of(&dynamic).angle_bounds())
                         .unwrap_or_else(|e| panic!("{edit:?}: {e}"));
                 }
             }

@@ -7,6 +7,7 @@ use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+use quadmesh::balance::Separation;
 use quadmesh::dynamic::{DynamicDelaunay, DynamicMesh, Edit, TriangleChanges};
 use quadmesh::mesh::Domain;
 use quadmesh::refine::{RefineDomain, RefineOptions};
@@ -370,11 +371,15 @@ fn raise(e: &Error) -> PyErr {
 
 #[pymethods]
 impl PyDynamicMesh {
+    /// `block`: keep the block warp's tree (which also gives the nonobtuse split) instead of
+    /// the compact warp's.
     #[new]
+    #[pyo3(signature = (points, domain, block = false))]
     fn new(
         py: Python<'_>,
         points: PyReadonlyArray2<'_, f64>,
         domain: (f64, f64, f64, f64),
+        block: bool,
     ) -> PyResult<Self> {
         let points = rows(&points, 2, "points", |r| DVec2::new(r[0], r[1]))?;
         let (x0, y0, x1, y1) = domain;
@@ -382,8 +387,13 @@ impl PyDynamicMesh {
             lo: DVec2::new(x0, y0),
             hi: DVec2::new(x1, y1),
         };
+        let separation = if block {
+            Separation::Block
+        } else {
+            Separation::Corner
+        };
         let inner = py
-            .detach(|| DynamicMesh::new(&points, domain))
+            .detach(|| DynamicMesh::with_separation(&points, domain, separation))
             .map_err(|e| raise(&e))?;
         Ok(PyDynamicMesh { inner })
     }

@@ -176,10 +176,11 @@ def _same_mesh(a, b):
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
 
 
-def test_a_dynamic_mesh_after_edits_is_a_fresh_one_of_its_live_points():
+@pytest.mark.parametrize("mode", ["warp", "block_warp"])
+def test_a_dynamic_mesh_after_edits_is_a_fresh_one_of_its_live_points(mode):
     rng = np.random.default_rng(3)
     start = rng.random((300, 2))
-    dynamic = quadmesh.DynamicMesh(start, (0, 0, 1, 1))
+    dynamic = quadmesh.DynamicMesh(start, (0, 0, 1, 1), mode=mode)
     where = {i: tuple(p) for i, p in enumerate(start)}
     for k in range(60):
         ids = list(where)
@@ -200,12 +201,18 @@ def test_a_dynamic_mesh_after_edits_is_a_fresh_one_of_its_live_points():
     assert len(dynamic) == len(where)
     points = np.array([where[i] for i in live])
     mesh = dynamic.mesh()
-    _same_mesh(mesh, quadmesh.DynamicMesh(points, (0, 0, 1, 1)).mesh())
-    # The nonobtuse mesh of the same tree: a rebuild's, every angle at most 90°.
-    split = dynamic.mesh(nonobtuse=True)
-    _same_mesh(split, quadmesh.DynamicMesh(points, (0, 0, 1, 1)).mesh(nonobtuse=True))
-    assert max_angles(split.vertices, split.triangles).max() <= 90 + 1e-6
-    assert len(split.triangles) > len(mesh.triangles)
+    _same_mesh(mesh, quadmesh.DynamicMesh(points, (0, 0, 1, 1), mode=mode).mesh())
+    assert 20 < len(mesh.triangles) / len(points) < (50 if mode == "warp" else 150)
+    if mode == "warp":
+        with pytest.raises(quadmesh.QuadmeshError, match="nonobtuse"):
+            dynamic.mesh(nonobtuse=True)
+    else:
+        # The nonobtuse mesh of the same tree: a rebuild's, every angle at most 90°.
+        split = dynamic.mesh(nonobtuse=True)
+        again = quadmesh.DynamicMesh(points, (0, 0, 1, 1), mode=mode)
+        _same_mesh(split, again.mesh(nonobtuse=True))
+        assert max_angles(split.vertices, split.triangles).max() <= 90 + 1e-6
+        assert len(split.triangles) > len(mesh.triangles)
     # Every live point is a vertex, numbered in id order.
     vertex_of = {int(v): i for i, v in enumerate(mesh.vertex_input) if v >= 0}
     np.testing.assert_array_equal(mesh.vertices[[vertex_of[k] for k in range(len(live))]], points)
@@ -227,11 +234,12 @@ def _corner_row(corners):
     return tuple(tuple(p) for p in np.roll(corners, -k, axis=0))
 
 
-def test_tracked_changes_turn_the_old_mesh_into_the_new():
+@pytest.mark.parametrize("mode", ["warp", "block_warp"])
+def test_tracked_changes_turn_the_old_mesh_into_the_new(mode):
     rng = np.random.default_rng(8)
-    dynamic = quadmesh.DynamicMesh(rng.random((500, 2)), (0, 0, 1, 1))
+    dynamic = quadmesh.DynamicMesh(rng.random((500, 2)), (0, 0, 1, 1), mode=mode)
     dynamic.track_changes()
-    for nonobtuse in (False, True):
+    for nonobtuse in (False, True) if mode == "block_warp" else (False,):
         before = dynamic.mesh(nonobtuse=nonobtuse)
         dynamic.take_changes(nonobtuse)  # from here on
         x, y = rng.random(2)

@@ -200,8 +200,11 @@ class _Dynamic:
 
 
 class DynamicMesh(_Dynamic):
-    """A block-warped quadtree mesh (every angle in [22.5°, 112.5°]) of points on a fixed square
-    ``domain`` (x0, y0, x1, y1), kept current while points are inserted, deleted and moved.
+    """A warped quadtree mesh of points on a fixed square ``domain`` (x0, y0, x1, y1), kept
+    current while points are inserted, deleted and moved: the compact warp (``mode="warp"``,
+    every angle in [26°, 120°]) or the block warp (``mode="block_warp"``, [22.5°, 112.5°],
+    about three times the triangles, and the only one that also gives the nonobtuse mesh),
+    as ``mesh(..., mode=...)`` gives them on that domain.
 
     The initial points have ids ``0 .. n-1``; each insertion takes the next id, and a deleted
     id is never given out again. After any edits, ``mesh()`` is exactly the mesh that a new
@@ -211,13 +214,18 @@ class DynamicMesh(_Dynamic):
     all points or none.
     """
 
-    def __init__(self, points, domain):
+    def __init__(self, points, domain, mode: str = "warp"):
+        if mode not in ("warp", "block_warp"):
+            raise ValueError(f"mode must be 'warp' or 'block_warp', not {mode!r}")
         x0, y0, x1, y1 = (float(v) for v in domain)
-        self._inner = _DynamicMesh(_as_points(points, "points"), (x0, y0, x1, y1))
+        self._inner = _DynamicMesh(
+            _as_points(points, "points"), (x0, y0, x1, y1), mode == "block_warp"
+        )
 
     def mesh(self, nonobtuse: bool = False) -> Mesh:
-        """The current mesh: the warped one, or with ``nonobtuse=True`` the nonobtuse mesh of
-        the same quadtree (every angle at most 90°), as ``mesh(..., mode="nonobtuse")`` gives."""
+        """The current mesh: the warped one, or with ``nonobtuse=True`` (``mode="block_warp"``
+        only) the nonobtuse mesh of the same quadtree (every angle at most 90°), as
+        ``mesh(..., mode="nonobtuse")`` gives."""
         return _mesh_of(self._inner.mesh(nonobtuse))
 
     def take_changes(self, nonobtuse: bool = False) -> Tuple[np.ndarray, np.ndarray]:
