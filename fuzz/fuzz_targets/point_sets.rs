@@ -2,7 +2,9 @@
 //! passes `validate` (`validate_nonobtuse` in the nonobtuse mode; in the Delaunay mode, the exact
 //! Delaunay check too) or a typed error. On the square, the Delaunay mode is also refined by
 //! `refine_points_in_order`, whose mesh must pass the same checks and have the same triangles
-//! for the points in reverse order.
+//! for the points in reverse order. The quadtree modes may also mesh the square whose lower
+//! left corner is the points' least coordinates, as wide as their larger extent: points lie on
+//! its sides and corners.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -46,6 +48,17 @@ fn check_in_order(points: &[DVec2], options: &Options) {
     }
 }
 
+/// The square from the points' least coordinates as wide as their larger extent, if they are
+/// finite and spread.
+fn square_on_the_points(points: &[DVec2]) -> Option<quadmesh::Domain> {
+    let finite = points.iter().all(|p| p.is_finite());
+    let lo = points.iter().copied().reduce(DVec2::min)?;
+    let hi = points.iter().copied().reduce(DVec2::max)?;
+    let side = (hi - lo).max_element();
+    let far = lo + DVec2::splat(side);
+    (finite && side > 0.0 && far.is_finite()).then_some(quadmesh::Domain { lo, hi: far })
+}
+
 fuzz_target!(|data: &[u8]| {
     let Some((&choice, rest)) = data.split_first() else {
         return;
@@ -72,7 +85,11 @@ fuzz_target!(|data: &[u8]| {
     } else {
         Options::default().nonobtuse()
     };
-    if choice & 0x40 != 0 {
+    if choice & 1 != 0 && choice & 0x10 != 0 {
+        if let Some(square) = square_on_the_points(&points) {
+            options = options.region(Region::Rectangle(square));
+        }
+    } else if choice & 0x40 != 0 {
         options = options.region(Region::Square);
         if choice & 1 == 0 {
             check_in_order(&points, &options);

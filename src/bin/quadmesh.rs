@@ -114,8 +114,9 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Time a dynamic warped mesh of the points instead (on the square `--warp` takes by
-        /// default): `--edits` insertions, then as many deletions and moves, one at a time,
-        /// medians per kind against a build of the final points from scratch and its mesh.
+        /// default; the compact warp, or with `--block-warp` the block warp): `--edits`
+        /// insertions, then as many deletions and moves, one at a time, medians per kind
+        /// against a build of the final points from scratch and its mesh.
         #[arg(long, conflicts_with_all = ["nonobtuse", "min_angle", "max_area", "max_vertices", "domain"])]
         dynamic: bool,
         /// With `--dynamic`: how many edits of each kind.
@@ -436,7 +437,15 @@ fn main() -> ExitCode {
             edits,
             quality,
         } => match dynamic {
-            true => bench_dynamic(points, input, threads, json, edits),
+            true => {
+                // The dynamic mesh keeps the compact warp's tree unless the block warp's is
+                // asked for.
+                let separation = match quality.block_warp {
+                    true => Separation::Block,
+                    false => Separation::Corner,
+                };
+                bench_dynamic(points, input, threads, json, (edits, separation))
+            }
             false => bench(points, input, threads, json, quality),
         },
         Command::Replay {
@@ -1027,7 +1036,7 @@ fn bench_dynamic(
     input: Option<PathBuf>,
     threads: Option<NonZeroUsize>,
     json: bool,
-    edits: usize,
+    (edits, separation): (usize, Separation),
 ) -> Result<()> {
     let pool = pool(threads)?;
     let seed = points.seed;
@@ -1049,7 +1058,8 @@ fn bench_dynamic(
     };
     let domain = square_around(&initial)?;
     pool.install(|| {
-        let (built, build) = timed(|| DynamicMesh::new(&initial, domain));
+        let (built, build) =
+            timed(|| DynamicMesh::with_separation(&initial, domain, separation));
         let mut dynamic = built?;
         let n = initial.len() as u64;
         // New places, uniform in the square; ids to delete and to move, in a seeded order.
@@ -1087,12 +1097,18 @@ fn bench_dynamic(
             run(2, Edit::Move(id, p))?;
         }
         let (_, live) = dynamic.live_points();
-        let (rebuilt, rebuild) = timed(|| DynamicMesh::new(&live, domain));
+        let (rebuilt, rebuild) =
+            timed(|| DynamicMesh::with_separation(&live, domain, separation));
         rebuilt?;
         let (meshed, mesh) = timed(|| dynamic.mesh());
-        meshed?;
+        let triangles = meshed?.triangles.len();
         let mut out = io::stdout().lock();
-        let mut fields = String::new();
+        let warp = match separation {
+            Separation::Corner => "compact",
+            Separation::Block => "block",
+        };
+        writeln!(out, "{:<24}{warp}, {triangles} triangles", "warp")?;
+        let mut fields = format!(",\"warp\":\"{warp}\",\"triangles\":{triangles}");
         for (kind, name) in ["insert", "delete", "move"].into_iter().enumerate() {
             let column = |f: fn(&(f64, usize, f64, usize)) -> f64| {
                 median(&mut timings[kind].iter().map(f).collect::<Vec<f64>>())
