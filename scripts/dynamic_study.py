@@ -4,7 +4,7 @@
 Usage (from the repository root, after `cargo build --release`):
 
     python3 scripts/dynamic_study.py [--points 100000] [--threads 2] [--dir /tmp/qm-dynamic]
-        [--studies single,spread,batches,steps]
+        [--studies single,spread,batches,steps] [--warp compact|block]
 
 Studies, each printed as a markdown table:
 
@@ -47,11 +47,15 @@ def write_edits(path, edits):
             f.write(" ".join(e if isinstance(e, str) else repr(e) for e in e) + "\n")
 
 
+WARP_FLAGS = {"compact": "--warp", "block": "--block-warp"}
+WARP = "compact"
+
+
 def replay(points_path, edits_path, out_dir, threads, batch=1):
     """The per-edit (or per-batch) lines and the summary of one replay."""
     cmd = [binary(), "replay", points_path, edits_path, "-o", os.path.join(out_dir, "out"),
            "--domain", "0,0,1,1", "--format", "svg", "--json", "--verify", "--threads",
-           str(threads), "--batch", str(batch)]
+           str(threads), "--batch", str(batch), WARP_FLAGS[WARP]]
     run = subprocess.run(cmd, capture_output=True, text=True)
     if run.returncode != 0:
         sys.exit(f"replay failed: {run.stderr.strip()}")
@@ -195,7 +199,11 @@ def main():
     parser.add_argument("--dir", default="/tmp/qm-dynamic")
     parser.add_argument("--studies", default="single,spread,batches,steps")
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--warp", choices=sorted(WARP_FLAGS), default="compact",
+                        help="the dynamic mesh's warp (default: compact)")
     args = parser.parse_args()
+    global WARP
+    WARP = args.warp
     os.makedirs(args.dir, exist_ok=True)
     rng = random.Random(args.seed)
     studies = {"single": single, "spread": spread, "batches": batches, "steps": steps}

@@ -381,22 +381,22 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// whether it did. Under [`Separation::Block`] it does when the point stays in its leaf on
     /// the same domain sides: every rule reads a point's squares no finer than its leaf, and a
     /// square finer than another point's leaf holding it would have crowded that point's
-    /// block. Under [`Separation::Corner`] the point's own rules read the half of its leaf it
-    /// lies in, and another point reads its square one level below its own leaf when that
-    /// point's corner block comes within half a square of this leaf, which balance allows
-    /// only for leaves at most two levels finer: so the point must stay in its square three
-    /// levels below its leaf.
+    /// block. Under [`Separation::Corner`] the point must also stay in the quarter of its leaf
+    /// at its corner, which its own rules read. Another point `q` with a finer leaf (side
+    /// `s_q` at most half this leaf's `s`) reads this point's square of the level below its
+    /// own when that lies within `1.5 s_q` of `q`'s corner; were any place of the quarter so
+    /// near, `q` would lie within `s/2 + 1.5 s_q + s_q/2 ≤ 1.5 s` of this point's corner, in the
+    /// squares whose points crowd this leaf, which the tree, separated, rules out.
     pub fn move_within_leaf(&mut self, from: K, to: K, on: u8) -> bool {
         let Ok(i) = self.keys.binary_search(&from) else {
             return false;
         };
-        let depth = match self.separation {
-            Separation::Block => 0,
-            Separation::Corner => 3,
+        let level = self.levels[i];
+        let read = match self.separation {
+            Separation::Block => level,
+            Separation::Corner => (level + 1).min(K::AXIS_BITS as u8),
         };
-        let read = (self.levels[i] + depth).min(K::AXIS_BITS as u8);
-        let leaf = Cell::containing(from, read);
-        if !leaf.contains(to) || self.sides.on[i] != on {
+        if !Cell::containing(from, read).contains(to) || self.sides.on[i] != on {
             return false;
         }
         self.keys[i] = to;
@@ -945,6 +945,40 @@ mod tests {
         assert!(
             moved > 100,
             "{separation:?}: only {moved} moves kept the tree"
+        );
+    }
+
+    #[test]
+    fn corner_moves_anywhere_in_the_leafs_nearest_half_keep_the_static_tree_or_are_refused() {
+        // Moves to random places in the quarter of the leaf by the moved corner: each keeps
+        // the tree (see `move_within_leaf`).
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
+        let mut rng = Rng::seed_from_u64(41);
+        let pairs = random_keys(&mut rng, 300, &grid);
+        let (mut keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
+        let mut points = SeparatedPoints::new(keys.clone(), on.clone(), Separation::Corner);
+        let (mut moved, mut refused) = (0, 0);
+        for _ in 0..4000 {
+            let i = rng.random_range(0..keys.len());
+            let quarter = Cell::containing(keys[i], points.levels()[i] + 1);
+            let (x, y) = { quarter.anchor }.decode();
+            let side = 1u64 << (u64::AXIS_BITS - u32::from(quarter.level));
+            let to = u64::encode(x + rng.random_range(0..side), y + rng.random_range(0..side));
+            if points.contains(to) {
+                continue;
+            }
+            if !points.move_within_leaf(keys[i], to, on[i]) {
+                refused += 1;
+                continue;
+            }
+            moved += 1;
+            keys[i] = to;
+            assert_eq!(points.keys(), &keys[..]);
+            check_against_static(&points);
+        }
+        assert!(
+            moved > 1000 && refused == 0,
+            "{moved} moved, {refused} refused"
         );
     }
 
