@@ -28,7 +28,7 @@ use rayon::prelude::*;
 
 use super::separate::{
     DomainSides, Move, Rules, around, chebyshev, clear_of_points, corner_block_parents, descend,
-    settle_all, walk,
+    settle_against, settle_all, walk,
 };
 use super::split_set::{SplitSet, Squares, at_position, grid_position, last_position};
 use super::{BalancedTree, Separation, forced_by, linked_tree, separate_in};
@@ -309,29 +309,6 @@ impl<K: MortonKey> SeparatedPoints<K> {
         found
     }
 
-    /// The moves of the points `crowded`, whose leaves may be crowded by new points: down past
-    /// split squares, squares whose block holds another point, and squares whose block holds a
-    /// split square.
-    fn settle_crowded(&self, crowded: &[u32]) -> Vec<Move> {
-        let rules = self.rules();
-        crowded
-            .par_iter()
-            .filter_map(|&point| {
-                let i = point as usize;
-                let from = self.levels[i];
-                let split = walk(&self.set, self.keys[i], from);
-                let level = clear_of_points(&rules, &self.keys, i, split);
-                let to = descend(&self.set, &rules, &self.keys, i, level);
-                (to != from).then_some(Move {
-                    point,
-                    from,
-                    split,
-                    to,
-                })
-            })
-            .collect()
-    }
-
     /// Puts the keys `new` (sorted) with their sides into the arrays in place, at level 0,
     /// moving each run of old entries once, from the back; returns their positions.
     fn merge_in(&mut self, new: &[(K, u8)]) -> Vec<usize> {
@@ -500,7 +477,15 @@ impl<K: MortonKey> SeparatedPoints<K> {
             candidates.retain(|c| crowded.binary_search(c).is_err());
             let rules = self.rules();
             moves = settle_all(&self.set, &rules, &self.keys, &self.levels, &candidates);
-            moves.extend(self.settle_crowded(&std::mem::take(&mut crowded)));
+            let crowded = std::mem::take(&mut crowded);
+            let against_points = (&crowded[..], true);
+            moves.extend(settle_against(
+                &self.set,
+                &rules,
+                &self.keys,
+                &self.levels,
+                against_points,
+            ));
         }
     }
 
@@ -922,26 +907,13 @@ mod tests {
     }
 
     fn moves_within_a_leaf(separation: Separation) {
-        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
-        let mut rng = Rng::seed_from_u64(31);
-        let pairs = random_keys(&mut rng, 300, &grid);
-        let (mut keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
-        let mut points = SeparatedPoints::new(keys.clone(), on.clone(), separation);
-        let mut moved = 0;
-        for _ in 0..2000 {
-            let i = rng.random_range(0..keys.len());
-            // A small step in grid units, often within the leaf, sometimes out of it.
-            let (x, y) = keys[i].decode();
+        // A small step in grid units, often within the leaf, sometimes out of it.
+        let step = |key: u64, _: u8, rng: &mut Rng| {
+            let (x, y) = key.decode();
             let step = |c: u64, r: u64| c.wrapping_add(r % (1 << 22)).wrapping_sub(1 << 21);
-            let to = u64::encode(step(x, rng.random::<u64>()), step(y, rng.random::<u64>()));
-            if points.contains(to) || !points.move_within_leaf(keys[i], to, on[i]) {
-                continue;
-            }
-            moved += 1;
-            keys[i] = to;
-            assert_eq!(points.keys(), &keys[..]);
-            check_against_static(&points);
-        }
+            u64::encode(step(x, rng.random::<u64>()), step(y, rng.random::<u64>()))
+        };
+        let (moved, _) = random_moves(31, 2000, separation, step);
         assert!(
             moved > 100,
             "{separation:?}: only {moved} moves kept the tree"
@@ -949,21 +921,40 @@ mod tests {
     }
 
     #[test]
-    fn corner_moves_anywhere_in_the_leafs_nearest_half_keep_the_static_tree_or_are_refused() {
+    fn corner_moves_anywhere_in_the_leafs_nearest_quarter_keep_the_static_tree() {
         // Moves to random places in the quarter of the leaf by the moved corner: each keeps
         // the tree (see `move_within_leaf`).
-        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
-        let mut rng = Rng::seed_from_u64(41);
-        let pairs = random_keys(&mut rng, 300, &grid);
-        let (mut keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
-        let mut points = SeparatedPoints::new(keys.clone(), on.clone(), Separation::Corner);
-        let (mut moved, mut refused) = (0, 0);
-        for _ in 0..4000 {
-            let i = rng.random_range(0..keys.len());
-            let quarter = Cell::containing(keys[i], points.levels()[i] + 1);
+        let anywhere_in_the_quarter = |key: u64, level: u8, rng: &mut Rng| {
+            let quarter = Cell::containing(key, level + 1);
             let (x, y) = { quarter.anchor }.decode();
             let side = 1u64 << (u64::AXIS_BITS - u32::from(quarter.level));
-            let to = u64::encode(x + rng.random_range(0..side), y + rng.random_range(0..side));
+            u64::encode(x + rng.random_range(0..side), y + rng.random_range(0..side))
+        };
+        let (moved, refused) = random_moves(41, 4000, Separation::Corner, anywhere_in_the_quarter);
+        assert!(
+            moved > 1000 && refused == 0,
+            "{moved} moved, {refused} refused"
+        );
+    }
+
+    /// `trials` moves of random points of a tree of 300 random ones to the keys `target`
+    /// picks from a point's key and leaf level, each kept (and compared with the static tree)
+    /// or refused by `move_within_leaf`; how many of each.
+    fn random_moves(
+        seed: u64,
+        trials: usize,
+        separation: Separation,
+        target: impl Fn(u64, u8, &mut Rng) -> u64,
+    ) -> (usize, usize) {
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
+        let mut rng = Rng::seed_from_u64(seed);
+        let pairs = random_keys(&mut rng, 300, &grid);
+        let (mut keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
+        let mut points = SeparatedPoints::new(keys.clone(), on.clone(), separation);
+        let (mut moved, mut refused) = (0, 0);
+        for _ in 0..trials {
+            let i = rng.random_range(0..keys.len());
+            let to = target(keys[i], points.levels()[i], &mut rng);
             if points.contains(to) {
                 continue;
             }
@@ -976,10 +967,7 @@ mod tests {
             assert_eq!(points.keys(), &keys[..]);
             check_against_static(&points);
         }
-        assert!(
-            moved > 1000 && refused == 0,
-            "{moved} moved, {refused} refused"
-        );
+        (moved, refused)
     }
 
     #[test]

@@ -595,13 +595,29 @@ pub(super) fn settle_all<K: MortonKey>(
     level: &[u8],
     candidates: &[u32],
 ) -> Vec<Move> {
+    settle_against(set, rules, keys, level, (candidates, false))
+}
+
+/// [`settle_all`], and with `points` also against the other points (for points whose leaf
+/// other points may crowd anew).
+pub(super) fn settle_against<K: MortonKey>(
+    set: &SplitSet<K>,
+    rules: &Rules,
+    keys: &[K],
+    level: &[u8],
+    (candidates, points): (&[u32], bool),
+) -> Vec<Move> {
     candidates
         .par_iter()
         .filter_map(|&point| {
-            let key = keys[point as usize];
-            let from = level[point as usize];
-            let split = walk(set, key, from);
-            let to = descend(set, rules, keys, point as usize, split);
+            let i = point as usize;
+            let from = level[i];
+            let split = walk(set, keys[i], from);
+            let clear = match points {
+                true => clear_of_points(rules, keys, i, split),
+                false => split,
+            };
+            let to = descend(set, rules, keys, i, clear);
             (to != from).then_some(Move {
                 point,
                 from,
