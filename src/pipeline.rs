@@ -311,9 +311,9 @@ fn band_level_limit<K: MortonKey>(points: usize) -> u8 {
 
 /// The quality mesh of `points` by warping on the current rayon pool, with its report: the
 /// block warp (angles in [22.5°, 112.5°]), or with [`Separation::Corner`] on the root square
-/// the compact warp (angles in [26°, 120°]), or the nonobtuse split, as the options say. The
-/// domain is the options' rectangle, or else the quadtree's root square: the points' bounding
-/// box centred in a square of twice its larger side.
+/// or a given square the compact warp (angles in [26°, 120°]), or the nonobtuse split, as the
+/// options say. The domain is the options' rectangle, or else the quadtree's root square: the
+/// points' bounding box centred in a square of twice its larger side.
 ///
 /// # Errors
 /// Whatever [`morton_order`] refuses, [`Error::Unresolvable`] for points too close together

@@ -50,7 +50,8 @@ pub enum Separation {
     /// The 2×2 block of same-size leaves around the leaf's corner nearest the point (the
     /// corner the warp moves, see [`nearest_corner`]) holds no other point, and no other
     /// point's block shares a leaf with it: the compact warp's tree, about a third the size.
-    /// Only on the root square (no [`DomainSides`]).
+    /// On the root square, or a given square ([`DomainSides`] with no side inside the root),
+    /// where the block of a point on a side is cut there.
     Corner,
 }
 
