@@ -295,8 +295,12 @@ impl<K: MortonKey> SeparatedPoints<K> {
         let is_new = |j: usize| positions.binary_search(&j).is_ok();
         let deepest = self.deepest();
         let mut found = Vec::new();
+        // Only levels some point's leaf has.
+        let levels: Vec<u8> = (0..=deepest)
+            .filter(|&l| self.at_level[l as usize] > 0)
+            .collect();
         for &p in positions {
-            for level in 0..=deepest {
+            for &level in &levels {
                 let centre = Cell::containing(self.keys[p], level);
                 found.extend(
                     self.alone_near(centre, 2)
