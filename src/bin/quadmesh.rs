@@ -210,8 +210,9 @@ enum Command {
 #[derive(clap::Args, Clone)]
 struct QualityArgs {
     /// The warped quadtree mesh instead: every angle in [26°, 120°], about 35 triangles per
-    /// point, on the points' bounding box centred in a square twice its larger side; on a
-    /// given `--domain` rectangle, the `--block-warp` mesh of it.
+    /// point, on the points' bounding box centred in a square twice its larger side, or on a
+    /// given `--domain` square; on a `--domain` rectangle that is not a square (or `bbox`),
+    /// the `--block-warp` mesh of it.
     #[arg(long, conflicts_with_all = ["min_angle", "max_area", "max_vertices"])]
     warp: bool,
     /// The block warp instead: every angle in [22.5°, 112.5°], about 104 triangles per point,
