@@ -271,19 +271,26 @@ impl Options {
         self.sort
     }
 
+    /// Whether these options make the compact warp: the warp mode on the points' square or a
+    /// given square. A rectangle that is not a square, and the bounding box (square or not),
+    /// take the block warp.
+    pub(crate) fn compact_warp(&self) -> bool {
+        let square = match self.region {
+            Region::Rectangle(d) => d.is_square(),
+            Region::BoundingBox => false,
+            _ => true,
+        };
+        self.mode == Mode::Warp && square
+    }
+
     /// The angles every mesh of these options has, outside input angles smaller than the bound
     /// (the corners of a convex hull): at least the bound and at most 180° minus twice it in the
     /// Delaunay mode, [26°, 120°] in the warp mode ([22.5°, 112.5°] on a given rectangle that
     /// is not a square, on the bounding box, and in the block warp mode), at most 90° in the
     /// nonobtuse mode.
     pub fn angle_bounds(&self) -> AngleBounds {
-        let on_rectangle = match self.region_choice() {
-            Region::Rectangle(d) => !d.is_square(),
-            Region::BoundingBox => true,
-            _ => false,
-        };
         match self.mode {
-            Mode::Warp if !on_rectangle => AngleBounds {
+            Mode::Warp if self.compact_warp() => AngleBounds {
                 min_deg: COMPACT_ANGLE_BOUNDS.0,
                 max_deg: COMPACT_ANGLE_BOUNDS.1,
             },

@@ -168,7 +168,7 @@ pub struct MeshOptions {
 
 impl MeshOptions {
     /// The rule the tree is built by: the one asked for where it applies.
-    pub fn effective_separation(&self) -> Separation {
+    fn effective_separation(&self) -> Separation {
         if self.nonobtuse || self.domain.is_some_and(|d| !d.is_square()) {
             Separation::Block
         } else {
@@ -445,11 +445,7 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
                 sort: options.sort_algorithm(),
                 domain: rectangle,
                 nonobtuse: options.mode() == Mode::Nonobtuse,
-                // The compact warp meshes the root square or a given square; a bounding box
-                // takes the block warp, as the options' bounds say, even when it is a square.
-                separation: if options.mode() == Mode::Warp
-                    && !matches!(options.region_choice(), Region::BoundingBox)
-                {
+                separation: if options.compact_warp() {
                     Separation::Corner
                 } else {
                     Separation::Block

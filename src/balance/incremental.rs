@@ -458,9 +458,9 @@ impl<K: MortonKey> SeparatedPoints<K> {
     fn run_rounds(&mut self, mut moves: Vec<Move>, mut crowded: Vec<u32>) {
         while !moves.is_empty() || !crowded.is_empty() {
             let mut demanded = Vec::new();
+            let rules = self.rules();
             for &m in &moves {
-                self.rules()
-                    .demands(&self.set, &self.keys, m, &mut demanded);
+                rules.demands(&self.set, &self.keys, m, &mut demanded);
             }
             let added = self.set.insert_closed(demanded);
             if let Some(log) = &mut self.log {

@@ -487,7 +487,7 @@ impl<'a> Rules<'a> {
     /// less those beyond a domain side the point lies on; `None` when the block crosses the
     /// root's side or the domain's top side elsewhere (the point's square must then be split).
     fn window<K: MortonKey>(&self, i: usize, cell: Cell<K>, key: K) -> Option<Rect> {
-        let on = self.sides.map_or(0, |s| s.on[i]);
+        let on = self.on(i);
         if self.separation == Separation::Corner {
             return corner_block(cell, key, on);
         }

@@ -21,8 +21,8 @@ use glam::DVec2;
 use crate::balance::{SeparatedPoints, Separation, remove_positions, sides_of};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, StageTimes};
-use crate::morton::{GUARD_LEVELS, Grid, MortonKey};
-use crate::warp::{split, unresolvable, warp};
+use crate::morton::{Grid, MortonKey};
+use crate::warp::{finest_resolved_level, split, unresolvable, warp};
 
 /// One edit of a dynamic mesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -884,11 +884,9 @@ impl<K: MortonKey> Keyed<K> {
 }
 
 /// The finest leaf level at which a grid of `K` keys resolves the points for a tree separated
-/// by `separation` (as [`crate::warp::point_finer_than_grid`] judges): the compact warp needs
-/// the half of a leaf a key lies in, one level finer.
+/// by `separation`, as the warp judges it.
 fn finest_resolved<K: MortonKey>(separation: Separation) -> u32 {
-    let corners = u32::from(separation == Separation::Corner);
-    K::AXIS_BITS - GUARD_LEVELS - corners
+    u32::from(finest_resolved_level::<K>(separation == Separation::Corner))
 }
 
 /// The mesh of a separated tree of `points`, `order[i]` the index of the `i`-th point in Morton

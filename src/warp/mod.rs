@@ -252,12 +252,17 @@ where
     })
 }
 
-/// The Morton position of a point whose leaf is finer than the grid resolves the points, if
-/// any: the point then need not lie in its leaf, and the tree must be built on the wide grid.
-/// With `corners` (the compact warp) a leaf at the finest resolved level counts too: its
-/// nearest corner needs the half of it the point lies in, one level finer.
+/// The finest point leaf level at which a grid of `K` keys resolves the points: below it a
+/// point need not lie in its leaf. With `corners` (the compact warp) one level coarser: a
+/// leaf's nearest corner needs the half of it the point lies in, one level finer.
+pub fn finest_resolved_level<K: MortonKey>(corners: bool) -> u8 {
+    (K::AXIS_BITS - GUARD_LEVELS) as u8 - u8::from(corners)
+}
+
+/// The Morton position of a point whose leaf is finer than the grid resolves the points
+/// ([`finest_resolved_level`]), if any: the tree must then be built on the wide grid.
 pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>, corners: bool) -> Option<usize> {
-    let finest = (K::AXIS_BITS - GUARD_LEVELS) as u8 - u8::from(corners);
+    let finest = finest_resolved_level::<K>(corners);
     tree.point_leaf
         .par_iter()
         .position_first(|&leaf| tree.tree.leaves[leaf as usize].cell.level > finest)
