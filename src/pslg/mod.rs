@@ -4,6 +4,7 @@
 //! Meshing them (cutting acute corners, separating edges, splitting edges at square sides,
 //! BET §5) is planned.
 
+mod corners;
 mod grid;
 
 use std::collections::HashMap;
@@ -15,6 +16,9 @@ use rayon::prelude::*;
 use crate::error::Error;
 use crate::options::{Input, Segment};
 use crate::predicates::{Orientation, orient_value, orientation};
+pub use corners::{
+    CAP_FRACTION, Cap, CornerCut, EdgeOrigin, GraphEdge, cut_acute_corners, feature_distances,
+};
 use grid::Grid;
 
 /// How many examples of each repair a [`CleanReport`] lists.
