@@ -4,8 +4,9 @@
 use glam::DVec2;
 
 use crate::balance::{
-    BalancedTree, Band, BandError, DomainSides, Separation, balance, coarsest_band_level, separate,
-    separate_in, separate_with,
+    BalancedTree, Band, BandError, DomainSides, GraphFeatures, Separation, TooCrowded, balance,
+    balance_closure, coarsest_band_level, crowded_squares, linked_tree, separate, separate_in,
+    separate_with,
 };
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
@@ -16,11 +17,14 @@ use crate::morton::{
     morton_order_on, morton_order_wide, validate_points,
 };
 use crate::options::{Input, Mode, Options, Region};
+use crate::pslg::CornerCut;
 use crate::quadtree::{Quadtree, expand};
 use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, refine_pslg};
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
-use crate::warp::{leaves_below, point_finer_than_grid, split, unresolvable, warp};
+use crate::warp::{
+    finest_resolved_level, leaves_below, point_finer_than_grid, split, unresolvable, warp,
+};
 
 /// The trees of one input on one grid width.
 #[derive(Clone, Debug)]
@@ -502,4 +506,105 @@ fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Er
         split_crossings: options.crossings_split(),
     };
     refine_pslg(input, &refine, pslg)
+}
+
+/// A graph's features separated in a balanced quadtree: Bern, Eppstein and Teng's T_B* (§5),
+/// the tree the warp of a graph is to be built on.
+#[derive(Clone, Debug)]
+pub struct GraphTreeBuild<K: Copy> {
+    /// The feature vertices in Morton order (`order` indexes `vertices`), and the grid.
+    pub morton: MortonOrder<K>,
+    /// The cut graph's points that are features: all but the vertices enclosed by caps, as
+    /// indices into [`CornerCut::points`], in their order there.
+    pub vertices: Vec<u32>,
+    /// The cut graph's edges, as indices into `vertices`.
+    pub edges: Vec<[u32; 2]>,
+    /// How many squares the features crowd (before balancing).
+    pub crowded: usize,
+    /// The balanced tree: its leaves each see at most one vertex and edges ending at it, or no
+    /// vertex and at most one edge, within [`crate::balance::CLEARANCE`] sides.
+    pub tree: BalancedTree<K>,
+}
+
+/// [`GraphTreeBuild`] on the grid width the graph needs.
+#[derive(Clone, Debug)]
+pub enum GraphTree {
+    /// 32 bits per axis.
+    Narrow(GraphTreeBuild<u64>),
+    /// 64 bits per axis.
+    Wide(GraphTreeBuild<u128>),
+}
+
+/// The separated tree of a graph whose acute corners are cut (see
+/// [`crate::pslg::cut_acute_corners`]), on the narrow grid if it resolves the features, on the
+/// wide one otherwise. Stage times go to `times`: "morton", "crowded", "balance".
+///
+/// # Errors
+/// Whatever [`morton_order`] refuses, and [`Error::Inseparable`] naming two features (by a
+/// point of each, as indices into [`CornerCut::points`]) that even the wide grid cannot
+/// separate.
+pub fn graph_tree(cut: &CornerCut, times: &mut StageTimes) -> Result<GraphTree, Error> {
+    let mut enclosed = vec![false; cut.points.len()];
+    for &v in &cut.enclosed {
+        enclosed[v as usize] = true;
+    }
+    let vertices: Vec<u32> = (0..cut.points.len() as u32)
+        .filter(|&v| !enclosed[v as usize])
+        .collect();
+    let mut index = vec![u32::MAX; cut.points.len()];
+    for (i, &v) in vertices.iter().enumerate() {
+        index[v as usize] = i as u32;
+    }
+    let points: Vec<DVec2> = vertices.iter().map(|&v| cut.points[v as usize]).collect();
+    let edges: Vec<[u32; 2]> = cut
+        .edges
+        .iter()
+        .map(|e| e.ends.map(|v| index[v as usize]))
+        .collect();
+    let features = GraphFeatures::new(&points, &edges);
+    let sort = SortAlgorithm::default();
+    let morton = times.time("morton", || morton_order(&points, sort))?;
+    let narrow = match morton {
+        Morton::Narrow(m) => match graph_build(m, (&vertices, &edges), &features, times) {
+            Ok(build) => return Ok(GraphTree::Narrow(build)),
+            Err(_) => times.time("morton wide", || morton_order_wide(&points, None, sort))?,
+        },
+        Morton::Wide(m) => m,
+    };
+    match graph_build(narrow, (&vertices, &edges), &features, times) {
+        Ok(build) => Ok(GraphTree::Wide(build)),
+        Err(crowded) => {
+            let [a, b] = [crowded.conflict.a, crowded.conflict.b].map(|v| vertices[v as usize]);
+            let [pa, pb] = [a, b].map(|v| cut.points[v as usize].to_array());
+            Err(Error::Inseparable {
+                a: a as usize,
+                pa,
+                b: b as usize,
+                pb,
+            })
+        }
+    }
+}
+
+/// The crowded squares of `features` on `morton`'s grid and their balanced closure.
+fn graph_build<K: MortonKey>(
+    morton: MortonOrder<K>,
+    (vertices, edges): (&[u32], &[[u32; 2]]),
+    features: &GraphFeatures,
+    times: &mut StageTimes,
+) -> Result<GraphTreeBuild<K>, TooCrowded<K>> {
+    let finest = finest_resolved_level::<K>(false);
+    let crowded = times.time("crowded", || {
+        crowded_squares::<K>(&morton.grid, features, finest)
+    })?;
+    let tree = times.time("balance", || {
+        linked_tree(&balance_closure(&crowded), &morton.keys)
+    });
+    Ok(GraphTreeBuild {
+        morton,
+        vertices: vertices.to_vec(),
+        edges: edges.to_vec(),
+        crowded: crowded.len(),
+        tree,
+    })
 }

@@ -4,6 +4,7 @@
 //! is the minimal one: exactly the tree the sequential ripple algorithm gives.
 
 mod closure;
+mod graph;
 mod incremental;
 mod links;
 pub mod reference;
@@ -13,6 +14,10 @@ mod split_set;
 use std::collections::HashSet;
 
 pub use closure::{balance_closure, balance_closure_with_points, forced_by};
+pub use graph::{
+    CLEARANCE, Conflict, GraphFeatures, TooCrowded, crowded_squares, reach, segment_meets_box,
+    shares_an_end,
+};
 pub(crate) use incremental::remove_positions;
 pub use incremental::{GridRect, SeparatedPoints};
 use links::cross_links_by;

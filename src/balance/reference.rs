@@ -175,3 +175,52 @@ pub fn corner_separated_closure_in<K: MortonKey>(keys: &[K], on: &[u8]) -> Vec<C
         split.extend(demanded);
     }
 }
+
+/// The crowded squares of a graph (see [`crate::balance::crowded_squares`]) by brute force:
+/// from the root, depth first, every vertex and edge tried against each square's reach; in
+/// preorder. Quadratic in the graph, for tests on small inputs. `None` if a square at `finest`
+/// is crowded.
+pub fn graph_crowded_squares<K: MortonKey>(
+    grid: &crate::morton::Grid,
+    points: &[glam::DVec2],
+    edges: &[[u32; 2]],
+    finest: u8,
+) -> Option<Vec<Cell<K>>> {
+    let mut out = Vec::new();
+    let mut pending = vec![Cell::<K>::root()];
+    while let Some(cell) = pending.pop() {
+        let (lo, hi) = crate::balance::reach(grid, cell);
+        let inside = |p: glam::DVec2| p.cmpge(lo).all() && p.cmple(hi).all();
+        let vertices: Vec<u32> = (0..points.len() as u32)
+            .filter(|&v| inside(points[v as usize]))
+            .collect();
+        let met: Vec<[u32; 2]> = edges
+            .iter()
+            .copied()
+            .filter(|&[a, b]| {
+                crate::balance::segment_meets_box(points[a as usize], points[b as usize], lo, hi)
+            })
+            .collect();
+        let strangers = met.iter().enumerate().any(|(i, e)| {
+            met[i + 1..]
+                .iter()
+                .any(|f| !e.iter().any(|v| f.contains(v)))
+        });
+        let crowded = strangers
+            || match vertices[..] {
+                [] => false,
+                [v] => met.iter().any(|e| !e.contains(&v)),
+                _ => true,
+            };
+        if !crowded {
+            continue;
+        }
+        if cell.level == finest {
+            return None;
+        }
+        out.push(cell);
+        pending.extend((0..4).map(|q| cell.child(q)));
+    }
+    out.sort_by_key(|c| (c.anchor, c.level));
+    Some(out)
+}

@@ -7,6 +7,8 @@ use quadmesh::mesh::{AngleBounds, angles_deg};
 use quadmesh::warp::ANGLE_BOUNDS;
 use quadmesh::{DVec2, Error, Mesh, MeshReport};
 
+pub mod graphs;
+
 /// Every generated input family.
 pub const FAMILIES: [Distribution2d; 4] = Distribution2d::ALL;
 
