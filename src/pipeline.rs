@@ -521,8 +521,9 @@ pub struct GraphTreeBuild<K: Copy> {
     pub edges: Vec<[u32; 2]>,
     /// How many squares the features crowd (before balancing).
     pub crowded: usize,
-    /// The balanced tree: its leaves each see at most one vertex and edges ending at it, or no
-    /// vertex and at most one edge, within [`crate::balance::CLEARANCE`] sides.
+    /// The reaches' clearance, in sides.
+    pub clearance: f64,
+    /// The balanced tree: no leaf is crowded (see [`crate::balance::crowded_squares`]).
     pub tree: BalancedTree<K>,
 }
 
@@ -537,13 +538,19 @@ pub enum GraphTree {
 
 /// The separated tree of a graph whose acute corners are cut (see
 /// [`crate::pslg::cut_acute_corners`]), on the narrow grid if it resolves the features, on the
-/// wide one otherwise. Stage times go to `times`: "morton", "crowded", "balance".
+/// wide one otherwise, with reaches grown by `clearance` sides (see
+/// [`crate::balance::crowded_squares`]; [`crate::balance::CLEARANCE`] is the papers'). Stage
+/// times go to `times`: "morton", "crowded", "balance".
 ///
 /// # Errors
 /// Whatever [`morton_order`] refuses, and [`Error::Inseparable`] naming two features (by a
 /// point of each, as indices into [`CornerCut::points`]) that even the wide grid cannot
 /// separate.
-pub fn graph_tree(cut: &CornerCut, times: &mut StageTimes) -> Result<GraphTree, Error> {
+pub fn graph_tree(
+    cut: &CornerCut,
+    clearance: f64,
+    times: &mut StageTimes,
+) -> Result<GraphTree, Error> {
     let mut enclosed = vec![false; cut.points.len()];
     for &v in &cut.enclosed {
         enclosed[v as usize] = true;
@@ -565,13 +572,15 @@ pub fn graph_tree(cut: &CornerCut, times: &mut StageTimes) -> Result<GraphTree, 
     let sort = SortAlgorithm::default();
     let morton = times.time("morton", || morton_order(&points, sort))?;
     let narrow = match morton {
-        Morton::Narrow(m) => match graph_build(m, (&vertices, &edges), &features, times) {
-            Ok(build) => return Ok(GraphTree::Narrow(build)),
-            Err(_) => times.time("morton wide", || morton_order_wide(&points, None, sort))?,
-        },
+        Morton::Narrow(m) => {
+            match graph_build(m, (&vertices, &edges), (&features, clearance), times) {
+                Ok(build) => return Ok(GraphTree::Narrow(build)),
+                Err(_) => times.time("morton wide", || morton_order_wide(&points, None, sort))?,
+            }
+        }
         Morton::Wide(m) => m,
     };
-    match graph_build(narrow, (&vertices, &edges), &features, times) {
+    match graph_build(narrow, (&vertices, &edges), (&features, clearance), times) {
         Ok(build) => Ok(GraphTree::Wide(build)),
         Err(crowded) => {
             let [a, b] = [crowded.conflict.a, crowded.conflict.b].map(|v| vertices[v as usize]);
@@ -590,12 +599,12 @@ pub fn graph_tree(cut: &CornerCut, times: &mut StageTimes) -> Result<GraphTree, 
 fn graph_build<K: MortonKey>(
     morton: MortonOrder<K>,
     (vertices, edges): (&[u32], &[[u32; 2]]),
-    features: &GraphFeatures,
+    (features, clearance): (&GraphFeatures, f64),
     times: &mut StageTimes,
 ) -> Result<GraphTreeBuild<K>, TooCrowded<K>> {
     let finest = finest_resolved_level::<K>(false);
     let crowded = times.time("crowded", || {
-        crowded_squares::<K>(&morton.grid, features, finest)
+        crowded_squares::<K>(&morton.grid, features, clearance, finest)
     })?;
     let tree = times.time("balance", || {
         linked_tree(&balance_closure(&crowded), &morton.keys)
@@ -605,6 +614,7 @@ fn graph_build<K: MortonKey>(
         vertices: vertices.to_vec(),
         edges: edges.to_vec(),
         crowded: crowded.len(),
+        clearance,
         tree,
     })
 }

@@ -7,23 +7,28 @@ mod common;
 
 use common::graphs::{delaunay_graph, fan, segment, sliver};
 use quadmesh::balance::reference::{graph_crowded_squares, ripple_closure};
-use quadmesh::balance::{reach, segment_meets_box};
+use quadmesh::balance::{CLEARANCE, reach, segment_meets_box};
 use quadmesh::morton::{Cell, MortonKey};
 use quadmesh::pipeline::{GraphTree, GraphTreeBuild, StageTimes, graph_tree};
 use quadmesh::pslg::{CleanOptions, CornerCut, clean, cut_acute_corners};
 use quadmesh::warp::finest_resolved_level;
 use quadmesh::{DVec2, Error, Input};
 
-fn tree_of(input: &Input) -> Result<(CornerCut, GraphTree), Error> {
+fn tree_of(input: &Input, clearance: f64) -> Result<(CornerCut, GraphTree), Error> {
     let cut = cut_acute_corners(input)?;
-    let tree = graph_tree(&cut, &mut StageTimes::default())?;
+    let tree = graph_tree(&cut, clearance, &mut StageTimes::default())?;
     Ok((cut, tree))
 }
 
 /// Builds on one and two threads, checks both agree and every property; returns the build.
 fn tree_checked(input: &Input) -> (CornerCut, GraphTree) {
-    let (cut, one) = common::on_threads(1, || tree_of(input)).expect("a tree");
-    let (_, two) = common::on_threads(2, || tree_of(input)).expect("a tree");
+    tree_checked_at(input, CLEARANCE)
+}
+
+/// [`tree_checked`] with reaches of `clearance` sides.
+fn tree_checked_at(input: &Input, clearance: f64) -> (CornerCut, GraphTree) {
+    let (cut, one) = common::on_threads(1, || tree_of(input, clearance)).expect("a tree");
+    let (_, two) = common::on_threads(2, || tree_of(input, clearance)).expect("a tree");
     match (&one, &two) {
         (GraphTree::Narrow(a), GraphTree::Narrow(b)) => {
             assert_eq!((&a.morton.keys, &a.tree), (&b.morton.keys, &b.tree));
@@ -41,7 +46,11 @@ fn tree_checked(input: &Input) -> (CornerCut, GraphTree) {
 /// The tree is a valid balanced tree of the features' keys; its split squares are the ripple
 /// closure of the crowded squares the brute force finds; and no leaf is crowded.
 fn check_build<K: MortonKey>(cut: &CornerCut, build: &GraphTreeBuild<K>) {
-    let points: Vec<DVec2> = build.vertices.iter().map(|&v| cut.points[v as usize]).collect();
+    let points: Vec<DVec2> = build
+        .vertices
+        .iter()
+        .map(|&v| cut.points[v as usize])
+        .collect();
     // Every cut graph edge is an edge of the features, and only the enclosed vertices are left
     // out.
     assert_eq!(build.edges.len(), cut.edges.len());
@@ -49,16 +58,20 @@ fn check_build<K: MortonKey>(cut: &CornerCut, build: &GraphTreeBuild<K>) {
         assert_eq!(e.map(|v| build.vertices[v as usize]), f.ends);
     }
     assert_eq!(build.vertices.len() + cut.enclosed.len(), cut.points.len());
-    build.tree.check(&build.morton.keys).expect("a valid balanced tree");
+    build
+        .tree
+        .check(&build.morton.keys)
+        .expect("a valid balanced tree");
     let grid = &build.morton.grid;
     let finest = finest_resolved_level::<K>(false);
-    let crowded = graph_crowded_squares::<K>(grid, &points, &build.edges, finest)
+    let clearance = (build.clearance, finest);
+    let crowded = graph_crowded_squares::<K>(grid, &points, &build.edges, clearance)
         .expect("separable by the brute force too");
     assert_eq!(build.crowded, crowded.len());
     let split: Vec<Cell<K>> = build.tree.tree.internal.iter().map(|s| s.cell).collect();
     assert_eq!(split, ripple_closure(&crowded), "not the balanced closure");
     for leaf in &build.tree.tree.leaves {
-        let (lo, hi) = reach(grid, leaf.cell);
+        let (lo, hi) = reach(grid, leaf.cell, build.clearance);
         let inside: Vec<u32> = (0..points.len() as u32)
             .filter(|&v| points[v as usize].cmpge(lo).all() && points[v as usize].cmple(hi).all())
             .collect();
@@ -109,14 +122,20 @@ fn cut_graphs_separate_as_the_brute_force_says() {
     ] {
         let (_, tree) = tree_checked(&input);
         assert!(matches!(tree, GraphTree::Narrow(_)));
-        assert!(leaves(&tree) > 4);
+        // A smaller clearance asks for fewer squares.
+        let (_, near) = tree_checked_at(&input, 1.0);
+        assert!(leaves(&near) > 4 && leaves(&near) <= leaves(&tree));
     }
 }
 
 #[test]
 fn loose_points_and_a_lone_segment_separate_too() {
     let points = Input {
-        points: vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.3), DVec2::new(0.2, 0.9)],
+        points: vec![
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.3),
+            DVec2::new(0.2, 0.9),
+        ],
         ..Input::default()
     };
     tree_checked(&points);
@@ -163,11 +182,15 @@ fn features_too_close_for_the_narrow_grid_go_to_the_wide_one() {
 
 #[test]
 fn features_too_close_for_the_wide_grid_are_refused_by_name() {
-    match tree_of(&vertex_over_segment(1e-25)) {
+    match tree_of(&vertex_over_segment(1e-25), CLEARANCE) {
         Err(Error::Inseparable { a, b, .. }) => {
             let mut pair = [a, b];
             pair.sort_unstable();
-            assert_eq!(pair, [0, 2], "the segment (by its first end) and the vertex");
+            assert_eq!(
+                pair,
+                [0, 2],
+                "the segment (by its first end) and the vertex"
+            );
         }
         other => panic!("expected the pair refused, got {other:?}"),
     }

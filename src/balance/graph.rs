@@ -26,7 +26,8 @@ use rstar::{AABB, RTree};
 use crate::morton::{Cell, Grid, MortonKey};
 use crate::predicates::{Orientation, orientation};
 
-/// How many sides around a leaf must be free of features its own features do not share.
+/// How many sides around a leaf must be free of features its own features do not share, unless
+/// the caller asks for another clearance: Bern, Eppstein and Teng's example constant.
 pub const CLEARANCE: f64 = 3.0;
 
 /// A graph's features, indexed for the searches of the crowding test.
@@ -71,7 +72,10 @@ impl Meeting {
                 }
                 self.vertex = Some(v);
                 let stranger = self.edges.iter().find(|e| !e.contains(&v))?;
-                Some(Conflict { a: v, b: stranger[0] })
+                Some(Conflict {
+                    a: v,
+                    b: stranger[0],
+                })
             }
             Feature::Edge(e) => {
                 if let Some(v) = self.vertex.filter(|v| !e.contains(v)) {
@@ -141,11 +145,11 @@ impl<'a> GraphFeatures<'a> {
     }
 }
 
-/// The reach of a square, in input coordinates: the square grown by [`CLEARANCE`] sides.
-pub fn reach<K: MortonKey>(grid: &Grid, cell: Cell<K>) -> (DVec2, DVec2) {
+/// The reach of a square, in input coordinates: the square grown by `clearance` sides.
+pub fn reach<K: MortonKey>(grid: &Grid, cell: Cell<K>, clearance: f64) -> (DVec2, DVec2) {
     let (gx, gy) = { cell.anchor }.decode();
     let (corner, side) = grid.cell_rect(gx, gy, cell.level);
-    let margin = DVec2::splat(CLEARANCE * side);
+    let margin = DVec2::splat(clearance * side);
     (corner - margin, corner + DVec2::splat(side) + margin)
 }
 
@@ -157,7 +161,8 @@ pub fn segment_meets_box(a: DVec2, b: DVec2, lo: DVec2, hi: DVec2) -> bool {
     }
     let corners = [lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)];
     let sides = corners.map(|c| orientation(a, b, c));
-    !(sides.iter().all(|&s| s == Orientation::Left) || sides.iter().all(|&s| s == Orientation::Right))
+    !(sides.iter().all(|&s| s == Orientation::Left)
+        || sides.iter().all(|&s| s == Orientation::Right))
 }
 
 /// A crowded square at the finest level the grid resolves, with the conflict in its reach.
@@ -169,11 +174,12 @@ pub struct TooCrowded<K: Copy> {
     pub conflict: Conflict,
 }
 
-/// The crowded squares of the graph on `grid`, in preorder, tested level by level down to
-/// `finest`; a square still crowded there is refused.
+/// The crowded squares of the graph on `grid` with reaches grown by `clearance` sides, in
+/// preorder, tested level by level down to `finest`; a square still crowded there is refused.
 pub fn crowded_squares<K: MortonKey>(
     grid: &Grid,
     features: &GraphFeatures,
+    clearance: f64,
     finest: u8,
 ) -> Result<Vec<Cell<K>>, TooCrowded<K>> {
     let mut split = Vec::new();
@@ -182,7 +188,7 @@ pub fn crowded_squares<K: MortonKey>(
         let tested: Vec<(Cell<K>, Option<Conflict>)> = frontier
             .par_iter()
             .map(|&cell| {
-                let (lo, hi) = reach(grid, cell);
+                let (lo, hi) = reach(grid, cell, clearance);
                 (cell, features.conflict_in(lo, hi))
             })
             .collect();

@@ -184,12 +184,12 @@ pub fn graph_crowded_squares<K: MortonKey>(
     grid: &crate::morton::Grid,
     points: &[glam::DVec2],
     edges: &[[u32; 2]],
-    finest: u8,
+    (clearance, finest): (f64, u8),
 ) -> Option<Vec<Cell<K>>> {
     let mut out = Vec::new();
     let mut pending = vec![Cell::<K>::root()];
     while let Some(cell) = pending.pop() {
-        let (lo, hi) = crate::balance::reach(grid, cell);
+        let (lo, hi) = crate::balance::reach(grid, cell, clearance);
         let inside = |p: glam::DVec2| p.cmpge(lo).all() && p.cmple(hi).all();
         let vertices: Vec<u32> = (0..points.len() as u32)
             .filter(|&v| inside(points[v as usize]))

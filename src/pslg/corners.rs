@@ -76,6 +76,16 @@ pub struct Cap {
 /// with R-trees of the points and the segments, each query on its own (in parallel, the same
 /// result on any thread count).
 pub fn feature_distances(points: &[DVec2], segments: &[[u32; 2]]) -> Vec<f64> {
+    let all: Vec<u32> = (0..points.len() as u32).collect();
+    feature_distances_of(points, segments, &all)
+}
+
+/// [`feature_distances`] of the points `which` only, in that order; the R-trees are built
+/// only when `which` names some point.
+fn feature_distances_of(points: &[DVec2], segments: &[[u32; 2]], which: &[u32]) -> Vec<f64> {
+    if which.is_empty() {
+        return Vec::new();
+    }
     let point_tree = RTree::bulk_load(
         points
             .iter()
@@ -93,11 +103,10 @@ pub fn feature_distances(points: &[DVec2], segments: &[[u32; 2]]) -> Vec<f64> {
             })
             .collect(),
     );
-    (0..points.len())
-        .into_par_iter()
-        .map(|v| {
-            let at = [points[v].x, points[v].y];
-            let v = v as u32;
+    which
+        .par_iter()
+        .map(|&v| {
+            let at = [points[v as usize].x, points[v as usize].y];
             let point = point_tree
                 .nearest_neighbor_iter_with_distance_2(at)
                 .find(|(p, _)| p.data != v)
@@ -208,7 +217,18 @@ pub fn cut_acute_corners(input: &Input) -> Result<CornerCut, Error> {
         .into_par_iter()
         .map(|v| cut_wedges(points, &segments, v, stars.row(v)))
         .collect();
-    let distances = feature_distances(points, &segments);
+    // Only vertices with a wedge to cut need their nearest feature.
+    let cut: Vec<u32> = (0..points.len() as u32)
+        .into_par_iter()
+        .filter(|&v| wedges[v as usize].contains(&true))
+        .collect();
+    let mut distances = vec![f64::INFINITY; points.len()];
+    for (&v, d) in cut
+        .iter()
+        .zip(feature_distances_of(points, &segments, &cut))
+    {
+        distances[v as usize] = d;
+    }
     let cap_radius: Vec<f64> = (0..points.len())
         .into_par_iter()
         .map(|v| {

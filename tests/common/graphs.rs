@@ -77,4 +77,3 @@ pub fn sliver(degrees: f64) -> Input {
         ..Input::default()
     }
 }
-

@@ -1,0 +1,94 @@
+//! The first stages of meshing a planar straight-line graph in the quadtree: acute corners cut
+//! off (`cut`), then the features separated in a balanced tree (`tree`: Morton order, the
+//! crowding tests, the balance), on the cut graph made beforehand.
+//!
+//! Group `graph/<input>/t<threads>`, ids `cut/<points>` and `tree/<points>`; throughput is the
+//! number of input points. Inputs: nested closed curves of `QUADMESH_BENCH_SEGMENTS` segments
+//! (default 200000; no acute wedge), a block with `QUADMESH_BENCH_HOLES` rectangular holes
+//! (default 2000; right angles only), and the Delaunay triangulation's edges of
+//! `QUADMESH_BENCH_DELAUNAY` uniform points (default 100000; almost every wedge acute). Sizes
+//! and threads come from the same variables as the other benches.
+
+mod common;
+
+use common::{SEED, configure, env_counts, pools};
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use quadmesh::balance::CLEARANCE;
+use quadmesh::generate::{Distribution2d, block_with_holes, nested_curves, points};
+use quadmesh::pipeline::{GraphTree, StageTimes, graph_tree};
+use quadmesh::pslg::cut_acute_corners;
+use quadmesh::{Input, Segment};
+use spade::{DelaunayTriangulation, Point2, Triangulation};
+
+fn delaunay_edges(n: usize) -> Input {
+    let points = points(Distribution2d::Uniform, n, SEED);
+    let dt = DelaunayTriangulation::<Point2<f64>>::bulk_load_stable(
+        points.iter().map(|p| Point2::new(p.x, p.y)).collect(),
+    )
+    .expect("a triangulation");
+    let segments = dt
+        .undirected_edges()
+        .map(|e| {
+            let [a, b] = e.vertices();
+            Segment {
+                ends: [a.index() as u32, b.index() as u32],
+                marker: 1,
+            }
+        })
+        .collect();
+    Input {
+        points,
+        segments,
+        ..Input::default()
+    }
+}
+
+fn leaves(tree: &GraphTree) -> usize {
+    match tree {
+        GraphTree::Narrow(b) => b.tree.tree.leaves.len(),
+        GraphTree::Wide(b) => b.tree.tree.leaves.len(),
+    }
+}
+
+fn bench_graph(c: &mut Criterion, name: &str, input: &Input) {
+    let n = input.points.len();
+    for (threads, pool) in pools() {
+        let cut = pool.install(|| cut_acute_corners(input)).expect("a cut");
+        let tree = pool
+            .install(|| graph_tree(&cut, CLEARANCE, &mut StageTimes::default()))
+            .expect("a tree");
+        eprintln!(
+            "graph/{name}: {n} points, {} segments, {} caps, {} cut edges, {} leaves",
+            input.segments.len(),
+            cut.caps.len(),
+            cut.edges.len(),
+            leaves(&tree)
+        );
+        let mut group = c.benchmark_group(format!("graph/{name}/t{threads}"));
+        configure(&mut group, n);
+        group.bench_function(BenchmarkId::new("cut", n), |b| {
+            b.iter_with_large_drop(|| pool.install(|| cut_acute_corners(input)))
+        });
+        group.bench_function(BenchmarkId::new("tree", n), |b| {
+            b.iter_with_large_drop(|| {
+                pool.install(|| graph_tree(&cut, CLEARANCE, &mut StageTimes::default()))
+            })
+        });
+        group.finish();
+    }
+}
+
+fn graphs(c: &mut Criterion) {
+    for segments in env_counts("QUADMESH_BENCH_SEGMENTS", "200000") {
+        bench_graph(c, "nested", &nested_curves(segments, SEED));
+    }
+    for holes in env_counts("QUADMESH_BENCH_HOLES", "2000") {
+        bench_graph(c, "holes", &block_with_holes(holes, SEED));
+    }
+    for n in env_counts("QUADMESH_BENCH_DELAUNAY", "100000") {
+        bench_graph(c, "delaunay", &delaunay_edges(n));
+    }
+}
+
+criterion_group!(benches, graphs);
+criterion_main!(benches);
