@@ -23,7 +23,8 @@ use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, ref
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{
-    finest_resolved_level, leaves_below, point_finer_than_grid, split, unresolvable, warp,
+    EdgePieces, edge_pieces, finest_resolved_level, leaves_below, point_finer_than_grid, split,
+    unresolvable, warp,
 };
 
 /// The trees of one input on one grid width.
@@ -525,6 +526,8 @@ pub struct GraphTreeBuild<K: Copy> {
     pub clearance: f64,
     /// The balanced tree: no leaf is crowded (see [`crate::balance::crowded_squares`]).
     pub tree: BalancedTree<K>,
+    /// The edges cut at the sides of the leaves they pass through.
+    pub pieces: EdgePieces,
 }
 
 /// [`GraphTreeBuild`] on the grid width the graph needs.
@@ -539,8 +542,9 @@ pub enum GraphTree {
 /// The separated tree of a graph whose acute corners are cut (see
 /// [`crate::pslg::cut_acute_corners`]), on the narrow grid if it resolves the features, on the
 /// wide one otherwise, with reaches grown by `clearance` sides (see
-/// [`crate::balance::crowded_squares`]; [`crate::balance::CLEARANCE`] is the papers'). Stage
-/// times go to `times`: "morton", "crowded", "balance".
+/// [`crate::balance::crowded_squares`]; [`crate::balance::CLEARANCE`] is the papers'), and the
+/// edges cut at its leaves' sides. Stage times go to `times`: "morton", "crowded", "balance",
+/// "pieces".
 ///
 /// # Errors
 /// Whatever [`morton_order`] refuses, and [`Error::Inseparable`] naming two features (by a
@@ -573,14 +577,24 @@ pub fn graph_tree(
     let morton = times.time("morton", || morton_order(&points, sort))?;
     let narrow = match morton {
         Morton::Narrow(m) => {
-            match graph_build(m, (&vertices, &edges), (&features, clearance), times) {
+            match graph_build(
+                m,
+                (&vertices, &edges, &points),
+                (&features, clearance),
+                times,
+            ) {
                 Ok(build) => return Ok(GraphTree::Narrow(build)),
                 Err(_) => times.time("morton wide", || morton_order_wide(&points, None, sort))?,
             }
         }
         Morton::Wide(m) => m,
     };
-    match graph_build(narrow, (&vertices, &edges), (&features, clearance), times) {
+    match graph_build(
+        narrow,
+        (&vertices, &edges, &points),
+        (&features, clearance),
+        times,
+    ) {
         Ok(build) => Ok(GraphTree::Wide(build)),
         Err(crowded) => {
             let [a, b] = [crowded.conflict.a, crowded.conflict.b].map(|v| vertices[v as usize]);
@@ -595,10 +609,11 @@ pub fn graph_tree(
     }
 }
 
-/// The crowded squares of `features` on `morton`'s grid and their balanced closure.
+/// The crowded squares of `features` on `morton`'s grid, their balanced closure and the edges'
+/// pieces in its leaves.
 fn graph_build<K: MortonKey>(
     morton: MortonOrder<K>,
-    (vertices, edges): (&[u32], &[[u32; 2]]),
+    (vertices, edges, points): (&[u32], &[[u32; 2]], &[DVec2]),
     (features, clearance): (&GraphFeatures, f64),
     times: &mut StageTimes,
 ) -> Result<GraphTreeBuild<K>, TooCrowded<K>> {
@@ -609,6 +624,9 @@ fn graph_build<K: MortonKey>(
     let tree = times.time("balance", || {
         linked_tree(&balance_closure(&crowded), &morton.keys)
     });
+    let pieces = times.time("pieces", || {
+        edge_pieces(&tree.tree, &morton.grid, points, edges)
+    });
     Ok(GraphTreeBuild {
         morton,
         vertices: vertices.to_vec(),
@@ -616,5 +634,6 @@ fn graph_build<K: MortonKey>(
         crowded: crowded.len(),
         clearance,
         tree,
+        pieces,
     })
 }

@@ -11,7 +11,7 @@ use quadmesh::balance::{CLEARANCE, reach, segment_meets_box};
 use quadmesh::morton::{Cell, MortonKey};
 use quadmesh::pipeline::{GraphTree, GraphTreeBuild, StageTimes, graph_tree};
 use quadmesh::pslg::{CleanOptions, CornerCut, clean, cut_acute_corners};
-use quadmesh::warp::finest_resolved_level;
+use quadmesh::warp::{finest_resolved_level, square_box};
 use quadmesh::{DVec2, Error, Input};
 
 fn tree_of(input: &Input, clearance: f64) -> Result<(CornerCut, GraphTree), Error> {
@@ -32,10 +32,12 @@ fn tree_checked_at(input: &Input, clearance: f64) -> (CornerCut, GraphTree) {
     match (&one, &two) {
         (GraphTree::Narrow(a), GraphTree::Narrow(b)) => {
             assert_eq!((&a.morton.keys, &a.tree), (&b.morton.keys, &b.tree));
+            assert_eq!(a.pieces, b.pieces);
             check_build(&cut, a);
         }
         (GraphTree::Wide(a), GraphTree::Wide(b)) => {
             assert_eq!((&a.morton.keys, &a.tree), (&b.morton.keys, &b.tree));
+            assert_eq!(a.pieces, b.pieces);
             check_build(&cut, a);
         }
         _ => panic!("1 and 2 threads chose different grids"),
@@ -44,7 +46,8 @@ fn tree_checked_at(input: &Input, clearance: f64) -> (CornerCut, GraphTree) {
 }
 
 /// The tree is a valid balanced tree of the features' keys; its split squares are the ripple
-/// closure of the crowded squares the brute force finds; and no leaf is crowded.
+/// closure of the crowded squares the brute force finds; no leaf is crowded; and the edges'
+/// pieces are right.
 fn check_build<K: MortonKey>(cut: &CornerCut, build: &GraphTreeBuild<K>) {
     let points: Vec<DVec2> = build
         .vertices
@@ -62,6 +65,7 @@ fn check_build<K: MortonKey>(cut: &CornerCut, build: &GraphTreeBuild<K>) {
         .tree
         .check(&build.morton.keys)
         .expect("a valid balanced tree");
+    check_pieces(&points, build);
     let grid = &build.morton.grid;
     let finest = finest_resolved_level::<K>(false);
     let clearance = (build.clearance, finest);
@@ -101,6 +105,56 @@ fn check_build<K: MortonKey>(cut: &CornerCut, build: &GraphTreeBuild<K>) {
     }
 }
 
+/// Each edge's pieces cover it from end to end, one starting exactly where the one before
+/// ends, each inside its leaf's box (up to rounding); two pieces in one leaf belong to edges
+/// with a common end.
+fn check_pieces<K: MortonKey>(points: &[DVec2], build: &GraphTreeBuild<K>) {
+    let pieces = &build.pieces;
+    assert_eq!(pieces.at.len(), build.edges.len() + 1);
+    let mut in_leaf: Vec<Vec<usize>> = vec![Vec::new(); build.tree.tree.leaves.len()];
+    for (e, &[a, b]) in build.edges.iter().enumerate() {
+        let (a, b) = (points[a as usize], points[b as usize]);
+        let row = pieces.of(e);
+        assert!(!row.is_empty(), "edge {e} has no piece");
+        assert_eq!((row[0].from, row[row.len() - 1].to), (0.0, 1.0), "edge {e}");
+        for (i, piece) in row.iter().enumerate() {
+            assert!(piece.from < piece.to, "edge {e}: an empty piece");
+            if i > 0 {
+                assert_eq!(
+                    row[i - 1].to,
+                    piece.from,
+                    "edge {e}: pieces {} and {i} part",
+                    i - 1
+                );
+            }
+            let (lo, hi) = square_box(
+                &build.morton.grid,
+                build.tree.tree.leaves[piece.leaf as usize].cell,
+            );
+            let slack = DVec2::splat(8.0 * f64::EPSILON * lo.abs().max(hi.abs()).max_element());
+            for t in [piece.from, piece.to] {
+                let p = a + (b - a) * t;
+                assert!(
+                    p.cmpge(lo - slack).all() && p.cmple(hi + slack).all(),
+                    "edge {e}: piece {i} at {p} leaves its leaf [{lo}, {hi}]"
+                );
+            }
+            in_leaf[piece.leaf as usize].push(e);
+        }
+    }
+    for (leaf, edges) in in_leaf.iter().enumerate() {
+        for (i, &e) in edges.iter().enumerate() {
+            for &f in &edges[i + 1..] {
+                let (e, f) = (build.edges[e], build.edges[f]);
+                assert!(
+                    e.iter().any(|v| f.contains(v)),
+                    "leaf {leaf} holds {e:?} and {f:?}"
+                );
+            }
+        }
+    }
+}
+
 fn leaves(tree: &GraphTree) -> usize {
     match tree {
         GraphTree::Narrow(b) => b.tree.tree.leaves.len(),
@@ -125,6 +179,47 @@ fn cut_graphs_separate_as_the_brute_force_says() {
         // A smaller clearance asks for fewer squares.
         let (_, near) = tree_checked_at(&input, 1.0);
         assert!(leaves(&near) > 4 && leaves(&near) <= leaves(&tree));
+    }
+}
+
+/// A plus whose arms lie on grid lines of the square around it (x = 0.5 and y = 0.5 of
+/// [-0.5, 1.5]²), and a diagonal through grid vertices: pieces on leaves' sides and through
+/// their corners.
+fn on_grid_lines() -> Input {
+    let points = [
+        (0.5, 0.5),
+        (0.0, 0.5),
+        (1.0, 0.5),
+        (0.5, 0.0),
+        (0.5, 1.0),
+        (0.0, 0.0),
+        (0.25, 0.25),
+    ];
+    Input {
+        points: points.iter().map(|&(x, y)| DVec2::new(x, y)).collect(),
+        segments: [[0, 1], [0, 2], [0, 3], [0, 4], [5, 6]]
+            .map(segment)
+            .to_vec(),
+        ..Input::default()
+    }
+}
+
+#[test]
+fn edges_on_grid_lines_and_through_grid_vertices_are_cut_once() {
+    let input = on_grid_lines();
+    let (cut, tree) = tree_checked(&input);
+    assert!(cut.caps.is_empty(), "right angles are not cut");
+    let GraphTree::Narrow(build) = tree else {
+        panic!("the narrow grid resolves it");
+    };
+    let grid = &build.morton.grid;
+    assert_eq!(grid.vertex(1u128 << 30, 0).x, 0.0, "x = 0 is a grid line");
+    // An arm on the line y = 0.5 lies in the leaves above it, never below.
+    for e in 0..2 {
+        for piece in build.pieces.of(e) {
+            let (lo, _) = square_box(grid, build.tree.tree.leaves[piece.leaf as usize].cell);
+            assert_eq!(lo.y, 0.5, "arm {e} in a leaf from {lo}");
+        }
     }
 }
 

@@ -12,12 +12,14 @@
 //! order, so the mesh does not depend on the thread count.
 
 mod cut;
+mod edges;
 pub mod placement;
 mod split;
 mod templates;
 mod vertices;
 
 pub use cut::leaves_below;
+pub use edges::{EdgePiece, EdgePieces, edge_pieces, square_box};
 pub use split::{NONOBTUSE_MAX_DEG, split};
 
 use glam::DVec2;
