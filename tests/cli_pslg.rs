@@ -134,3 +134,67 @@ fn bad_graphs_write_nothing() {
     let out = quadmesh(&["mesh", s(&crossing), "-o", s(&dir.file("cross"))]);
     assert!(!out.status.success());
 }
+
+#[test]
+fn tree_graph_writes_the_leaves_of_the_separated_tree() {
+    let dir = TempDir::new("cli-tree-graph");
+    // A right triangle with angles of 90°, about 14° and about 76°: two corners are cut.
+    let poly = dir.file("wedge.poly");
+    std::fs::write(
+        &poly,
+        "3 2 0 0\n0 0 0\n1 4 0\n2 0 1\n3 0\n0 0 1\n1 1 2\n2 2 0\n0\n",
+    )
+    .expect("write");
+    let csv = dir.file("leaves.csv");
+    let out = quadmesh(&["tree", s(&poly), "--graph", "-o", s(&csv)]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let log = stderr(&out);
+    assert!(
+        log.contains("caps")
+            && log
+                .lines()
+                .any(|l| l.starts_with("caps") && l.ends_with(" 2")),
+        "{log}"
+    );
+    let text = std::fs::read_to_string(&csv).expect("the leaves");
+    let table: Vec<Vec<String>> = text
+        .lines()
+        .map(|l| l.split(',').map(str::to_owned).collect())
+        .collect();
+    assert_eq!(table[0].join(","), "level,x0,y0,size,point");
+    let leaves = &table[1..];
+    // The leaves tile the root square: their areas sum to its area.
+    let number = |r: &Vec<String>, i: usize| r[i].parse::<f64>().expect("a number");
+    let side = |r: &Vec<String>| number(r, 3);
+    let left = leaves
+        .iter()
+        .map(|r| number(r, 1))
+        .fold(f64::INFINITY, f64::min);
+    let right = leaves
+        .iter()
+        .map(|r| number(r, 1) + side(r))
+        .fold(f64::NEG_INFINITY, f64::max);
+    let root = right - left;
+    let area: f64 = leaves.iter().map(|r| side(r) * side(r)).sum();
+    assert!(leaves.len() > 4 && (area - root * root).abs() <= 1e-9 * root * root);
+    // Each of the three vertices and four cut points lies in exactly one leaf.
+    let mut held: Vec<i64> = leaves
+        .iter()
+        .map(|r| r[4].parse::<i64>().expect("a point"))
+        .filter(|&p| p >= 0)
+        .collect();
+    held.sort_unstable();
+    assert_eq!(held, (0..7).collect::<Vec<i64>>());
+    // Crossing segments are refused, with nothing written.
+    let crossing = dir.file("cross.poly");
+    std::fs::write(
+        &crossing,
+        "4 2 0 0\n0 0 0\n1 1 1\n2 0 1\n3 1 0\n2 0\n0 0 1\n1 2 3\n0\n",
+    )
+    .expect("write");
+    let refused = dir.file("refused.csv");
+    let out = quadmesh(&["tree", s(&crossing), "--graph", "-o", s(&refused)]);
+    assert!(!out.status.success());
+    assert!(stderr(&out).contains("cross"), "{}", stderr(&out));
+    assert!(!refused.exists());
+}

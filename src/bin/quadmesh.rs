@@ -17,18 +17,19 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use quadmesh::balance::Separation;
+use quadmesh::balance::{CLEARANCE, Separation};
 use quadmesh::dynamic::{
     BatchReport, DynamicDelaunay, DynamicMesh, Edit, RefinedEdit, TriangleChanges,
 };
 use quadmesh::generate::{self, Distribution2d};
 use quadmesh::io::{
-    read_input, read_points, with_extension_appended, write_input_poly, write_leaves_csv,
-    write_msh, write_points, write_svg, write_triangle_files, write_vtu,
+    read_input, read_points, with_extension_appended, write_graph_leaves_csv, write_input_poly,
+    write_leaves_csv, write_msh, write_points, write_svg, write_triangle_files, write_vtu,
 };
 use quadmesh::mesh::{Domain, validate_pslg_with};
 use quadmesh::morton::MortonKey;
-use quadmesh::pipeline::StageTimes;
+use quadmesh::pipeline::{GraphTree, StageTimes, graph_tree};
+use quadmesh::pslg::{CleanOptions, clean, cut_acute_corners};
 use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
 use quadmesh::{
     DVec2, GUARANTEED_MIN_ANGLE_DEG, Input, Mesh, MeshReport, Mode, Options, Refinement, Region,
@@ -67,6 +68,13 @@ enum Command {
         /// nearest corners instead (the warp's tree).
         #[arg(long, requires = "separated")]
         corners: bool,
+        /// Read a planar straight-line graph (`.poly`), cut off its corners below 90°, and write
+        /// the leaves of the balanced tree in which no leaf has, within three sides of it, two
+        /// vertices, a vertex and an edge not ending at it, or two edges without a common end
+        /// (the first stages of meshing a graph in the quadtree). `point` indexes the input's
+        /// points, then the cut points.
+        #[arg(long, conflicts_with_all = ["balanced", "separated"])]
+        graph: bool,
     },
     /// Mesh a point file or a planar straight-line graph (`.poly`): a Delaunay mesh with every
     /// angle at least `--min-angle` (of the points' convex hull, or of what the segments
@@ -399,6 +407,7 @@ fn main() -> ExitCode {
             balanced,
             separated,
             corners,
+            graph,
         } => {
             let refinement = match (balanced, separated) {
                 (_, true) if corners => Refinement::CornerSeparated,
@@ -406,12 +415,16 @@ fn main() -> ExitCode {
                 (true, _) => Refinement::Balanced,
                 _ => Refinement::Unbalanced,
             };
-            tree(
-                &input,
-                &output,
-                threads,
-                TreeOptions::default().refinement(refinement),
-            )
+            if graph {
+                graph_tree_leaves(&input, &output, threads)
+            } else {
+                tree(
+                    &input,
+                    &output,
+                    threads,
+                    TreeOptions::default().refinement(refinement),
+                )
+            }
         }
         Command::Mesh {
             input,
@@ -1256,6 +1269,62 @@ fn tree(
         let (written, write_time) = timed(|| write_to(output, |w| write_leaves_csv(w, &tree)));
         written?;
         report(points.len(), &tree, &times, read_time, write_time);
+        Ok(())
+    })
+}
+
+/// `tree --graph`: the graph read, cleaned and cut, its separated tree's leaves written.
+fn graph_tree_leaves(input: &Path, output: &Path, threads: Option<NonZeroUsize>) -> Result<()> {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.map_or(0, NonZeroUsize::get))
+        .build()
+        .context("cannot start the worker threads")?;
+    pool.install(|| {
+        let context = || format!("{}", input.display());
+        let (read, read_time) = timed(|| read_input(input));
+        let read = read.with_context(context)?;
+        let mut times = StageTimes::default();
+        let (graph, _) = times
+            .time("clean", || clean(&read, CleanOptions::default()))
+            .with_context(context)?;
+        let cut = times
+            .time("cut", || cut_acute_corners(&graph))
+            .with_context(context)?;
+        let tree = graph_tree(&cut, CLEARANCE, &mut times).with_context(context)?;
+        let (written, write_time) =
+            timed(|| write_to(output, |w| write_graph_leaves_csv(w, &tree)));
+        written?;
+        let (bits, leaves, pieces) = match &tree {
+            GraphTree::Narrow(b) => (32, b.tree.tree.leaves.len(), b.pieces.pieces.len()),
+            GraphTree::Wide(b) => (64, b.tree.tree.leaves.len(), b.pieces.pieces.len()),
+        };
+        let mut lines: Vec<(String, String)> = [
+            ("input points", read.points.len().to_string()),
+            ("segments", graph.segments.len().to_string()),
+            ("caps", cut.caps.len().to_string()),
+            (
+                "cut points",
+                (cut.points.len() - graph.points.len()).to_string(),
+            ),
+            ("graph edges", cut.edges.len().to_string()),
+            ("grid bits per axis", bits.to_string()),
+            ("leaves", leaves.to_string()),
+            ("edge pieces", pieces.to_string()),
+            ("time read", millis(read_time)),
+        ]
+        .map(|(label, value)| (label.to_owned(), value))
+        .into();
+        lines.extend(
+            times
+                .0
+                .iter()
+                .map(|(s, d)| (format!("time {s}"), millis(*d))),
+        );
+        lines.push(("time write".into(), millis(write_time)));
+        let mut err = io::stderr().lock();
+        for (label, value) in lines {
+            let _ = writeln!(err, "{label:<24}{value}");
+        }
         Ok(())
     })
 }

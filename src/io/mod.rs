@@ -24,7 +24,9 @@ pub use mesh_write::{
 };
 pub use node::{parse_node, parse_poly, parse_poly_input};
 pub use text::parse_text;
-pub use write::{LEAVES_CSV_HEADER, write_input_poly, write_leaves_csv, write_points};
+pub use write::{
+    LEAVES_CSV_HEADER, write_graph_leaves_csv, write_input_poly, write_leaves_csv, write_points,
+};
 
 use crate::error::Error;
 use crate::options::Input;

@@ -7,9 +7,9 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::framework::NONE;
-use crate::morton::MortonKey;
+use crate::morton::{Grid, MortonKey};
 use crate::options::Input;
-use crate::pipeline::{Tree, TreeBuild};
+use crate::pipeline::{GraphTree, GraphTreeBuild, Tree, TreeBuild};
 use crate::quadtree::Leaf;
 
 /// Items formatted per rayon task.
@@ -39,14 +39,47 @@ pub fn write_leaves_csv<W: Write>(mut w: W, tree: &Tree) -> io::Result<()> {
 }
 
 fn write_leaves<K: MortonKey, W: Write>(w: W, build: &TreeBuild<K>) -> io::Result<()> {
-    let grid = &build.morton.grid;
     let order = &build.morton.order;
-    write_lines(w, &build.final_tree().leaves, |buf, leaf: &Leaf<K>| {
+    leaf_lines(w, &build.morton.grid, &build.final_tree().leaves, |p| {
+        order[p as usize]
+    })
+}
+
+/// Writes the leaves of a graph's separated tree as [`write_leaves_csv`] does; `point` is the
+/// index of the leaf's vertex in the cut graph's points
+/// ([`crate::pslg::CornerCut::points`]: the input's points, then the cut points), or -1.
+///
+/// # Errors
+/// Whatever `w` returns.
+pub fn write_graph_leaves_csv<W: Write>(mut w: W, tree: &GraphTree) -> io::Result<()> {
+    writeln!(w, "{LEAVES_CSV_HEADER}")?;
+    match tree {
+        GraphTree::Narrow(build) => write_graph_leaves(w, build),
+        GraphTree::Wide(build) => write_graph_leaves(w, build),
+    }
+}
+
+fn write_graph_leaves<K: MortonKey, W: Write>(w: W, build: &GraphTreeBuild<K>) -> io::Result<()> {
+    let (order, vertices) = (&build.morton.order, &build.vertices);
+    leaf_lines(w, &build.morton.grid, &build.tree.tree.leaves, |p| {
+        vertices[order[p as usize] as usize]
+    })
+}
+
+/// One `level,x0,y0,size,point` line per leaf; `point_index` names a leaf's point from its
+/// Morton position.
+fn leaf_lines<K: MortonKey, W: Write>(
+    w: W,
+    grid: &Grid,
+    leaves: &[Leaf<K>],
+    point_index: impl Fn(u32) -> u32 + Sync,
+) -> io::Result<()> {
+    write_lines(w, leaves, |buf, leaf: &Leaf<K>| {
         let (gx, gy) = leaf.cell.anchor.decode();
         let (corner, size) = grid.cell_rect(gx, gy, leaf.cell.level);
         let point = match leaf.point {
             NONE => -1,
-            p => i64::from(order[p as usize]),
+            p => i64::from(point_index(p)),
         };
         writeln!(
             buf,

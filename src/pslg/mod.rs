@@ -1,8 +1,10 @@
 //! Planar straight-line graphs: cleaning an input's points and segments into a graph whose
-//! segments meet only at their ends ([`clean`]).
+//! segments meet only at their ends ([`clean`]), and cutting off its acute corners
+//! ([`cut_acute_corners`]), the first step of meshing it in the quadtree (BET §5).
 //!
-//! Meshing them (cutting acute corners, separating edges, splitting edges at square sides,
-//! BET §5) is planned.
+//! The steps after it are [`crate::pipeline::graph_tree`] (the features separated in a balanced
+//! tree, the edges cut at its leaves' sides); the templates that warp such a tree into a mesh
+//! are planned.
 
 mod corners;
 mod grid;
