@@ -11,38 +11,18 @@
 //! about 8 000 leaves a point). Threads come from the same variable as the other benches.
 
 mod common;
+#[path = "../tests/common/graphs.rs"]
+#[allow(dead_code)]
+mod graphs;
 
 use common::{SEED, configure, env_counts, pools};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use graphs::delaunay_graph;
+use quadmesh::Input;
 use quadmesh::balance::CLEARANCE;
-use quadmesh::generate::{Distribution2d, block_with_holes, nested_curves, points};
+use quadmesh::generate::{block_with_holes, nested_curves};
 use quadmesh::pipeline::{GraphTree, StageTimes, graph_tree};
 use quadmesh::pslg::cut_acute_corners;
-use quadmesh::{Input, Segment};
-use spade::{DelaunayTriangulation, Point2, Triangulation};
-
-fn delaunay_edges(n: usize) -> Input {
-    let points = points(Distribution2d::Uniform, n, SEED);
-    let dt = DelaunayTriangulation::<Point2<f64>>::bulk_load_stable(
-        points.iter().map(|p| Point2::new(p.x, p.y)).collect(),
-    )
-    .expect("a triangulation");
-    let segments = dt
-        .undirected_edges()
-        .map(|e| {
-            let [a, b] = e.vertices();
-            Segment {
-                ends: [a.index() as u32, b.index() as u32],
-                marker: 1,
-            }
-        })
-        .collect();
-    Input {
-        points,
-        segments,
-        ..Input::default()
-    }
-}
 
 fn leaves(tree: &GraphTree) -> usize {
     match tree {
@@ -87,7 +67,7 @@ fn graphs(c: &mut Criterion) {
         bench_graph(c, "holes", &block_with_holes(holes, SEED));
     }
     for n in env_counts("QUADMESH_BENCH_DELAUNAY", "1000") {
-        bench_graph(c, "delaunay", &delaunay_edges(n));
+        bench_graph(c, "delaunay", &delaunay_graph(n, SEED));
     }
 }
 

@@ -83,6 +83,7 @@ mod predicates;
 pub mod pslg;
 pub mod quadtree;
 pub mod refine;
+mod spatial;
 pub mod warp;
 
 /// The README's Rust examples, compiled and run as doctests.

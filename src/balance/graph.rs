@@ -20,11 +20,11 @@
 
 use glam::DVec2;
 use rayon::prelude::*;
-use rstar::primitives::{GeomWithData, Line};
 use rstar::{AABB, RTree};
 
 use crate::morton::{Cell, Grid, MortonKey};
 use crate::predicates::{Orientation, orientation};
+use crate::spatial::{IndexedPoint, IndexedSegment, graph_rtrees};
 
 /// How many sides around a leaf must be free of features its own features do not share, unless
 /// the caller asks for another clearance: Bern, Eppstein and Teng's example constant.
@@ -34,8 +34,8 @@ pub const CLEARANCE: f64 = 3.0;
 pub struct GraphFeatures<'a> {
     points: &'a [DVec2],
     edges: &'a [[u32; 2]],
-    point_tree: RTree<GeomWithData<[f64; 2], u32>>,
-    edge_tree: RTree<GeomWithData<Line<[f64; 2]>, u32>>,
+    point_tree: RTree<IndexedPoint>,
+    edge_tree: RTree<IndexedSegment>,
 }
 
 /// Two features a square's reach meets that may not share one, as a point of each (an edge by
@@ -100,23 +100,7 @@ impl<'a> GraphFeatures<'a> {
     /// Indexes the vertices `points` and the edges `edges` (indices into `points`; edges meet
     /// only at their ends).
     pub fn new(points: &'a [DVec2], edges: &'a [[u32; 2]]) -> GraphFeatures<'a> {
-        let point_tree = RTree::bulk_load(
-            points
-                .iter()
-                .enumerate()
-                .map(|(i, p)| GeomWithData::new([p.x, p.y], i as u32))
-                .collect(),
-        );
-        let edge_tree = RTree::bulk_load(
-            edges
-                .iter()
-                .enumerate()
-                .map(|(i, &[a, b])| {
-                    let (a, b) = (points[a as usize], points[b as usize]);
-                    GeomWithData::new(Line::new([a.x, a.y], [b.x, b.y]), i as u32)
-                })
-                .collect(),
-        );
+        let (point_tree, edge_tree) = graph_rtrees(points, edges);
         GraphFeatures {
             points,
             edges,

@@ -1298,7 +1298,7 @@ fn graph_tree_leaves(input: &Path, output: &Path, threads: Option<NonZeroUsize>)
             GraphTree::Narrow(b) => (32, b.tree.tree.leaves.len(), b.pieces.pieces.len()),
             GraphTree::Wide(b) => (64, b.tree.tree.leaves.len(), b.pieces.pieces.len()),
         };
-        let mut lines: Vec<(String, String)> = [
+        let counts = [
             ("input points", read.points.len().to_string()),
             ("segments", graph.segments.len().to_string()),
             ("caps", cut.caps.len().to_string()),
@@ -1311,20 +1311,8 @@ fn graph_tree_leaves(input: &Path, output: &Path, threads: Option<NonZeroUsize>)
             ("leaves", leaves.to_string()),
             ("edge pieces", pieces.to_string()),
             ("time read", millis(read_time)),
-        ]
-        .map(|(label, value)| (label.to_owned(), value))
-        .into();
-        lines.extend(
-            times
-                .0
-                .iter()
-                .map(|(s, d)| (format!("time {s}"), millis(*d))),
-        );
-        lines.push(("time write".into(), millis(write_time)));
-        let mut err = io::stderr().lock();
-        for (label, value) in lines {
-            let _ = writeln!(err, "{label:<24}{value}");
-        }
+        ];
+        print_tree_report(&counts, &times, write_time);
         Ok(())
     })
 }
@@ -1360,7 +1348,7 @@ fn report(input_points: usize, tree: &Tree, times: &StageTimes, read: Duration, 
         Tree::Wide(b) => Counts::of(b),
     };
     let duplicates = tree.duplicates();
-    let mut lines: Vec<(String, String)> = [
+    let counts = [
         ("input points", input_points.to_string()),
         ("distinct points", counts.distinct.to_string()),
         (
@@ -1372,16 +1360,22 @@ fn report(input_points: usize, tree: &Tree, times: &StageTimes, read: Duration, 
         ("internal squares", counts.internal.to_string()),
         ("leaves", counts.leaves.to_string()),
         ("time read", millis(read)),
-    ]
-    .map(|(label, value)| (label.to_owned(), value))
-    .into();
-    lines.extend(
-        times
-            .0
-            .iter()
-            .map(|(stage, d)| (format!("time {stage}"), millis(*d))),
-    );
-    lines.push(("time write".into(), millis(write)));
+    ];
+    print_tree_report(&counts, times, write);
+}
+
+/// Prints `counts`, then each stage's time and the write time, one `label value` line each, to
+/// standard error.
+fn print_tree_report(counts: &[(&str, String)], times: &StageTimes, write: Duration) {
+    let stages = times
+        .0
+        .iter()
+        .map(|(stage, d)| (format!("time {stage}"), millis(*d)));
+    let lines = counts
+        .iter()
+        .map(|(label, value)| ((*label).to_owned(), value.clone()))
+        .chain(stages)
+        .chain([("time write".to_owned(), millis(write))]);
     let mut err = io::stderr().lock();
     for (label, value) in lines {
         let _ = writeln!(err, "{label:<24}{value}");

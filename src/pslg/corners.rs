@@ -13,12 +13,11 @@
 
 use glam::DVec2;
 use rayon::prelude::*;
-use rstar::RTree;
-use rstar::primitives::{GeomWithData, Line};
 
 use crate::error::Error;
 use crate::options::Input;
 use crate::predicates::{Orientation, orientation};
+use crate::spatial::graph_rtrees;
 
 /// How much of the distance to the nearest non-incident feature, and of the shortest segment, a
 /// cap's sides take.
@@ -86,23 +85,7 @@ fn feature_distances_of(points: &[DVec2], segments: &[[u32; 2]], which: &[u32]) 
     if which.is_empty() {
         return Vec::new();
     }
-    let point_tree = RTree::bulk_load(
-        points
-            .iter()
-            .enumerate()
-            .map(|(i, p)| GeomWithData::new([p.x, p.y], i as u32))
-            .collect(),
-    );
-    let segment_tree = RTree::bulk_load(
-        segments
-            .iter()
-            .enumerate()
-            .map(|(i, &[a, b])| {
-                let (a, b) = (points[a as usize], points[b as usize]);
-                GeomWithData::new(Line::new([a.x, a.y], [b.x, b.y]), i as u32)
-            })
-            .collect(),
-    );
+    let (point_tree, segment_tree) = graph_rtrees(points, segments);
     which
         .par_iter()
         .map(|&v| {
