@@ -19,9 +19,8 @@ use common::{SEED, configure, env_counts, pools};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use graphs::delaunay_graph;
 use quadmesh::Input;
-use quadmesh::balance::CLEARANCE;
 use quadmesh::generate::{block_with_holes, nested_curves};
-use quadmesh::pipeline::{GraphTree, StageTimes, graph_tree};
+use quadmesh::pipeline::{GraphTree, GraphTreeOptions, StageTimes, graph_tree};
 use quadmesh::pslg::cut_acute_corners;
 
 fn leaves(tree: &GraphTree) -> usize {
@@ -36,7 +35,13 @@ fn bench_graph(c: &mut Criterion, name: &str, input: &Input) {
     for (threads, pool) in pools() {
         let cut = pool.install(|| cut_acute_corners(input)).expect("a cut");
         let tree = pool
-            .install(|| graph_tree(&cut, CLEARANCE, &mut StageTimes::default()))
+            .install(|| {
+                graph_tree(
+                    &cut,
+                    GraphTreeOptions::default(),
+                    &mut StageTimes::default(),
+                )
+            })
             .expect("a tree");
         eprintln!(
             "graph/{name}: {n} points, {} segments, {} caps, {} cut edges, {} leaves",
@@ -52,7 +57,13 @@ fn bench_graph(c: &mut Criterion, name: &str, input: &Input) {
         });
         group.bench_function(BenchmarkId::new("tree", n), |b| {
             b.iter_with_large_drop(|| {
-                pool.install(|| graph_tree(&cut, CLEARANCE, &mut StageTimes::default()))
+                pool.install(|| {
+                    graph_tree(
+                        &cut,
+                        GraphTreeOptions::default(),
+                        &mut StageTimes::default(),
+                    )
+                })
             })
         });
         group.finish();

@@ -127,6 +127,17 @@ pub enum Error {
         /// How many there would be.
         count: usize,
     },
+    /// A graph's separated tree would need more squares than the budget asked for: features
+    /// very close together for their size, or two long edges at a very small angle, which must
+    /// be kept apart all along.
+    #[error(
+        "the graph's quadtree needs more than {limit} split squares: some features lie very \
+         close together, or two long edges meet at a very small angle"
+    )]
+    SquareBudget {
+        /// The budget.
+        limit: usize,
+    },
     /// A point lies outside the domain asked for.
     #[error("point {index} ({x}, {y}) lies outside the domain")]
     OutsideDomain {

@@ -530,6 +530,25 @@ pub struct GraphTreeBuild<K: Copy> {
     pub pieces: EdgePieces,
 }
 
+/// How [`graph_tree`] separates a graph.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GraphTreeOptions {
+    /// The reaches' clearance, in sides (see [`crate::balance::crowded_squares`]).
+    pub clearance: f64,
+    /// The most split squares the crowding may ask for; `None`: as many as the grid resolves.
+    pub max_squares: Option<usize>,
+}
+
+impl Default for GraphTreeOptions {
+    /// The papers' clearance ([`crate::balance::CLEARANCE`]), no budget.
+    fn default() -> Self {
+        GraphTreeOptions {
+            clearance: crate::balance::CLEARANCE,
+            max_squares: None,
+        }
+    }
+}
+
 /// [`GraphTreeBuild`] on the grid width the graph needs.
 #[derive(Clone, Debug)]
 pub enum GraphTree {
@@ -541,18 +560,16 @@ pub enum GraphTree {
 
 /// The separated tree of a graph whose acute corners are cut (see
 /// [`crate::pslg::cut_acute_corners`]), on the narrow grid if it resolves the features, on the
-/// wide one otherwise, with reaches grown by `clearance` sides (see
-/// [`crate::balance::crowded_squares`]; [`crate::balance::CLEARANCE`] is the papers'), and the
-/// edges cut at its leaves' sides. Stage times go to `times`: "morton", "crowded", "balance",
-/// "pieces".
+/// wide one otherwise, as `options` say, and the edges cut at its leaves' sides. Stage times go
+/// to `times`: "morton", "crowded", "balance", "pieces".
 ///
 /// # Errors
-/// Whatever [`morton_order`] refuses, and [`Error::Inseparable`] naming two features (by a
-/// point of each, as indices into [`CornerCut::points`]) that even the wide grid cannot
-/// separate.
+/// Whatever [`morton_order`] refuses, [`Error::Inseparable`] naming two features (by a point of
+/// each, as indices into [`CornerCut::points`]) that even the wide grid cannot separate, and
+/// [`Error::SquareBudget`] beyond the options' budget.
 pub fn graph_tree(
     cut: &CornerCut,
-    clearance: f64,
+    options: GraphTreeOptions,
     times: &mut StageTimes,
 ) -> Result<GraphTree, Error> {
     let mut enclosed = vec![false; cut.points.len()];
@@ -572,19 +589,18 @@ pub fn graph_tree(
         .iter()
         .map(|e| e.ends.map(|v| index[v as usize]))
         .collect();
-    let features = GraphFeatures::new(&points, &edges);
     let sort = SortAlgorithm::default();
+    // Morton order checks the points first: the R-trees take finite ones only.
     let morton = times.time("morton", || morton_order(&points, sort))?;
+    let features = GraphFeatures::new(&points, &edges);
     let narrow = match morton {
         Morton::Narrow(m) => {
-            match graph_build(
-                m,
-                (&vertices, &edges, &points),
-                (&features, clearance),
-                times,
-            ) {
+            match graph_build(m, (&vertices, &edges, &points), (&features, options), times) {
                 Ok(build) => return Ok(GraphTree::Narrow(build)),
-                Err(_) => times.time("morton wide", || morton_order_wide(&points, None, sort))?,
+                Err(TooCrowded::Budget(limit)) => return Err(Error::SquareBudget { limit }),
+                Err(TooCrowded::Finest { .. }) => {
+                    times.time("morton wide", || morton_order_wide(&points, None, sort))?
+                }
             }
         }
         Morton::Wide(m) => m,
@@ -592,12 +608,13 @@ pub fn graph_tree(
     match graph_build(
         narrow,
         (&vertices, &edges, &points),
-        (&features, clearance),
+        (&features, options),
         times,
     ) {
         Ok(build) => Ok(GraphTree::Wide(build)),
-        Err(crowded) => {
-            let [a, b] = [crowded.conflict.a, crowded.conflict.b].map(|v| vertices[v as usize]);
+        Err(TooCrowded::Budget(limit)) => Err(Error::SquareBudget { limit }),
+        Err(TooCrowded::Finest { conflict, .. }) => {
+            let [a, b] = [conflict.a, conflict.b].map(|v| vertices[v as usize]);
             let [pa, pb] = [a, b].map(|v| cut.points[v as usize].to_array());
             Err(Error::Inseparable {
                 a: a as usize,
@@ -614,12 +631,16 @@ pub fn graph_tree(
 fn graph_build<K: MortonKey>(
     morton: MortonOrder<K>,
     (vertices, edges, points): (&[u32], &[[u32; 2]], &[DVec2]),
-    (features, clearance): (&GraphFeatures, f64),
+    (features, options): (&GraphFeatures, GraphTreeOptions),
     times: &mut StageTimes,
 ) -> Result<GraphTreeBuild<K>, TooCrowded<K>> {
-    let finest = finest_resolved_level::<K>(false);
+    let limits = (
+        finest_resolved_level::<K>(false),
+        options.max_squares.unwrap_or(usize::MAX),
+    );
+    let clearance = options.clearance;
     let crowded = times.time("crowded", || {
-        crowded_squares::<K>(&morton.grid, features, clearance, finest)
+        crowded_squares::<K>(&morton.grid, features, clearance, limits)
     })?;
     let tree = times.time("balance", || {
         linked_tree(&balance_closure(&crowded), &morton.keys)

@@ -414,3 +414,30 @@ fn a_cap_f64_cannot_place_is_refused_by_name() {
         other => panic!("expected the apex refused, got {other:?}"),
     }
 }
+
+#[test]
+fn bad_graphs_are_refused_by_name() {
+    let triangle = |points: Vec<DVec2>, ends: Vec<[u32; 2]>| Input {
+        points,
+        segments: ends.into_iter().map(segment).collect(),
+        ..Input::default()
+    };
+    let p = vec![DVec2::ZERO, DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
+    let nan = vec![DVec2::ZERO, DVec2::new(f64::NAN, 0.0), DVec2::new(0.0, 1.0)];
+    match cut_acute_corners(&triangle(nan, vec![[0, 1]])) {
+        Err(Error::NonFinite { index: 1, .. }) => {}
+        other => panic!("expected the NaN point refused, got {other:?}"),
+    }
+    match cut_acute_corners(&triangle(p.clone(), vec![[0, 1], [1, 3]])) {
+        Err(Error::SegmentIndex {
+            segment: 1,
+            index: 3,
+            points: 3,
+        }) => {}
+        other => panic!("expected the index refused, got {other:?}"),
+    }
+    match cut_acute_corners(&triangle(p, vec![[0, 1], [2, 2]])) {
+        Err(Error::ZeroLengthSegment { segment: 1 }) => {}
+        other => panic!("expected the empty segment refused, got {other:?}"),
+    }
+}

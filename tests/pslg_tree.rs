@@ -9,14 +9,18 @@ use common::graphs::{delaunay_graph, fan, segment, sliver};
 use quadmesh::balance::reference::{graph_crowded_squares, ripple_closure};
 use quadmesh::balance::{CLEARANCE, reach, segment_meets_box};
 use quadmesh::morton::{Cell, MortonKey};
-use quadmesh::pipeline::{GraphTree, GraphTreeBuild, StageTimes, graph_tree};
+use quadmesh::pipeline::{GraphTree, GraphTreeBuild, GraphTreeOptions, StageTimes, graph_tree};
 use quadmesh::pslg::{CleanOptions, CornerCut, clean, cut_acute_corners};
 use quadmesh::warp::{finest_resolved_level, square_box};
 use quadmesh::{DVec2, Error, Input};
 
 fn tree_of(input: &Input, clearance: f64) -> Result<(CornerCut, GraphTree), Error> {
     let cut = cut_acute_corners(input)?;
-    let tree = graph_tree(&cut, clearance, &mut StageTimes::default())?;
+    let options = GraphTreeOptions {
+        clearance,
+        max_squares: None,
+    };
+    let tree = graph_tree(&cut, options, &mut StageTimes::default())?;
     Ok((cut, tree))
 }
 
@@ -288,5 +292,33 @@ fn features_too_close_for_the_wide_grid_are_refused_by_name() {
             );
         }
         other => panic!("expected the pair refused, got {other:?}"),
+    }
+}
+
+#[test]
+fn a_tree_past_its_square_budget_is_refused() {
+    // Beyond the cap at its 0.1° tip, the sliver's long sides must be kept apart all along.
+    let cut = cut_acute_corners(&sliver(0.1)).expect("a cut");
+    let free = graph_tree(
+        &cut,
+        GraphTreeOptions::default(),
+        &mut StageTimes::default(),
+    )
+    .expect("a tree");
+    let crowded = match &free {
+        GraphTree::Narrow(b) => b.crowded,
+        GraphTree::Wide(b) => b.crowded,
+    };
+    assert!(crowded > 10_000, "{crowded} crowded squares");
+    for (limit, refused) in [(crowded - 1, true), (crowded, false), (1_000, true)] {
+        let options = GraphTreeOptions {
+            max_squares: Some(limit),
+            ..GraphTreeOptions::default()
+        };
+        match graph_tree(&cut, options, &mut StageTimes::default()) {
+            Err(Error::SquareBudget { limit: l }) => assert!(refused && l == limit),
+            Ok(_) => assert!(!refused, "{limit} squares allowed, {crowded} needed"),
+            Err(e) => panic!("unexpected {e}"),
+        }
     }
 }

@@ -149,22 +149,29 @@ pub fn segment_meets_box(a: DVec2, b: DVec2, lo: DVec2, hi: DVec2) -> bool {
         || sides.iter().all(|&s| s == Orientation::Right))
 }
 
-/// A crowded square at the finest level the grid resolves, with the conflict in its reach.
+/// Why the crowded squares were not all found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct TooCrowded<K: Copy> {
-    /// The square.
-    pub cell: Cell<K>,
-    /// The conflict.
-    pub conflict: Conflict,
+pub enum TooCrowded<K: Copy> {
+    /// A square at the finest level the grid resolves is still crowded, by this conflict.
+    Finest {
+        /// The square.
+        cell: Cell<K>,
+        /// The conflict.
+        conflict: Conflict,
+    },
+    /// There are more crowded squares than the budget allows.
+    Budget(usize),
 }
 
 /// The crowded squares of the graph on `grid` with reaches grown by `clearance` sides, in
-/// preorder, tested level by level down to `finest`; a square still crowded there is refused.
+/// preorder, tested level by level down to `finest`; a square still crowded there is refused,
+/// and so are more than `budget` crowded squares (a level's squares are counted before their
+/// children are made).
 pub fn crowded_squares<K: MortonKey>(
     grid: &Grid,
     features: &GraphFeatures,
     clearance: f64,
-    finest: u8,
+    (finest, budget): (u8, usize),
 ) -> Result<Vec<Cell<K>>, TooCrowded<K>> {
     let mut split = Vec::new();
     let mut frontier = vec![Cell::<K>::root()];
@@ -184,10 +191,13 @@ pub fn crowded_squares<K: MortonKey>(
         if level == finest
             && let Some(&(cell, Some(conflict))) = tested.iter().find(|(_, c)| c.is_some())
         {
-            return Err(TooCrowded { cell, conflict });
+            return Err(TooCrowded::Finest { cell, conflict });
         }
         if crowded.is_empty() {
             break;
+        }
+        if split.len() + crowded.len() > budget {
+            return Err(TooCrowded::Budget(budget));
         }
         frontier = crowded
             .par_iter()

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
-use quadmesh::balance::{CLEARANCE, Separation};
+use quadmesh::balance::Separation;
 use quadmesh::dynamic::{
     BatchReport, DynamicDelaunay, DynamicMesh, Edit, RefinedEdit, TriangleChanges,
 };
@@ -28,7 +28,7 @@ use quadmesh::io::{
 };
 use quadmesh::mesh::{Domain, validate_pslg_with};
 use quadmesh::morton::MortonKey;
-use quadmesh::pipeline::{GraphTree, StageTimes, graph_tree};
+use quadmesh::pipeline::{GraphTree, GraphTreeOptions, StageTimes, graph_tree};
 use quadmesh::pslg::{CleanOptions, clean, cut_acute_corners};
 use quadmesh::refine::{RefineDomain, RefineOptions, refine_points_in_order};
 use quadmesh::{
@@ -1290,7 +1290,8 @@ fn graph_tree_leaves(input: &Path, output: &Path, threads: Option<NonZeroUsize>)
         let cut = times
             .time("cut", || cut_acute_corners(&graph))
             .with_context(context)?;
-        let tree = graph_tree(&cut, CLEARANCE, &mut times).with_context(context)?;
+        let tree =
+            graph_tree(&cut, GraphTreeOptions::default(), &mut times).with_context(context)?;
         let (written, write_time) =
             timed(|| write_to(output, |w| write_graph_leaves_csv(w, &tree)));
         written?;

@@ -190,9 +190,13 @@ fn cut_wedges(points: &[DVec2], segments: &[[u32; 2]], v: usize, star: &[u32]) -
 /// the result is the same on any thread count.
 ///
 /// # Errors
-/// [`Error::Unresolvable`] naming a vertex whose cap f64 cannot place: a cut point that rounds
-/// onto the vertex or onto another cut point, or a cap that is not a counterclockwise triangle.
+/// [`Error::NonFinite`], [`Error::SegmentIndex`] and [`Error::ZeroLengthSegment`] for the first
+/// such point or segment, as [`crate::pslg::clean`] refuses them (crossings are not looked
+/// for: clean the graph first), and [`Error::Unresolvable`] naming a vertex whose cap f64 cannot
+/// place: a cut point that rounds onto the vertex or onto another cut point, or a cap that is
+/// not a counterclockwise triangle.
 pub fn cut_acute_corners(input: &Input) -> Result<CornerCut, Error> {
+    check_graph(input)?;
     let points = &input.points;
     let segments: Vec<[u32; 2]> = input.segments.iter().map(|s| s.ends).collect();
     let stars = Stars::of(points, &segments);
@@ -243,6 +247,33 @@ pub fn cut_acute_corners(input: &Input) -> Result<CornerCut, Error> {
         })
         .collect::<Result<_, _>>()?;
     Ok(assemble(points, &segments, local, cap_radius))
+}
+
+/// The checks of [`cut_acute_corners`] on its input, before it indexes anything.
+fn check_graph(input: &Input) -> Result<(), Error> {
+    if let Some(index) = input.points.par_iter().position_first(|p| !p.is_finite()) {
+        let p = input.points[index];
+        return Err(Error::NonFinite {
+            index,
+            x: p.x,
+            y: p.y,
+        });
+    }
+    let n = input.points.len();
+    for (segment, s) in input.segments.iter().enumerate() {
+        if let Some(&index) = s.ends.iter().find(|&&v| v as usize >= n) {
+            return Err(Error::SegmentIndex {
+                segment,
+                index,
+                points: n,
+            });
+        }
+        let [a, b] = s.ends.map(|v| input.points[v as usize]);
+        if a == b {
+            return Err(Error::ZeroLengthSegment { segment });
+        }
+    }
+    Ok(())
 }
 
 /// One vertex's share of the cut: its cut points (with the segment each lies on), its caps (as

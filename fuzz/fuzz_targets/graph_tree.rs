@@ -1,0 +1,126 @@
+//! Any bytes as a small graph (points on a fine grid, or raw f64 bits, and segments between
+//! them): cleaned (crossings split or refused), its acute corners cut, its features separated
+//! in the quadtree. Each stage answers with its result or a typed error, never a panic; the
+//! tree must be valid, its crowded squares those of the brute force, its leaves uncrowded, and
+//! every edge's pieces must run from end to end without a gap.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use quadmesh::balance::reference::graph_crowded_squares;
+use quadmesh::morton::MortonKey;
+use quadmesh::pipeline::{GraphTree, GraphTreeBuild, GraphTreeOptions, StageTimes, graph_tree};
+use quadmesh::pslg::{CleanOptions, CornerCut, clean, cut_acute_corners};
+use quadmesh::warp::finest_resolved_level;
+use quadmesh::{DVec2, Input, Segment};
+
+/// Points from 4 bytes each (two i16 on a 1/64 grid), or from 16 (raw f64 bits) when `raw`.
+fn points_of(bytes: &[u8], count: usize, raw: bool) -> Vec<DVec2> {
+    let width = if raw { 16 } else { 4 };
+    bytes
+        .chunks_exact(width)
+        .take(count)
+        .map(|c| {
+            if raw {
+                let x = f64::from_le_bytes(c[..8].try_into().unwrap());
+                let y = f64::from_le_bytes(c[8..].try_into().unwrap());
+                DVec2::new(x, y)
+            } else {
+                let x = i16::from_le_bytes([c[0], c[1]]);
+                let y = i16::from_le_bytes([c[2], c[3]]);
+                DVec2::new(f64::from(x), f64::from(y)) / 64.0
+            }
+        })
+        .collect()
+}
+
+/// The most crowded squares a tree may have, and the most the brute force retraces.
+const MAX_SQUARES: usize = 200_000;
+const BRUTE_FORCE_SQUARES: usize = 5_000;
+
+fn check<K: MortonKey>(cut: &CornerCut, build: &GraphTreeBuild<K>) {
+    build
+        .tree
+        .check(&build.morton.keys)
+        .unwrap_or_else(|e| panic!("invalid tree: {e}"));
+    check_pieces(build);
+    if build.crowded > BRUTE_FORCE_SQUARES {
+        return;
+    }
+    let points: Vec<DVec2> = build.vertices.iter().map(|&v| cut.points[v as usize]).collect();
+    let finest = finest_resolved_level::<K>(false);
+    let brute = graph_crowded_squares::<K>(
+        &build.morton.grid,
+        &points,
+        &build.edges,
+        (build.clearance, finest),
+    )
+    .expect("separable by the brute force too");
+    assert_eq!(brute.len(), build.crowded, "crowded squares differ from the brute force");
+}
+
+fn check_pieces<K: MortonKey>(build: &GraphTreeBuild<K>) {
+    for e in 0..build.edges.len() {
+        let row = build.pieces.of(e);
+        assert!(!row.is_empty(), "edge {e} has no piece");
+        assert_eq!((row[0].from, row[row.len() - 1].to), (0.0, 1.0));
+        for pair in row.windows(2) {
+            assert_eq!(pair[0].to, pair[1].from, "edge {e}: a gap");
+        }
+    }
+}
+
+fuzz_target!(|data: &[u8]| {
+    let Some((&choice, rest)) = data.split_first() else {
+        return;
+    };
+    let Some((&count, rest)) = rest.split_first() else {
+        return;
+    };
+    let raw = choice & 0x80 != 0;
+    let count = usize::from(count % 24);
+    let width = if raw { 16 } else { 4 };
+    let (point_bytes, segment_bytes) = rest.split_at(rest.len().min(count * width));
+    let points = points_of(point_bytes, count, raw);
+    if points.is_empty() {
+        return;
+    }
+    let n = points.len() as u32;
+    // Segment ends may name missing points: the cleaning refuses them.
+    let segments: Vec<Segment> = segment_bytes
+        .chunks_exact(2)
+        .take(32)
+        .map(|c| Segment {
+            ends: [u32::from(c[0]) % (n + 1), u32::from(c[1]) % (n + 1)],
+            marker: 1,
+        })
+        .collect();
+    let input = Input {
+        points,
+        segments,
+        ..Input::default()
+    };
+    let options = CleanOptions {
+        split_crossings: choice & 0x40 != 0,
+    };
+    // Uncleaned input goes to the cut as well: it must refuse or cut, never panic.
+    if choice & 0x20 != 0 {
+        let _ = cut_acute_corners(&input);
+    }
+    let Ok((graph, _)) = clean(&input, options) else {
+        return;
+    };
+    let Ok(cut) = cut_acute_corners(&graph) else {
+        return;
+    };
+    let clearance = [0.5, 1.0, 2.0, 3.0][usize::from(choice & 3)];
+    // Thin wedges ask for squares all along their edges: a budget keeps a run bounded.
+    let options = GraphTreeOptions {
+        clearance,
+        max_squares: Some(MAX_SQUARES),
+    };
+    match graph_tree(&cut, options, &mut StageTimes::default()) {
+        Ok(GraphTree::Narrow(build)) => check(&cut, &build),
+        Ok(GraphTree::Wide(build)) => check(&cut, &build),
+        Err(_) => {}
+    }
+});
