@@ -197,4 +197,21 @@ fn tree_graph_writes_the_leaves_of_the_separated_tree() {
     assert!(!out.status.success());
     assert!(stderr(&out).contains("cross"), "{}", stderr(&out));
     assert!(!refused.exists());
+    // A tree past its budget of squares is refused, with nothing written.
+    let out = quadmesh(&[
+        "tree",
+        s(&poly),
+        "--graph",
+        "--max-squares",
+        "10",
+        "-o",
+        s(&refused),
+    ]);
+    assert!(!out.status.success());
+    assert!(
+        stderr(&out).contains("more than 10 split squares"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!refused.exists());
 }

@@ -75,6 +75,16 @@ enum Command {
         /// points, then the cut points.
         #[arg(long, conflicts_with_all = ["balanced", "separated"])]
         graph: bool,
+        /// With `--graph`: refuse a graph whose tree needs more split squares than this (two
+        /// long edges at a tiny angle must be kept apart all along, and can ask for more
+        /// squares than memory holds).
+        #[arg(
+            long,
+            requires = "graph",
+            value_name = "N",
+            default_value_t = 20_000_000
+        )]
+        max_squares: usize,
     },
     /// Mesh a point file or a planar straight-line graph (`.poly`): a Delaunay mesh with every
     /// angle at least `--min-angle` (of the points' convex hull, or of what the segments
@@ -408,6 +418,7 @@ fn main() -> ExitCode {
             separated,
             corners,
             graph,
+            max_squares,
         } => {
             let refinement = match (balanced, separated) {
                 (_, true) if corners => Refinement::CornerSeparated,
@@ -416,7 +427,7 @@ fn main() -> ExitCode {
                 _ => Refinement::Unbalanced,
             };
             if graph {
-                graph_tree_leaves(&input, &output, threads)
+                graph_tree_leaves(&input, &output, threads, max_squares)
             } else {
                 tree(
                     &input,
@@ -1274,7 +1285,12 @@ fn tree(
 }
 
 /// `tree --graph`: the graph read, cleaned and cut, its separated tree's leaves written.
-fn graph_tree_leaves(input: &Path, output: &Path, threads: Option<NonZeroUsize>) -> Result<()> {
+fn graph_tree_leaves(
+    input: &Path,
+    output: &Path,
+    threads: Option<NonZeroUsize>,
+    max_squares: usize,
+) -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads.map_or(0, NonZeroUsize::get))
         .build()
@@ -1290,8 +1306,15 @@ fn graph_tree_leaves(input: &Path, output: &Path, threads: Option<NonZeroUsize>)
         let cut = times
             .time("cut", || cut_acute_corners(&graph))
             .with_context(context)?;
-        let tree =
-            graph_tree(&cut, GraphTreeOptions::default(), &mut times).with_context(context)?;
+        let tree = graph_tree(
+            &cut,
+            GraphTreeOptions {
+                max_squares: Some(max_squares),
+                ..GraphTreeOptions::default()
+            },
+            &mut times,
+        )
+        .with_context(context)?;
         let (written, write_time) =
             timed(|| write_to(output, |w| write_graph_leaves_csv(w, &tree)));
         written?;
