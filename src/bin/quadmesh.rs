@@ -1268,11 +1268,7 @@ fn tree(
     threads: Option<NonZeroUsize>,
     options: TreeOptions,
 ) -> Result<()> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.map_or(0, NonZeroUsize::get))
-        .build()
-        .context("cannot start the worker threads")?;
-    pool.install(|| {
+    pool(threads)?.install(|| {
         let (points, read_time) = timed(|| read_points(input));
         let points = points?;
         let (built, _) = timed(|| build_tree(&points, &options));
@@ -1291,11 +1287,7 @@ fn graph_tree_leaves(
     threads: Option<NonZeroUsize>,
     max_squares: usize,
 ) -> Result<()> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads.map_or(0, NonZeroUsize::get))
-        .build()
-        .context("cannot start the worker threads")?;
-    pool.install(|| {
+    pool(threads)?.install(|| {
         let context = || format!("{}", input.display());
         let (read, read_time) = timed(|| read_input(input));
         let read = read.with_context(context)?;

@@ -17,6 +17,7 @@ use rayon::prelude::*;
 use crate::error::Error;
 use crate::options::Input;
 use crate::predicates::{Orientation, orientation};
+use crate::pslg::check_points_and_ends;
 use crate::spatial::graph_rtrees;
 
 /// How much of the distance to the nearest non-incident feature, and of the shortest segment, a
@@ -186,8 +187,8 @@ fn cut_wedges(points: &[DVec2], segments: &[[u32; 2]], v: usize, star: &[u32]) -
 ///
 /// The cut points are numbered after the input's points, vertex by vertex in input order and,
 /// about each vertex, counterclockwise from +x; the caps and edges likewise. The work is
-/// O((n + m) log(n + m)) for n points and m segments, in parallel but for building the R-trees;
-/// the result is the same on any thread count.
+/// O((n + m) log(n + m)) for n points and m segments, in parallel but for building the R-trees
+/// and the final numbering (one pass); the result is the same on any thread count.
 ///
 /// # Errors
 /// [`Error::NonFinite`], [`Error::SegmentIndex`] and [`Error::ZeroLengthSegment`] for the first
@@ -249,31 +250,18 @@ pub fn cut_acute_corners(input: &Input) -> Result<CornerCut, Error> {
     Ok(assemble(points, &segments, local, cap_radius))
 }
 
-/// The checks of [`cut_acute_corners`] on its input, before it indexes anything.
+/// The checks of [`cut_acute_corners`] on its input, before it indexes anything: those at
+/// [`crate::pslg::clean`]'s door, then a segment whose ends are two points at one position.
 fn check_graph(input: &Input) -> Result<(), Error> {
-    if let Some(index) = input.points.par_iter().position_first(|p| !p.is_finite()) {
-        let p = input.points[index];
-        return Err(Error::NonFinite {
-            index,
-            x: p.x,
-            y: p.y,
-        });
-    }
-    let n = input.points.len();
-    for (segment, s) in input.segments.iter().enumerate() {
-        if let Some(&index) = s.ends.iter().find(|&&v| v as usize >= n) {
-            return Err(Error::SegmentIndex {
-                segment,
-                index,
-                points: n,
-            });
-        }
+    check_points_and_ends(input)?;
+    let at_one_place = input.segments.iter().position(|s| {
         let [a, b] = s.ends.map(|v| input.points[v as usize]);
-        if a == b {
-            return Err(Error::ZeroLengthSegment { segment });
-        }
+        a == b
+    });
+    match at_one_place {
+        Some(segment) => Err(Error::ZeroLengthSegment { segment }),
+        None => Ok(()),
     }
-    Ok(())
 }
 
 /// One vertex's share of the cut: its cut points (with the segment each lies on), its caps (as

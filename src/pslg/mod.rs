@@ -98,6 +98,35 @@ impl CleanReport {
     }
 }
 
+/// The checks at the graph's door, before anything is indexed: the first point with a NaN or
+/// infinite coordinate ([`Error::NonFinite`]), then, in segment order, a segment naming a point
+/// that does not exist ([`Error::SegmentIndex`]) or naming one point twice
+/// ([`Error::ZeroLengthSegment`]).
+pub(crate) fn check_points_and_ends(input: &Input) -> Result<(), Error> {
+    if let Some(index) = input.points.par_iter().position_first(|p| !p.is_finite()) {
+        let p = input.points[index];
+        return Err(Error::NonFinite {
+            index,
+            x: p.x,
+            y: p.y,
+        });
+    }
+    let n = input.points.len();
+    for (segment, s) in input.segments.iter().enumerate() {
+        if let Some(&index) = s.ends.iter().find(|&&e| e as usize >= n) {
+            return Err(Error::SegmentIndex {
+                segment,
+                index,
+                points: n,
+            });
+        }
+        if s.ends[0] == s.ends[1] {
+            return Err(Error::ZeroLengthSegment { segment });
+        }
+    }
+    Ok(())
+}
+
 /// A segment being cleaned: its ends in the cleaned points, and its input segment.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) struct Piece {
@@ -146,26 +175,7 @@ pub fn clean(input: &Input, options: CleanOptions) -> Result<(Input, CleanReport
     if n >= u32::MAX as usize {
         return Err(Error::TooManyPoints(n));
     }
-    if let Some(index) = input.points.par_iter().position_first(|p| !p.is_finite()) {
-        let p = input.points[index];
-        return Err(Error::NonFinite {
-            index,
-            x: p.x,
-            y: p.y,
-        });
-    }
-    for (segment, s) in input.segments.iter().enumerate() {
-        if let Some(&index) = s.ends.iter().find(|&&e| e as usize >= n) {
-            return Err(Error::SegmentIndex {
-                segment,
-                index,
-                points: n,
-            });
-        }
-        if s.ends[0] == s.ends[1] {
-            return Err(Error::ZeroLengthSegment { segment });
-        }
-    }
+    check_points_and_ends(input)?;
     if input.segments.len() >= u32::MAX as usize {
         return Err(Error::TooLarge {
             what: "segments",
