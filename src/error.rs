@@ -119,6 +119,18 @@ pub enum Error {
         /// Its y coordinate.
         y: f64,
     },
+    /// The warp of a graph met a place its templates cannot fill: the leaves bent onto the
+    /// graph leave a polygon no triangulation of which keeps the graph's edges (features the
+    /// tree could not keep far enough apart for the warp).
+    #[error("the warped mesh of the graph cannot be completed near ({x}, {y}): {why}")]
+    WarpStuck {
+        /// Its x coordinate.
+        x: f64,
+        /// Its y coordinate.
+        y: f64,
+        /// What went wrong there.
+        why: &'static str,
+    },
     /// The output would need more elements than 32-bit indices can number.
     #[error("the mesh would have {count} {what}; at most 4294967294 are supported")]
     TooLarge {
@@ -343,6 +355,7 @@ impl Error {
         match &mut self {
             Error::NonFinite { x, y, .. }
             | Error::Unresolvable { x, y, .. }
+            | Error::WarpStuck { x, y, .. }
             | Error::OutsideDomain { x, y, .. }
             | Error::NearDomainSide { x, y, .. } => [*x, *y] = image([*x, *y]),
             Error::Inseparable { pa, pb, .. } => (*pa, *pb) = (image(*pa), image(*pb)),

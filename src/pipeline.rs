@@ -11,19 +11,19 @@ use crate::balance::{
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
 pub use crate::mesh::StageTimes;
-use crate::mesh::{AngleQuality, BoundarySide, Domain, Mesh, MeshReport, report_of};
+use crate::mesh::{AngleQuality, BoundarySide, Domain, Mesh, MeshReport, NONE, report_of};
 use crate::morton::{
     Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, bounding_box, morton_order,
     morton_order_on, morton_order_wide, validate_points,
 };
 use crate::options::{Input, Mode, Options, Region};
-use crate::pslg::CornerCut;
+use crate::pslg::{CornerCut, carve_warped};
 use crate::quadtree::{Quadtree, expand};
 use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, refine_pslg};
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{
-    EdgePieces, edge_pieces, finest_resolved_level, leaves_below, point_finer_than_grid, split,
+    EdgePieces, GraphLeaves, edge_pieces, triangulate_graph, finest_resolved_level, leaves_below, point_finer_than_grid, split,
     unresolvable, warp,
 };
 
@@ -479,8 +479,10 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
 /// The mesh of a planar straight-line graph: the Delaunay mode over what its segments enclose
 /// or over its convex hull.
 fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
-    if options.mode().is_quadtree() {
-        input.check_supported()?;
+    match options.mode() {
+        Mode::Warp => return mesh_graph_warp(input, options),
+        Mode::BlockWarp | Mode::Nonobtuse => input.check_supported()?,
+        Mode::Delaunay => {}
     }
     let convex_hull = match options.region_choice() {
         Region::Auto => false,
@@ -507,6 +509,87 @@ fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Er
         split_crossings: options.crossings_split(),
     };
     refine_pslg(input, &refine, pslg)
+}
+
+/// The most squares the separation of a graph may split in [`mesh`]: about 80 bytes each
+/// through the warp, so a few GiB at most.
+pub const GRAPH_SQUARE_BUDGET: usize = 20_000_000;
+
+/// The warped mesh of a planar straight-line graph (BET §5): cleaned, its acute corners cut
+/// off, its features separated in a balanced tree, the tree bent onto it and triangulated, the
+/// domain cut out with its holes and regions, the caps put back.
+fn mesh_graph_warp(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
+    if options.region_choice() != Region::Auto {
+        return Err(Error::InvalidOption {
+            option: "region",
+            message: "the warped mesh of a planar straight-line graph covers what its segments \
+                      enclose"
+                .into(),
+        });
+    }
+    let mut times = StageTimes::default();
+    let clean_options = crate::pslg::CleanOptions {
+        split_crossings: options.crossings_split(),
+    };
+    let (clean, cleaning) = times.time("clean", || crate::pslg::clean(input, clean_options))?;
+    let cut = times.time("cut", || crate::pslg::cut_acute_corners(&clean))?;
+    let tree_options = GraphTreeOptions {
+        max_squares: Some(GRAPH_SQUARE_BUDGET),
+        ..GraphTreeOptions::default()
+    };
+    let tree = graph_tree(&cut, tree_options, &mut times)?;
+    let mut mesh = match &tree {
+        GraphTree::Narrow(build) => warped_graph(build, (&clean, &cut), &mut times),
+        GraphTree::Wide(build) => warped_graph(build, (&clean, &cut), &mut times),
+    }?;
+    for piece in &mut mesh.segments {
+        piece.segment = cleaning.segment_origin[piece.segment as usize];
+    }
+    let first_input = crate::refine::first_occurrences(&cleaning.point_map, clean.points.len());
+    for v in &mut mesh.vertex_input {
+        if *v != NONE {
+            *v = first_input[*v as usize];
+        }
+    }
+    let quality = times.time("angles", || {
+        crate::refine::angle_quality(&mesh.vertices, &mesh.triangles)
+    });
+    let mut report = report_of(
+        &mesh,
+        clean.points.len(),
+        cleaning.merged_points,
+        &quality,
+        times,
+    );
+    report.cleaning = Some(cleaning);
+    Ok((mesh, report))
+}
+
+/// The warp of a graph's separated tree and the domain cut out of it.
+fn warped_graph<K: MortonKey>(
+    build: &GraphTreeBuild<K>,
+    (clean, cut): (&Input, &CornerCut),
+    times: &mut StageTimes,
+) -> Result<Mesh, Error> {
+    let points: Vec<DVec2> = build
+        .vertices
+        .iter()
+        .map(|&v| cut.points[v as usize])
+        .collect();
+    let leaves = GraphLeaves {
+        tree: &build.tree,
+        grid: &build.morton.grid,
+        order: &build.morton.order,
+        points: &points,
+        edges: &build.edges,
+        pieces: &build.pieces,
+    };
+    let triangulated = times.time("warp", || triangulate_graph(&leaves))?;
+    times.time("carve", || {
+        let located = triangulated.clone();
+        let triangle_at = |p| located.triangle_at(&build.tree, &build.morton.grid, p);
+        carve_warped(clean, cut, &build.vertices, triangulated, triangle_at)
+    })
 }
 
 /// A graph's features separated in a balanced quadtree: Bern, Eppstein and Teng's T_B* (§5),

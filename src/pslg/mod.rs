@@ -8,6 +8,7 @@
 
 mod corners;
 mod grid;
+mod warped;
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
@@ -22,6 +23,7 @@ pub use corners::{
     CAP_FRACTION, Cap, CornerCut, EdgeOrigin, GraphEdge, cut_acute_corners, feature_distances,
 };
 use grid::Grid;
+pub use warped::carve_warped;
 
 /// How many examples of each repair a [`CleanReport`] lists.
 pub const REPORT_EXAMPLES: usize = 8;

@@ -308,7 +308,7 @@ const PSLG_STRIPS: bool = false;
 
 /// For each cleaned point, the first input point at its position ([`NONE`] for a point the
 /// cleaning made at a crossing).
-fn first_occurrences(point_map: &[u32], cleaned: usize) -> Vec<u32> {
+pub(crate) fn first_occurrences(point_map: &[u32], cleaned: usize) -> Vec<u32> {
     let mut first = vec![NONE; cleaned];
     for (i, &o) in point_map.iter().enumerate().rev() {
         first[o as usize] = i as u32;
@@ -853,7 +853,7 @@ impl AngleScan {
 
 /// The angle histogram of the mesh, and its exact smallest and largest angles (measured again,
 /// with [`angles_deg`], on the triangles that hold them).
-fn angle_quality(vertices: &[DVec2], corners: &[[u32; 3]]) -> AngleQuality {
+pub(crate) fn angle_quality(vertices: &[DVec2], corners: &[[u32; 3]]) -> AngleQuality {
     const CHUNK: usize = 1 << 14;
     let ends = cos_bin_ends();
     let found = corners

@@ -132,6 +132,23 @@ fn chained(pieces: Vec<EdgePiece>) -> Vec<EdgePiece> {
     out
 }
 
+/// The leaf whose closed square holds `p` (the first in Morton order where several do), if the
+/// root's does.
+pub fn leaf_at<K: MortonKey>(tree: &Quadtree<K>, grid: &Grid, p: DVec2) -> Option<u32> {
+    let inside = |cell: Cell<K>| {
+        let (lo, hi) = square_box(grid, cell);
+        lo.x <= p.x && p.x <= hi.x && lo.y <= p.y && p.y <= hi.y
+    };
+    let mut cell = Cell::<K>::root();
+    if !inside(cell) {
+        return None;
+    }
+    while is_internal(tree, cell) {
+        cell = (0..4).map(|q| cell.child(q)).find(|&c| inside(c))?;
+    }
+    Some(leaf_index(tree, cell))
+}
+
 fn is_internal<K: MortonKey>(tree: &Quadtree<K>, cell: Cell<K>) -> bool {
     let key = (cell.anchor, cell.level);
     let at = tree

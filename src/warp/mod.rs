@@ -13,13 +13,16 @@
 
 mod cut;
 mod edges;
+mod graph;
 pub mod placement;
 mod split;
 mod templates;
 mod vertices;
 
 pub use cut::leaves_below;
-pub use edges::{EdgePiece, EdgePieces, edge_pieces, square_box};
+pub use edges::{EdgePiece, EdgePieces, edge_pieces, leaf_at, square_box};
+pub use graph::{Angles, EDGE_SNAP, GraphLeaves, GraphTriangulation, triangulate_graph};
+pub(crate) use graph::best_triangulation;
 pub use split::{NONOBTUSE_MAX_DEG, split};
 
 use glam::DVec2;

@@ -1,0 +1,542 @@
+//! The domain cut out of a graph's warped tree: what its segments enclose, less its holes, with
+//! its regions, its caps put back and its segments' markers carried.
+//!
+//! The triangulated leaves cover the whole root square. The chains of the cut graph's edges
+//! split them into pieces (triangles joined across edges that are no chain's); pieces joined
+//! across cutting edges make up the input's faces, since a cap belongs to the wedge it was cut
+//! from. A face is outside when it reaches the root's side, a hole when it holds a hole seed;
+//! a region seed names its face (the last seed wins, as in Triangle). The pieces inside caps are
+//! dropped, and each cap kept is triangulated again from its apex, its sides and its cutting
+//! edge, divided as the mesh beside them divides them.
+
+use std::collections::HashMap;
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use super::{Cap, CornerCut, EdgeOrigin};
+use crate::domain::{BoundaryEdge, Domain, SubSegment};
+use crate::error::Error;
+use crate::mesh::{Mesh, NONE};
+use crate::options::Input;
+use crate::predicates::{Orientation, orientation};
+use crate::warp::{GraphTriangulation, best_triangulation};
+
+/// The marker Triangle gives boundary edges that carry none of their own.
+const BOUNDARY_MARKER: i32 = 1;
+
+/// The mesh of the cleaned graph `input` from the triangulated leaves `leaves` of its cut
+/// graph `cut`, whose graph vertex `f` is cut point `features[f]`; `triangle_at` finds the
+/// triangle of `leaves` holding a point (on its closed area), if any.
+///
+/// # Errors
+/// [`Error::SeedOnSegment`] for a hole or region seed on a segment, [`Error::NothingEnclosed`]
+/// when nothing is left, [`Error::WarpStuck`] for a cap its divided sides leave no
+/// triangulation of.
+pub fn carve_warped(
+    input: &Input,
+    cut: &CornerCut,
+    features: &[u32],
+    leaves: GraphTriangulation,
+    triangle_at: impl Fn(DVec2) -> Option<u32> + Sync,
+) -> Result<Mesh, Error> {
+    let walls = Walls::new(cut, &leaves);
+    let neighbours = neighbours_of(&leaves.triangles);
+    let (piece, pieces) = pieces(&leaves.triangles, &neighbours, &walls);
+    let faces = Faces::new(input, cut, (&piece, pieces), &neighbours, &walls, &leaves, &triangle_at)?;
+    let mut out = Output::new(&leaves, input, cut, features);
+    for (t, &triangle) in leaves.triangles.iter().enumerate() {
+        let p = piece[t] as usize;
+        if !faces.cap_piece[p] && faces.kept(p) {
+            out.push(triangle, faces.region_of(p));
+        }
+    }
+    for (c, cap) in cut.caps.iter().enumerate() {
+        let p = faces.cap_of[c] as usize;
+        if faces.kept(p) {
+            let polygon = out.cap_polygon(cut, &walls, c, cap);
+            let at: Vec<DVec2> = polygon.iter().map(|&v| out.vertices[v as usize]).collect();
+            let Some((triangles, _)) = best_triangulation(&at, &[]) else {
+                let apex = cut.points[cap.apex as usize];
+                return Err(Error::WarpStuck {
+                    x: apex.x,
+                    y: apex.y,
+                    why: "a cap's divided sides leave it no triangulation",
+                });
+            };
+            let region = faces.region_of(p);
+            for t in triangles {
+                out.push(t.map(|i| polygon[i]), region);
+            }
+        }
+    }
+    if out.triangles.is_empty() {
+        return Err(Error::NothingEnclosed);
+    }
+    Ok(out.finish(input, cut, &walls))
+}
+
+/// The chains of the cut graph's edges, as walls between the leaves' triangles.
+struct Walls {
+    /// The edge of the cut graph each wall lies on, by its two vertices (the smaller first).
+    edge_of: HashMap<(u32, u32), u32>,
+    /// Per cut-graph edge, its chain of vertices from its first end to its second.
+    chains: Vec<Vec<u32>>,
+    /// The cut-graph edge joining two cut points, by its ends (the smaller first).
+    by_ends: HashMap<(u32, u32), u32>,
+}
+
+fn pair(a: u32, b: u32) -> (u32, u32) {
+    (a.min(b), a.max(b))
+}
+
+impl Walls {
+    fn new(cut: &CornerCut, leaves: &GraphTriangulation) -> Walls {
+        let chains: Vec<Vec<u32>> = (0..cut.edges.len())
+            .map(|e| leaves.chain(e).to_vec())
+            .collect();
+        let mut edge_of = HashMap::new();
+        for (e, chain) in chains.iter().enumerate() {
+            for w in chain.windows(2) {
+                edge_of.insert(pair(w[0], w[1]), e as u32);
+            }
+        }
+        let by_ends = (0..cut.edges.len())
+            .map(|e| {
+                let [a, b] = cut.edges[e].ends;
+                (pair(a, b), e as u32)
+            })
+            .collect();
+        Walls {
+            edge_of,
+            chains,
+            by_ends,
+        }
+    }
+
+    /// The cut-graph edge the mesh edge `a b` lies on, if any.
+    fn edge(&self, a: u32, b: u32) -> Option<u32> {
+        self.edge_of.get(&pair(a, b)).copied()
+    }
+}
+
+/// The triangle across the edge opposite each corner, or [`NONE`]: the one with the edge the
+/// other way round (directed edges sorted, so no hashing of every edge).
+pub(crate) fn neighbours_of(triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut directed: Vec<(u32, u32, u32)> = triangles
+        .par_iter()
+        .enumerate()
+        .flat_map_iter(|(t, &[a, b, c])| {
+            [(b, c, 0), (c, a, 1), (a, b, 2)]
+                .into_iter()
+                .map(move |(u, w, i)| (u, w, (t as u32) * 3 + i))
+        })
+        .collect();
+    directed.par_sort_unstable();
+    let mut neighbours = vec![[NONE; 3]; triangles.len()];
+    for &(u, w, slot) in &directed {
+        let at = directed.partition_point(|&(x, y, _)| (x, y) < (w, u));
+        if let Some(&(x, y, other)) = directed.get(at)
+            && (x, y) == (w, u)
+        {
+            neighbours[(slot / 3) as usize][(slot % 3) as usize] = other / 3;
+        }
+    }
+    neighbours
+}
+
+/// The pieces the walls cut the triangles into: each triangle's piece, and how many.
+fn pieces(triangles: &[[u32; 3]], neighbours: &[[u32; 3]], walls: &Walls) -> (Vec<u32>, usize) {
+    let mut piece = vec![NONE; triangles.len()];
+    let mut count = 0u32;
+    let mut stack = Vec::new();
+    for start in 0..triangles.len() {
+        if piece[start] != NONE {
+            continue;
+        }
+        piece[start] = count;
+        stack.push(start);
+        while let Some(t) = stack.pop() {
+            let [a, b, c] = triangles[t];
+            for (i, (u, w)) in [(b, c), (c, a), (a, b)].into_iter().enumerate() {
+                let n = neighbours[t][i];
+                if n != NONE && piece[n as usize] == NONE && walls.edge(u, w).is_none() {
+                    piece[n as usize] = count;
+                    stack.push(n as usize);
+                }
+            }
+        }
+        count += 1;
+    }
+    (piece, count as usize)
+}
+
+/// What each piece is: part of which face, kept or not, in which region.
+struct Faces {
+    /// Per piece, its face (a representative piece).
+    face: Vec<u32>,
+    /// Per face representative, whether it is outside the domain (reaches the root's side, or
+    /// holds a hole seed).
+    dropped: Vec<bool>,
+    /// Per face representative, its region seed, or [`NONE`].
+    region: Vec<u32>,
+    /// Per piece, whether it lies inside caps.
+    cap_piece: Vec<bool>,
+    /// Per cap, its piece.
+    cap_of: Vec<u32>,
+}
+
+impl Faces {
+    fn new(
+        input: &Input,
+        cut: &CornerCut,
+        (piece, count): (&[u32], usize),
+        neighbours: &[[u32; 3]],
+        walls: &Walls,
+        leaves: &GraphTriangulation,
+        triangle_at: &(impl Fn(DVec2) -> Option<u32> + Sync),
+    ) -> Result<Faces, Error> {
+        let mut parent: Vec<u32> = (0..count as u32).collect();
+        let triangles = &leaves.triangles;
+        let mut outside = vec![false; count];
+        for (t, &[a, b, c]) in triangles.iter().enumerate() {
+            for (i, (u, w)) in [(b, c), (c, a), (a, b)].into_iter().enumerate() {
+                let n = neighbours[t][i];
+                if n == NONE {
+                    outside[piece[t] as usize] = true;
+                    continue;
+                }
+                if let Some(e) = walls.edge(u, w)
+                    && matches!(cut.edges[e as usize].origin, EdgeOrigin::Cut(_))
+                {
+                    union(&mut parent, piece[t], piece[n as usize]);
+                }
+            }
+        }
+        let face: Vec<u32> = (0..count as u32).map(|p| find(&mut parent, p)).collect();
+        let mut dropped = vec![false; count];
+        for p in 0..count {
+            if outside[p] {
+                dropped[face[p] as usize] = true;
+            }
+        }
+        let seed_piece = |kind: &'static str, index: usize, at: DVec2| {
+            seed_triangle(leaves, walls, at, triangle_at)
+                .map(|t| piece[t as usize])
+                .ok_or(Error::SeedOnSegment {
+                    kind,
+                    index,
+                    x: at.x,
+                    y: at.y,
+                })
+        };
+        for (k, &hole) in input.holes.iter().enumerate() {
+            if !hole.is_finite() {
+                continue;
+            }
+            let p = seed_piece("hole", k, hole)?;
+            dropped[face[p as usize] as usize] = true;
+        }
+        let mut region = vec![NONE; count];
+        for (k, r) in input.regions.iter().enumerate() {
+            let p = seed_piece("region", k, r.seed)?;
+            region[face[p as usize] as usize] = k as u32;
+        }
+        let mut cap_piece = vec![false; count];
+        let mut cap_of = Vec::with_capacity(cut.caps.len());
+        for cap in &cut.caps {
+            let [a, b, c] = [cap.apex, cap.ends[0], cap.ends[1]].map(|v| cut.points[v as usize]);
+            let centre = (a + b + c) / 3.0;
+            let t = triangle_at(centre).ok_or(Error::WarpStuck {
+                x: a.x,
+                y: a.y,
+                why: "a cap lies outside the warped leaves",
+            })?;
+            let p = piece[t as usize];
+            cap_piece[p as usize] = true;
+            cap_of.push(p);
+        }
+        Ok(Faces {
+            face,
+            dropped,
+            region,
+            cap_piece,
+            cap_of,
+        })
+    }
+
+    fn kept(&self, piece: usize) -> bool {
+        !self.dropped[self.face[piece] as usize]
+    }
+
+    fn region_of(&self, piece: usize) -> u32 {
+        self.region[self.face[piece] as usize]
+    }
+}
+
+fn find(parent: &mut [u32], mut p: u32) -> u32 {
+    while parent[p as usize] != p {
+        parent[p as usize] = parent[parent[p as usize] as usize];
+        p = parent[p as usize];
+    }
+    p
+}
+
+fn union(parent: &mut [u32], a: u32, b: u32) {
+    let (a, b) = (find(parent, a), find(parent, b));
+    if a != b {
+        parent[a.max(b) as usize] = a.min(b);
+    }
+}
+
+/// The triangle holding a seed, if the seed lies on no wall (a point on an edge between two
+/// triangles of one piece may be given either).
+fn seed_triangle(
+    leaves: &GraphTriangulation,
+    walls: &Walls,
+    at: DVec2,
+    triangle_at: &(impl Fn(DVec2) -> Option<u32> + Sync),
+) -> Option<u32> {
+    let t = triangle_at(at)?;
+    let [a, b, c] = leaves.triangles[t as usize];
+    let on_wall = [(a, b), (b, c), (c, a)].into_iter().any(|(u, w)| {
+        let (pu, pw) = (leaves.vertices[u as usize], leaves.vertices[w as usize]);
+        orientation(pu, pw, at) == Orientation::On && walls.edge(u, w).is_some()
+    });
+    (!on_wall).then_some(t)
+}
+
+/// The mesh being written: the leaves' vertices (and the apexes of enclosed vertices' caps),
+/// the triangles kept, their regions.
+struct Output {
+    vertices: Vec<DVec2>,
+    /// Per vertex, the cleaned input point it is, or [`NONE`].
+    vertex_input: Vec<u32>,
+    /// Per cut point, its vertex once it has one.
+    point_vertex: Vec<u32>,
+    triangles: Vec<[u32; 3]>,
+    regions: Vec<u32>,
+}
+
+impl Output {
+    fn new(leaves: &GraphTriangulation, input: &Input, cut: &CornerCut, features: &[u32]) -> Output {
+        let inputs = input.points.len() as u32;
+        let mut point_vertex = vec![NONE; cut.points.len()];
+        let vertex_input = leaves
+            .vertex_point
+            .iter()
+            .map(|&f| {
+                if f == NONE {
+                    return NONE;
+                }
+                let p = features[f as usize];
+                if p < inputs { p } else { NONE }
+            })
+            .collect();
+        for (f, &p) in features.iter().enumerate() {
+            point_vertex[p as usize] = leaves.point_vertex[f];
+        }
+        Output {
+            vertices: leaves.vertices.clone(),
+            vertex_input,
+            point_vertex,
+            triangles: Vec::new(),
+            regions: Vec::new(),
+        }
+    }
+
+    fn push(&mut self, triangle: [u32; 3], region: u32) {
+        self.triangles.push(triangle);
+        self.regions.push(region);
+    }
+
+    /// The vertex of cut point `p`, made for an enclosed apex the first time it is asked for.
+    fn vertex_of(&mut self, cut: &CornerCut, p: u32) -> u32 {
+        if self.point_vertex[p as usize] == NONE {
+            self.point_vertex[p as usize] = self.vertices.len() as u32;
+            self.vertices.push(cut.points[p as usize]);
+            self.vertex_input.push(p);
+        }
+        self.point_vertex[p as usize]
+    }
+
+    /// The polygon of a cap, counter-clockwise from its apex: along its first side (as the
+    /// mesh divides it, where it is an edge of the cut graph), along its cutting edge, back
+    /// along its second side.
+    fn cap_polygon(&mut self, cut: &CornerCut, walls: &Walls, c: usize, cap: &Cap) -> Vec<u32> {
+        let apex = self.vertex_of(cut, cap.apex);
+        let side = |k: usize| -> Vec<u32> {
+            match walls.by_ends.get(&pair(cap.apex, cap.ends[k])) {
+                Some(&e) => {
+                    let mut chain = walls.chains[e as usize].clone();
+                    if cut.edges[e as usize].ends[0] != cap.apex {
+                        chain.reverse();
+                    }
+                    chain
+                }
+                None => vec![apex, self.point_vertex[cap.ends[k] as usize]],
+            }
+        };
+        let first = side(0);
+        let mut second = side(1);
+        second.reverse();
+        let cutting = walls
+            .by_ends
+            .get(&pair(cap.ends[0], cap.ends[1]))
+            .filter(|&&e| cut.edges[e as usize].origin == EdgeOrigin::Cut(c as u32))
+            .map(|&e| walls.chains[e as usize].clone())
+            .expect("every cap has its cutting edge");
+        let mut polygon = first;
+        polygon.extend(&cutting[1..]);
+        polygon.extend(&second[1..second.len() - 1]);
+        polygon
+    }
+
+    /// The mesh: the vertices the kept triangles use, renumbered in order; the segments'
+    /// pieces; the boundary; the regions.
+    fn finish(self, input: &Input, cut: &CornerCut, walls: &Walls) -> Mesh {
+        let mut new_index = vec![NONE; self.vertices.len()];
+        for t in &self.triangles {
+            for &v in t {
+                new_index[v as usize] = 0;
+            }
+        }
+        let mut vertices = Vec::new();
+        let mut vertex_input = Vec::new();
+        for (v, slot) in new_index.iter_mut().enumerate() {
+            if *slot == 0 {
+                *slot = vertices.len() as u32;
+                vertices.push(self.vertices[v]);
+                vertex_input.push(self.vertex_input[v]);
+            }
+        }
+        let triangles: Vec<[u32; 3]> = self
+            .triangles
+            .iter()
+            .map(|t| t.map(|v| new_index[v as usize]))
+            .collect();
+        let neighbours = neighbours_of(&triangles);
+            let pieces = segment_pieces(
+            input,
+            cut,
+            walls,
+            (&self.point_vertex, &new_index),
+            &triangles,
+        );
+        let marker_of: HashMap<(u32, u32), i32> = pieces
+            .iter()
+            .map(|s| (pair(s.vertices[0], s.vertices[1]), s.marker))
+            .collect();
+        let boundary = boundary_edges(&triangles, &neighbours, &marker_of);
+        let (lo, hi) = vertices.iter().fold(
+            (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        let has_regions = !input.regions.is_empty();
+        Mesh {
+            vertices,
+            vertex_input,
+            triangles,
+            neighbours,
+            boundary,
+            domain: Domain { lo, hi },
+            outline: None,
+            segments: pieces,
+            triangle_regions: if has_regions { self.regions } else { Vec::new() },
+            region_attributes: input.regions.iter().map(|r| r.attribute).collect(),
+            holes: input.holes.clone(),
+        }
+    }
+}
+
+/// The pieces of each segment that borders the domain, in segment order and along each from
+/// its first end: the chains of its cut-graph edges and its sides of caps that are none.
+fn segment_pieces(
+    input: &Input,
+    cut: &CornerCut,
+    walls: &Walls,
+    (point_vertex, new_index): (&[u32], &[u32]),
+    triangles: &[[u32; 3]],
+) -> Vec<SubSegment> {
+    let renumbered = |v: u32| if v == NONE { NONE } else { new_index[v as usize] };
+    let mut runs: Vec<Vec<(u32, Vec<u32>)>> = vec![Vec::new(); input.segments.len()];
+    for (e, edge) in cut.edges.iter().enumerate() {
+        if let EdgeOrigin::Segment(s) = edge.origin {
+            runs[s as usize].push((edge.ends[0], walls.chains[e].clone()));
+        }
+    }
+    for cap in &cut.caps {
+        for k in 0..2 {
+            let s = cap.sides[k];
+            if walls.by_ends.contains_key(&pair(cap.apex, cap.ends[k])) {
+                continue;
+            }
+            let (apex, end) = (point_vertex[cap.apex as usize], point_vertex[cap.ends[k] as usize]);
+            let run = if input.segments[s as usize].ends[0] == cap.apex {
+                (cap.apex, vec![apex, end])
+            } else {
+                (cap.ends[k], vec![end, apex])
+            };
+            if !runs[s as usize].iter().any(|(from, _)| *from == run.0) {
+                runs[s as usize].push(run);
+            }
+        }
+    }
+    let mut edges: Vec<(u32, u32)> = triangles
+        .iter()
+        .flat_map(|&[a, b, c]| [pair(a, b), pair(b, c), pair(c, a)])
+        .collect();
+    edges.par_sort_unstable();
+    edges.dedup();
+    let mut out = Vec::new();
+    for (s, run) in runs.iter_mut().enumerate() {
+        let first = cut.points[input.segments[s].ends[0] as usize];
+        run.sort_by(|x, y| {
+            let (px, py) = (cut.points[x.0 as usize], cut.points[y.0 as usize]);
+            first.distance_squared(px).total_cmp(&first.distance_squared(py))
+        });
+        let marker = input.segments[s].marker;
+        let pieces: Vec<SubSegment> = run
+            .iter()
+            .flat_map(|(_, chain)| chain.windows(2).map(|w| [w[0], w[1]]))
+            .map(|[a, b]| SubSegment {
+                vertices: [renumbered(a), renumbered(b)],
+                segment: s as u32,
+                marker,
+            })
+            .collect();
+        let borders = pieces.iter().any(|p| {
+            let [a, b] = p.vertices;
+            a != NONE && b != NONE && edges.binary_search(&pair(a, b)).is_ok()
+        });
+        if borders {
+            out.extend(pieces);
+        }
+    }
+    out
+}
+
+/// The edges with a triangle on one side only, the domain on their left, with their segment's
+/// marker ([`BOUNDARY_MARKER`] for a segment marked 0).
+fn boundary_edges(
+    triangles: &[[u32; 3]],
+    neighbours: &[[u32; 3]],
+    marker_of: &HashMap<(u32, u32), i32>,
+) -> Vec<BoundaryEdge> {
+    let mut boundary = Vec::new();
+    for (t, &[a, b, c]) in triangles.iter().enumerate() {
+        for (i, (u, w)) in [(b, c), (c, a), (a, b)].into_iter().enumerate() {
+            if neighbours[t][i] == NONE {
+                let marker = match marker_of.get(&pair(u, w)) {
+                    Some(&m) if m != 0 => m,
+                    _ => BOUNDARY_MARKER,
+                };
+                boundary.push(BoundaryEdge {
+                    vertices: [u, w],
+                    marker,
+                });
+            }
+        }
+    }
+    boundary
+}

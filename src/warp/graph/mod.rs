@@ -1,0 +1,714 @@
+//! The warp of a graph's separated tree (BET §5, `beg-quadtree-meshing.md` §4.2): its leaves
+//! bent onto the graph's vertices and edges and triangulated, before the domain is cut out.
+//!
+//! 1. Each vertex moves the nearest corner or side midpoint of its leaf onto itself.
+//! 2. Each other grid vertex lying closer to an edge than [`EDGE_SNAP`] of its shortest arm
+//!    (the shortest leaf side running from it) moves onto the edge, to the nearest point.
+//! 3. Where an edge still crosses a leaf side, between two grid vertices neither of which is on
+//!    it, the crossing becomes a vertex of both leaves. Both ends of such a side lie at least
+//!    [`EDGE_SNAP`] of their shortest arms from the edge, and an arm is at most twice the
+//!    shortest at its vertex in a balanced tree, so the edge crosses the side at no less than
+//!    asin([`EDGE_SNAP`]).
+//! 4. Each leaf is then a polygon (its corners, midpoints and crossings) cut by the edge pieces
+//!    that pass through it into parts, each triangulated for the largest smallest angle.
+//!
+//! Every step is per leaf or per edge and reads only the tree, so it runs in parallel; vertices
+//! are numbered by their grid coordinates, crossings after them by side and edge, triangles by
+//! leaf in Morton order: the same triangulation on any thread count.
+
+mod polygon;
+
+use std::sync::OnceLock;
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+pub use polygon::Angles;
+pub(crate) use polygon::best_triangulation;
+
+use crate::balance::{BalancedTree, across};
+use crate::error::Error;
+use crate::framework::NONE;
+use crate::morton::{Cell, Grid, MortonKey, Side};
+use crate::predicates::{Orientation, orientation};
+
+use super::{EdgePieces, leaf_at};
+
+/// How close to an edge, as a fraction of its shortest arm, a grid vertex moves onto it: every
+/// side an edge still crosses then meets it at asin(0.4) ≈ 23.6° or more.
+pub const EDGE_SNAP: f64 = 0.4;
+
+/// A graph in its separated tree: what [`triangulate_graph`] reads.
+#[derive(Clone, Copy, Debug)]
+pub struct GraphLeaves<'a, K: Copy> {
+    /// The balanced tree, its point location by Morton position.
+    pub tree: &'a BalancedTree<K>,
+    /// The grid of the tree.
+    pub grid: &'a Grid,
+    /// `order[i]`: the vertex (index into `points`) at Morton position `i`.
+    pub order: &'a [u32],
+    /// The graph's vertices.
+    pub points: &'a [DVec2],
+    /// The graph's edges, as indices into `points`.
+    pub edges: &'a [[u32; 2]],
+    /// The edges cut at the sides of the leaves they pass through.
+    pub pieces: &'a EdgePieces,
+}
+
+/// The triangulated leaves of a graph's tree, before the domain is cut out of them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GraphTriangulation {
+    /// Vertex positions: the grid vertices (moved where they moved), then the crossings.
+    pub vertices: Vec<DVec2>,
+    /// Per vertex, the graph vertex it is (an index into the graph's points), or [`NONE`].
+    pub vertex_point: Vec<u32>,
+    /// Per graph vertex, its vertex.
+    pub point_vertex: Vec<u32>,
+    /// Triangles, counter-clockwise, leaf by leaf in Morton order.
+    pub triangles: Vec<[u32; 3]>,
+    /// Where each leaf's triangles start in `triangles`, and their end.
+    pub leaf_triangles: Vec<usize>,
+    /// Where each edge's chain starts in `chains`, and their end.
+    pub chain_at: Vec<usize>,
+    /// Per edge, its vertices from its first end to its second.
+    pub chains: Vec<u32>,
+    /// The smallest and largest angle of the triangles.
+    pub angles: Angles,
+}
+
+impl GraphTriangulation {
+    /// The vertices along edge `e`, from its first end to its second.
+    pub fn chain(&self, e: usize) -> &[u32] {
+        &self.chains[self.chain_at[e]..self.chain_at[e + 1]]
+    }
+
+    /// The triangle holding `p` on its closed area (the first found), if any: looked for in
+    /// the leaf of `tree` whose square holds `p` and the two rings of leaves around it (bent
+    /// sides move less than a leaf), then everywhere.
+    pub fn triangle_at<K: MortonKey>(
+        &self,
+        tree: &BalancedTree<K>,
+        grid: &Grid,
+        p: DVec2,
+    ) -> Option<u32> {
+        let holds = |t: usize| {
+            let [a, b, c] = self.triangles[t].map(|v| self.vertices[v as usize]);
+            [(a, b), (b, c), (c, a)]
+                .iter()
+                .all(|&(u, w)| orientation(u, w, p) != Orientation::Right)
+        };
+        if let Some(start) = leaf_at(&tree.tree, grid, p) {
+            let mut near = vec![start];
+            let mut ring = 0..1;
+            for _ in 0..2 {
+                for k in ring.clone() {
+                    for side in Side::ALL {
+                        for n in across(&tree.links, near[k] as usize, side) {
+                            if n != NONE && !near.contains(&n) {
+                                near.push(n);
+                            }
+                        }
+                    }
+                }
+                ring = ring.end..near.len();
+            }
+            for leaf in near {
+                let range = self.leaf_triangles[leaf as usize]..self.leaf_triangles[leaf as usize + 1];
+                if let Some(t) = range.into_iter().find(|&t| holds(t)) {
+                    return Some(t as u32);
+                }
+            }
+        }
+        (0..self.triangles.len()).find(|&t| holds(t)).map(|t| t as u32)
+    }
+
+    /// The triangles of leaf `leaf`.
+    pub fn leaf(&self, leaf: usize) -> &[[u32; 3]] {
+        &self.triangles[self.leaf_triangles[leaf]..self.leaf_triangles[leaf + 1]]
+    }
+}
+
+/// What a grid vertex has moved onto.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Snap {
+    /// Nothing: it keeps its grid position.
+    Free,
+    /// A graph vertex.
+    Point(u32),
+    /// The inside of an edge.
+    Edge(u32),
+}
+
+/// Where an edge crosses a leaf side: the side's ends (the smaller first), the edge, the point.
+#[derive(Clone, Copy, Debug)]
+struct Crossing {
+    side: [u32; 2],
+    edge: u32,
+    at: DVec2,
+}
+
+/// A grid vertex, by its coordinates in units of the finest level.
+type GridPoint = [u128; 2];
+
+/// The slots of a leaf's boundary, counter-clockwise from its lower-left corner: corners at the
+/// even slots, side midpoints (present where the leaf beyond is smaller) at the odd ones.
+const SLOTS: usize = 8;
+
+/// The triangulation of the leaves of a graph's separated tree, bent onto its vertices and
+/// edges (see the module's description).
+///
+/// # Errors
+/// [`Error::TooLarge`] past 32-bit indices; [`Error::WarpStuck`] where the bent leaves leave a
+/// place the templates cannot fill (two vertices claiming one corner, an edge through a grid
+/// vertex it could not take, a leaf with no triangulation that keeps its edges), naming it.
+pub fn triangulate_graph<K: MortonKey>(
+    leaves: &GraphLeaves<K>,
+) -> Result<GraphTriangulation, Error> {
+    let squares: Vec<[u128; 3]> = leaves
+        .tree
+        .tree
+        .leaves
+        .par_iter()
+        .map(|l| square_of(l.cell))
+        .collect();
+    let grid_points = grid_points(&squares);
+    if grid_points.len() >= NONE as usize {
+        return Err(Error::TooLarge {
+            what: "vertices",
+            count: grid_points.len(),
+        });
+    }
+    let cycles: Vec<[u32; SLOTS]> = squares
+        .par_iter()
+        .map(|&s| cycle_of(s, &grid_points))
+        .collect();
+    let mut position: Vec<DVec2> = grid_points
+        .par_iter()
+        .map(|&[x, y]| leaves.grid.vertex(x, y))
+        .collect();
+    let arm = shortest_arms(&cycles, &position);
+    let mut snap = vec![Snap::Free; grid_points.len()];
+    let point_vertex = snap_points(leaves, &cycles, &mut snap, &mut position)?;
+    snap_edges(leaves, &cycles, &arm, &mut snap, &mut position);
+    let crossings = crossings(leaves, &cycles, &snap, &position)?;
+    let first_crossing = grid_points.len();
+    if first_crossing + crossings.len() >= NONE as usize {
+        return Err(Error::TooLarge {
+            what: "vertices",
+            count: first_crossing + crossings.len(),
+        });
+    }
+    let edges_of_leaf = edges_of_leaves(leaves.pieces, cycles.len());
+    let bent = Bent {
+        leaves,
+        snap: &snap,
+        position: &position,
+        crossings: &crossings,
+        first_crossing: first_crossing as u32,
+    };
+    let per_leaf: Vec<(Vec<[u32; 3]>, Angles)> = cycles
+        .par_iter()
+        .enumerate()
+        .map(|(leaf, cycle)| bent.triangulate_leaf(cycle, edges_of_leaf.of(leaf)))
+        .collect::<Result<_, _>>()?;
+    let mut leaf_triangles = Vec::with_capacity(per_leaf.len() + 1);
+    leaf_triangles.push(0);
+    let mut angles = Angles {
+        min: f64::INFINITY,
+        max: f64::NEG_INFINITY,
+    };
+    for (triangles, a) in &per_leaf {
+        leaf_triangles.push(leaf_triangles.last().copied().unwrap_or(0) + triangles.len());
+        angles = Angles {
+            min: angles.min.min(a.min),
+            max: angles.max.max(a.max),
+        };
+    }
+    let triangles: Vec<[u32; 3]> = per_leaf.into_iter().flat_map(|(t, _)| t).collect();
+    let (chain_at, chains) = bent.chains(&point_vertex);
+    let mut vertex_point = vec![NONE; first_crossing + crossings.len()];
+    for (v, s) in snap.iter().enumerate() {
+        if let Snap::Point(p) = *s {
+            vertex_point[v] = p;
+        }
+    }
+    position.extend(crossings.iter().map(|c| c.at));
+    Ok(GraphTriangulation {
+        vertices: position,
+        vertex_point,
+        point_vertex,
+        triangles,
+        leaf_triangles,
+        chain_at,
+        chains,
+        angles,
+    })
+}
+
+/// A leaf's lower-left corner and side, in units of the finest level.
+fn square_of<K: MortonKey>(cell: Cell<K>) -> [u128; 3] {
+    let (x, y) = { cell.anchor }.decode();
+    let side = 1u128 << (K::AXIS_BITS - u32::from(cell.level));
+    [u128::from(x), u128::from(y), side]
+}
+
+/// Every leaf corner, sorted and once each: all the grid vertices, side midpoints included
+/// (each is a corner of the smaller leaves beside it).
+fn grid_points(squares: &[[u128; 3]]) -> Vec<GridPoint> {
+    let mut points: Vec<GridPoint> = squares
+        .par_iter()
+        .flat_map_iter(|&[x, y, s]| [[x, y], [x + s, y], [x + s, y + s], [x, y + s]])
+        .collect();
+    points.par_sort_unstable();
+    points.dedup();
+    points
+}
+
+/// The grid vertices around a leaf, at its [`SLOTS`] ([`NONE`] for a midpoint that is none).
+fn cycle_of([x, y, s]: [u128; 3], points: &[GridPoint]) -> [u32; SLOTS] {
+    let h = s / 2;
+    let at = [
+        [x, y],
+        [x + h, y],
+        [x + s, y],
+        [x + s, y + h],
+        [x + s, y + s],
+        [x + h, y + s],
+        [x, y + s],
+        [x, y + h],
+    ];
+    let mut cycle = [NONE; SLOTS];
+    for (slot, p) in at.iter().enumerate() {
+        let midpoint = slot % 2 == 1;
+        if midpoint && h == 0 {
+            continue;
+        }
+        if let Ok(v) = points.binary_search(p) {
+            cycle[slot] = v as u32;
+        }
+    }
+    cycle
+}
+
+/// The grid vertices of a cycle, in order, the missing midpoints left out.
+fn present(cycle: &[u32; SLOTS]) -> impl Iterator<Item = u32> + '_ {
+    cycle.iter().copied().filter(|&v| v != NONE)
+}
+
+/// The sides of a cycle: each pair of consecutive grid vertices.
+fn sides(cycle: &[u32; SLOTS]) -> Vec<[u32; 2]> {
+    let around: Vec<u32> = present(cycle).collect();
+    (0..around.len())
+        .map(|i| [around[i], around[(i + 1) % around.len()]])
+        .collect()
+}
+
+/// Per grid vertex, the length of the shortest leaf side running from it (its shortest arm).
+fn shortest_arms(cycles: &[[u32; SLOTS]], position: &[DVec2]) -> Vec<f64> {
+    let mut arm = vec![f64::INFINITY; position.len()];
+    for cycle in cycles {
+        for [a, b] in sides(cycle) {
+            let length = position[a as usize].distance(position[b as usize]);
+            for v in [a, b] {
+                arm[v as usize] = arm[v as usize].min(length);
+            }
+        }
+    }
+    arm
+}
+
+/// Moves, for each graph vertex, the nearest grid vertex around its leaf onto it (the first
+/// in the cycle on a tie); returns each graph vertex's grid vertex.
+fn snap_points<K: MortonKey>(
+    leaves: &GraphLeaves<K>,
+    cycles: &[[u32; SLOTS]],
+    snap: &mut [Snap],
+    position: &mut [DVec2],
+) -> Result<Vec<u32>, Error> {
+    let chosen: Vec<(u32, u32)> = leaves
+        .order
+        .par_iter()
+        .zip(&leaves.tree.point_leaf)
+        .map(|(&p, &leaf)| {
+            let at = leaves.points[p as usize];
+            let nearest = present(&cycles[leaf as usize])
+                .min_by(|&a, &b| {
+                    let (da, db) = (
+                        position[a as usize].distance_squared(at),
+                        position[b as usize].distance_squared(at),
+                    );
+                    da.total_cmp(&db)
+                })
+                .expect("a leaf has corners");
+            (p, nearest)
+        })
+        .collect();
+    let mut point_vertex = vec![NONE; leaves.points.len()];
+    for (p, v) in chosen {
+        let at = leaves.points[p as usize];
+        if snap[v as usize] != Snap::Free {
+            return Err(stuck(at, "two vertices of the graph claim one corner"));
+        }
+        snap[v as usize] = Snap::Point(p);
+        position[v as usize] = at;
+        point_vertex[p as usize] = v;
+    }
+    Ok(point_vertex)
+}
+
+/// Moves every free grid vertex closer to an edge than [`EDGE_SNAP`] of its shortest arm onto
+/// the nearest point of the edge (of the nearest edge, where two are that close).
+fn snap_edges<K: MortonKey>(
+    leaves: &GraphLeaves<K>,
+    cycles: &[[u32; SLOTS]],
+    arm: &[f64],
+    snap: &mut [Snap],
+    position: &mut [DVec2],
+) {
+    let mut near: Vec<(u32, f64, u32, DVec2)> = (0..leaves.edges.len())
+        .into_par_iter()
+        .flat_map_iter(|e| {
+            let [a, b] = leaves.edges[e].map(|v| leaves.points[v as usize]);
+            let mut found = Vec::new();
+            for piece in leaves.pieces.of(e) {
+                for v in present(&cycles[piece.leaf as usize]) {
+                    if snap[v as usize] != Snap::Free {
+                        continue;
+                    }
+                    let p = position[v as usize];
+                    let Some(foot) = foot_inside(p, a, b) else {
+                        continue;
+                    };
+                    let d = p.distance(foot);
+                    if d < EDGE_SNAP * arm[v as usize] {
+                        found.push((v, d, e as u32, foot));
+                    }
+                }
+            }
+            found
+        })
+        .collect();
+    near.par_sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2)));
+    near.dedup_by_key(|x| x.0);
+    for (v, _, e, foot) in near {
+        snap[v as usize] = Snap::Edge(e);
+        position[v as usize] = foot;
+    }
+}
+
+/// The nearest point to `p` on the segment `ab`, if it lies strictly between its ends.
+fn foot_inside(p: DVec2, a: DVec2, b: DVec2) -> Option<DVec2> {
+    let d = b - a;
+    let t = (p - a).dot(d) / d.length_squared();
+    (t > 0.0 && t < 1.0).then(|| a + d * t)
+}
+
+/// Whether grid vertex `v` lies on edge `e`: moved onto it or onto one of its ends.
+fn on_edge(snap: &[Snap], edges: &[[u32; 2]], v: u32, e: u32) -> bool {
+    match snap[v as usize] {
+        Snap::Free => false,
+        Snap::Point(p) => edges[e as usize].contains(&p),
+        Snap::Edge(f) => f == e,
+    }
+}
+
+/// Where the edges cross the sides of the leaves they pass through, away from the sides' ends,
+/// sorted by side and edge.
+fn crossings<K: MortonKey>(
+    leaves: &GraphLeaves<K>,
+    cycles: &[[u32; SLOTS]],
+    snap: &[Snap],
+    position: &[DVec2],
+) -> Result<Vec<Crossing>, Error> {
+    let found: Vec<Vec<Crossing>> = (0..leaves.edges.len())
+        .into_par_iter()
+        .map(|e| {
+            let [a, b] = leaves.edges[e].map(|v| leaves.points[v as usize]);
+            let mut found = Vec::new();
+            for piece in leaves.pieces.of(e) {
+                for [u, w] in sides(&cycles[piece.leaf as usize]) {
+                    if on_edge(snap, leaves.edges, u, e as u32)
+                        || on_edge(snap, leaves.edges, w, e as u32)
+                    {
+                        continue;
+                    }
+                    let (pu, pw) = (position[u as usize], position[w as usize]);
+                    if let Some(at) = crossing(a, b, pu, pw)? {
+                        found.push(Crossing {
+                            side: [u.min(w), u.max(w)],
+                            edge: e as u32,
+                            at,
+                        });
+                    }
+                }
+            }
+            Ok(found)
+        })
+        .collect::<Result<_, Error>>()?;
+    let mut all: Vec<Crossing> = found.into_iter().flatten().collect();
+    all.par_sort_unstable_by(|x, y| x.side.cmp(&y.side).then(x.edge.cmp(&y.edge)));
+    all.dedup_by(|x, y| x.side == y.side && x.edge == y.edge);
+    Ok(all)
+}
+
+/// Where the edge `ab` crosses the side `pu pw`, if it does away from the side's ends; an edge
+/// through an end of the side, or ending on it, is a place the warp cannot bend.
+fn crossing(a: DVec2, b: DVec2, pu: DVec2, pw: DVec2) -> Result<Option<DVec2>, Error> {
+    let (ou, ow) = (orientation(a, b, pu), orientation(a, b, pw));
+    if ou == ow && ou != Orientation::On {
+        return Ok(None);
+    }
+    let (oa, ob) = (orientation(pu, pw, a), orientation(pu, pw, b));
+    if oa == ob && oa != Orientation::On {
+        return Ok(None);
+    }
+    let within = |p: DVec2, q: DVec2, r: DVec2| (r - p).dot(q - p) >= 0.0 && (r - q).dot(p - q) >= 0.0;
+    for (o, p) in [(ou, pu), (ow, pw)] {
+        if o == Orientation::On && within(a, b, p) {
+            return Err(stuck(p, "an edge passes through a grid vertex it could not take"));
+        }
+    }
+    for (o, p) in [(oa, a), (ob, b)] {
+        if o == Orientation::On && within(pu, pw, p) {
+            return Err(stuck(p, "an edge ends on a leaf side"));
+        }
+    }
+    if ou == Orientation::On || ow == Orientation::On || oa == Orientation::On || ob == Orientation::On {
+        return Ok(None);
+    }
+    let d = pw - pu;
+    let s = (a - pu).perp_dot(b - a) / d.perp_dot(b - a);
+    Ok(Some(pu + d * s))
+}
+
+/// The edges with a piece in each leaf, leaf by leaf.
+struct LeafEdges {
+    at: Vec<usize>,
+    edges: Vec<u32>,
+}
+
+impl LeafEdges {
+    fn of(&self, leaf: usize) -> &[u32] {
+        &self.edges[self.at[leaf]..self.at[leaf + 1]]
+    }
+}
+
+fn edges_of_leaves(pieces: &EdgePieces, leaves: usize) -> LeafEdges {
+    let mut pairs: Vec<(u32, u32)> = (0..pieces.at.len() - 1)
+        .into_par_iter()
+        .flat_map_iter(|e| pieces.of(e).iter().map(move |p| (p.leaf, e as u32)))
+        .collect();
+    pairs.par_sort_unstable();
+    pairs.dedup();
+    let mut at = vec![0usize; leaves + 1];
+    for &(leaf, _) in &pairs {
+        at[leaf as usize + 1] += 1;
+    }
+    for i in 0..leaves {
+        at[i + 1] += at[i];
+    }
+    LeafEdges {
+        at,
+        edges: pairs.into_iter().map(|(_, e)| e).collect(),
+    }
+}
+
+/// The bent tree: what each leaf's triangulation reads.
+struct Bent<'a, K: Copy> {
+    leaves: &'a GraphLeaves<'a, K>,
+    snap: &'a [Snap],
+    position: &'a [DVec2],
+    crossings: &'a [Crossing],
+    first_crossing: u32,
+}
+
+/// A corner of a bent leaf's polygon: its vertex and where it lies.
+#[derive(Clone, Copy, Debug)]
+struct Corner {
+    vertex: u32,
+    at: DVec2,
+    /// The edge it crossed at, for a crossing.
+    crossed: u32,
+}
+
+impl<K: MortonKey> Bent<'_, K> {
+    /// The crossings on the side `u w`, as indices into `crossings`.
+    fn crossings_on(&self, u: u32, w: u32) -> std::ops::Range<usize> {
+        let side = [u.min(w), u.max(w)];
+        let lo = self.crossings.partition_point(|c| c.side < side);
+        let hi = self.crossings.partition_point(|c| c.side <= side);
+        lo..hi
+    }
+
+    /// The polygon of a leaf: its grid vertices and, on each side, the crossings in order.
+    fn polygon(&self, cycle: &[u32; SLOTS]) -> Vec<Corner> {
+        let mut corners = Vec::with_capacity(SLOTS + 4);
+        for [u, w] in sides(cycle) {
+            let pu = self.position[u as usize];
+            corners.push(Corner {
+                vertex: u,
+                at: pu,
+                crossed: NONE,
+            });
+            let range = self.crossings_on(u, w);
+            let mut on_side: Vec<Corner> = range
+                .map(|k| Corner {
+                    vertex: self.first_crossing + k as u32,
+                    at: self.crossings[k].at,
+                    crossed: self.crossings[k].edge,
+                })
+                .collect();
+            on_side.sort_by(|x, y| {
+                pu.distance_squared(x.at)
+                    .total_cmp(&pu.distance_squared(y.at))
+                    .then(x.vertex.cmp(&y.vertex))
+            });
+            corners.extend(on_side);
+        }
+        corners
+    }
+
+    /// The triangles of a leaf no vertex moved in and no edge crosses: the best
+    /// triangulation of a square with its midpoints, one per set of midpoints.
+    fn plain(&self, cycle: &[u32; SLOTS]) -> Option<(Vec<[u32; 3]>, Angles)> {
+        let moved = present(cycle).any(|v| self.snap[v as usize] != Snap::Free);
+        if moved || sides(cycle).iter().any(|&[u, w]| !self.crossings_on(u, w).is_empty()) {
+            return None;
+        }
+        let mask = (0..4).fold(0, |m, k| m | (usize::from(cycle[2 * k + 1] != NONE) << k));
+        let (slots, angles) = &plain_templates()[mask];
+        Some((slots.iter().map(|t| t.map(|s| cycle[s])).collect(), *angles))
+    }
+
+    /// Whether a polygon corner lies on edge `e`.
+    fn on(&self, corner: &Corner, e: u32) -> bool {
+        if corner.crossed != NONE {
+            corner.crossed == e
+        } else {
+            on_edge(self.snap, self.leaves.edges, corner.vertex, e)
+        }
+    }
+
+    /// The triangles of one leaf and their angles.
+    fn triangulate_leaf(
+        &self,
+        cycle: &[u32; SLOTS],
+        edges: &[u32],
+    ) -> Result<(Vec<[u32; 3]>, Angles), Error> {
+        if let Some(plain) = self.plain(cycle) {
+            return Ok(plain);
+        }
+        let corners = self.polygon(cycle);
+        let mut kept = Vec::new();
+        for &e in edges {
+            self.chords(&corners, e, &mut kept);
+        }
+        let at: Vec<DVec2> = corners.iter().map(|c| c.at).collect();
+        let Some((triangles, angles)) = best_triangulation(&at, &kept) else {
+            let centre = at.iter().copied().sum::<DVec2>() / at.len() as f64;
+            return Err(stuck(centre, "a bent leaf has no triangulation that keeps its edges"));
+        };
+        let triangles = triangles
+            .into_iter()
+            .map(|t| t.map(|i| corners[i].vertex))
+            .collect();
+        Ok((triangles, angles))
+    }
+
+    /// The pieces of edge `e` that cross the polygon: consecutive corners on it (in order along
+    /// it) that are not neighbours around the polygon.
+    fn chords(&self, corners: &[Corner], e: u32, kept: &mut Vec<[usize; 2]>) {
+        let [a, b] = self.leaves.edges[e as usize].map(|v| self.leaves.points[v as usize]);
+        let d = b - a;
+        let mut on: Vec<(f64, usize)> = (0..corners.len())
+            .filter(|&i| self.on(&corners[i], e))
+            .map(|i| ((corners[i].at - a).dot(d), i))
+            .collect();
+        on.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)));
+        let n = corners.len();
+        for pair in on.windows(2) {
+            let (i, j) = (pair[0].1.min(pair[1].1), pair[0].1.max(pair[1].1));
+            let neighbours = j == i + 1 || (i == 0 && j == n - 1);
+            if !neighbours {
+                kept.push([i, j]);
+            }
+        }
+    }
+
+    /// Per edge, its vertices in order from its first end to its second.
+    fn chains(&self, point_vertex: &[u32]) -> (Vec<usize>, Vec<u32>) {
+        let edges = self.leaves.edges;
+        let mut on: Vec<(u32, f64, u32)> = Vec::new();
+        for (v, s) in self.snap.iter().enumerate() {
+            if let Snap::Edge(e) = *s {
+                on.push((e, 0.0, v as u32));
+            }
+        }
+        for (k, c) in self.crossings.iter().enumerate() {
+            on.push((c.edge, 0.0, self.first_crossing + k as u32));
+        }
+        for (e, ends) in edges.iter().enumerate() {
+            for &p in ends {
+                on.push((e as u32, 0.0, point_vertex[p as usize]));
+            }
+        }
+        let position = |v: u32| {
+            if v >= self.first_crossing {
+                self.crossings[(v - self.first_crossing) as usize].at
+            } else {
+                self.position[v as usize]
+            }
+        };
+        on.par_iter_mut().for_each(|(e, t, v)| {
+            let [a, b] = edges[*e as usize].map(|p| self.leaves.points[p as usize]);
+            *t = (position(*v) - a).dot(b - a);
+        });
+        on.par_sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2)));
+        let mut at = vec![0usize; edges.len() + 1];
+        for &(e, _, _) in &on {
+            at[e as usize + 1] += 1;
+        }
+        for i in 0..edges.len() {
+            at[i + 1] += at[i];
+        }
+        (at, on.into_iter().map(|(_, _, v)| v).collect())
+    }
+}
+
+/// Per set of side midpoints (bit k: the midpoint at slot 2k + 1), the best triangulation of
+/// the square with them, as slots, and its angles.
+fn plain_templates() -> &'static [(Vec<[usize; 3]>, Angles); 16] {
+    static TEMPLATES: OnceLock<[(Vec<[usize; 3]>, Angles); 16]> = OnceLock::new();
+    TEMPLATES.get_or_init(|| {
+        std::array::from_fn(|mask| {
+            let slots: Vec<usize> = (0..SLOTS)
+                .filter(|&s| s % 2 == 0 || mask & (1 << (s / 2)) != 0)
+                .collect();
+            let unit = [
+                [0.0, 0.0],
+                [0.5, 0.0],
+                [1.0, 0.0],
+                [1.0, 0.5],
+                [1.0, 1.0],
+                [0.5, 1.0],
+                [0.0, 1.0],
+                [0.0, 0.5],
+            ];
+            let at: Vec<DVec2> = slots.iter().map(|&s| DVec2::from(unit[s])).collect();
+            let (triangles, angles) =
+                best_triangulation(&at, &[]).expect("a square with midpoints has a triangulation");
+            (
+                triangles.into_iter().map(|t| t.map(|i| slots[i])).collect(),
+                angles,
+            )
+        })
+    })
+}
+
+fn stuck(at: DVec2, why: &'static str) -> Error {
+    Error::WarpStuck {
+        x: at.x,
+        y: at.y,
+        why,
+    }
+}
