@@ -23,8 +23,8 @@ use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, ref
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{
-    EdgePieces, GraphLeaves, edge_pieces, triangulate_graph, finest_resolved_level, leaves_below, point_finer_than_grid, split,
-    unresolvable, warp,
+    EdgePieces, GraphLeaves, edge_pieces, finest_resolved_level, leaves_below,
+    point_finer_than_grid, split, triangulate_graph, unresolvable, warp,
 };
 
 /// The trees of one input on one grid width.

@@ -199,11 +199,15 @@ fn options_out_of_range_and_unsupported_input_are_typed_errors() {
         ends: [0, 1],
         marker: 1,
     });
-    // The warp mode does not mesh segments yet; the Delaunay mode refuses a lone open segment
-    // as enclosing nothing.
+    // The block warp does not mesh segments; the warp and Delaunay modes refuse a lone open
+    // segment as enclosing nothing.
+    assert_eq!(
+        mesh(&with_segments, &Options::default().block_warp()),
+        Err(Error::Unsupported { what: "segments" })
+    );
     assert_eq!(
         mesh(&with_segments, &Options::default().warp()),
-        Err(Error::Unsupported { what: "segments" })
+        Err(Error::NothingEnclosed)
     );
     assert_eq!(
         mesh(&with_segments, &Options::default()),

@@ -403,8 +403,15 @@ fn bad_graphs_are_refused_by_name() {
         Err(Error::NothingEnclosed)
     ));
     assert!(matches!(
-        quadmesh::mesh(&base(), &options.warp()),
+        quadmesh::mesh(&base(), &options.block_warp()),
         Err(Error::Unsupported { .. })
+    ));
+    assert!(matches!(
+        quadmesh::mesh(&base(), &options.warp().region(Region::ConvexHull)),
+        Err(Error::InvalidOption {
+            option: "region",
+            ..
+        })
     ));
     assert!(matches!(
         quadmesh::mesh(&base(), &options.region(Region::Square)),

@@ -43,7 +43,15 @@ pub fn carve_warped(
     let walls = Walls::new(cut, &leaves);
     let neighbours = neighbours_of(&leaves.triangles);
     let (piece, pieces) = pieces(&leaves.triangles, &neighbours, &walls);
-    let faces = Faces::new(input, cut, (&piece, pieces), &neighbours, &walls, &leaves, &triangle_at)?;
+    let faces = Faces::new(
+        input,
+        cut,
+        (&piece, pieces),
+        &neighbours,
+        &walls,
+        &leaves,
+        &triangle_at,
+    )?;
     let mut out = Output::new(&leaves, input, cut, features);
     for (t, &triangle) in leaves.triangles.iter().enumerate() {
         let p = piece[t] as usize;
@@ -319,7 +327,12 @@ struct Output {
 }
 
 impl Output {
-    fn new(leaves: &GraphTriangulation, input: &Input, cut: &CornerCut, features: &[u32]) -> Output {
+    fn new(
+        leaves: &GraphTriangulation,
+        input: &Input,
+        cut: &CornerCut,
+        features: &[u32],
+    ) -> Output {
         let inputs = input.points.len() as u32;
         let mut point_vertex = vec![NONE; cut.points.len()];
         let vertex_input = leaves
@@ -416,7 +429,7 @@ impl Output {
             .map(|t| t.map(|v| new_index[v as usize]))
             .collect();
         let neighbours = neighbours_of(&triangles);
-            let pieces = segment_pieces(
+        let pieces = segment_pieces(
             input,
             cut,
             walls,
@@ -442,7 +455,11 @@ impl Output {
             domain: Domain { lo, hi },
             outline: None,
             segments: pieces,
-            triangle_regions: if has_regions { self.regions } else { Vec::new() },
+            triangle_regions: if has_regions {
+                self.regions
+            } else {
+                Vec::new()
+            },
             region_attributes: input.regions.iter().map(|r| r.attribute).collect(),
             holes: input.holes.clone(),
         }
@@ -458,7 +475,13 @@ fn segment_pieces(
     (point_vertex, new_index): (&[u32], &[u32]),
     triangles: &[[u32; 3]],
 ) -> Vec<SubSegment> {
-    let renumbered = |v: u32| if v == NONE { NONE } else { new_index[v as usize] };
+    let renumbered = |v: u32| {
+        if v == NONE {
+            NONE
+        } else {
+            new_index[v as usize]
+        }
+    };
     let mut runs: Vec<Vec<(u32, Vec<u32>)>> = vec![Vec::new(); input.segments.len()];
     for (e, edge) in cut.edges.iter().enumerate() {
         if let EdgeOrigin::Segment(s) = edge.origin {
@@ -471,7 +494,10 @@ fn segment_pieces(
             if walls.by_ends.contains_key(&pair(cap.apex, cap.ends[k])) {
                 continue;
             }
-            let (apex, end) = (point_vertex[cap.apex as usize], point_vertex[cap.ends[k] as usize]);
+            let (apex, end) = (
+                point_vertex[cap.apex as usize],
+                point_vertex[cap.ends[k] as usize],
+            );
             let run = if input.segments[s as usize].ends[0] == cap.apex {
                 (cap.apex, vec![apex, end])
             } else {
@@ -493,7 +519,9 @@ fn segment_pieces(
         let first = cut.points[input.segments[s].ends[0] as usize];
         run.sort_by(|x, y| {
             let (px, py) = (cut.points[x.0 as usize], cut.points[y.0 as usize]);
-            first.distance_squared(px).total_cmp(&first.distance_squared(py))
+            first
+                .distance_squared(px)
+                .total_cmp(&first.distance_squared(py))
         });
         let marker = input.segments[s].marker;
         let pieces: Vec<SubSegment> = run

@@ -21,8 +21,8 @@ mod vertices;
 
 pub use cut::leaves_below;
 pub use edges::{EdgePiece, EdgePieces, edge_pieces, leaf_at, square_box};
-pub use graph::{Angles, EDGE_SNAP, GraphLeaves, GraphTriangulation, triangulate_graph};
 pub(crate) use graph::best_triangulation;
+pub use graph::{Angles, EDGE_SNAP, GraphLeaves, GraphTriangulation, triangulate_graph};
 pub use split::{NONOBTUSE_MAX_DEG, split};
 
 use glam::DVec2;

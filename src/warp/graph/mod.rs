@@ -113,13 +113,16 @@ impl GraphTriangulation {
                 ring = ring.end..near.len();
             }
             for leaf in near {
-                let range = self.leaf_triangles[leaf as usize]..self.leaf_triangles[leaf as usize + 1];
+                let range =
+                    self.leaf_triangles[leaf as usize]..self.leaf_triangles[leaf as usize + 1];
                 if let Some(t) = range.into_iter().find(|&t| holds(t)) {
                     return Some(t as u32);
                 }
             }
         }
-        (0..self.triangles.len()).find(|&t| holds(t)).map(|t| t as u32)
+        (0..self.triangles.len())
+            .find(|&t| holds(t))
+            .map(|t| t as u32)
     }
 
     /// The triangles of leaf `leaf`.
@@ -150,9 +153,11 @@ struct Crossing {
 /// A grid vertex, by its coordinates in units of the finest level.
 type GridPoint = [u128; 2];
 
-/// The slots of a leaf's boundary, counter-clockwise from its lower-left corner: corners at the
-/// even slots, side midpoints (present where the leaf beyond is smaller) at the odd ones.
-const SLOTS: usize = 8;
+/// The slots of a leaf's boundary, counter-clockwise from its lower-left corner: four per side,
+/// at 0, 1/4, 1/2 and 3/4 of the way along it. A corner is always there; a midpoint where the
+/// leaf beyond is smaller or the side is split; a quarter point where the half side beyond a
+/// smaller leaf is split.
+const SLOTS: usize = 16;
 
 /// The triangulation of the leaves of a graph's separated tree, bent onto its vertices and
 /// edges (see the module's description).
@@ -171,34 +176,68 @@ pub fn triangulate_graph<K: MortonKey>(
         .par_iter()
         .map(|l| square_of(l.cell))
         .collect();
-    let grid_points = grid_points(&squares);
-    if grid_points.len() >= NONE as usize {
-        return Err(Error::TooLarge {
-            what: "vertices",
-            count: grid_points.len(),
-        });
-    }
-    let cycles: Vec<[u32; SLOTS]> = squares
-        .par_iter()
-        .map(|&s| cycle_of(s, &grid_points))
-        .collect();
+    let edges_of_leaf = edges_of_leaves(leaves.pieces, squares.len());
+    let (grid_points, cycles, arm) = split_grid(leaves.grid, &squares, &edges_of_leaf)?;
     let mut position: Vec<DVec2> = grid_points
         .par_iter()
         .map(|&[x, y]| leaves.grid.vertex(x, y))
         .collect();
-    let arm = shortest_arms(&cycles, &position);
+    let home = position.clone();
+    let reach = shortest_arms(&cycles, &home);
     let mut snap = vec![Snap::Free; grid_points.len()];
     let point_vertex = snap_points(leaves, &cycles, &mut snap, &mut position)?;
     snap_edges(leaves, &cycles, &arm, &mut snap, &mut position);
-    let crossings = crossings(leaves, &cycles, &snap, &position)?;
+    let (crossings, per_leaf) = loop {
+        let crossings = crossings(leaves, &cycles, &snap, &position)?;
+        check_count(grid_points.len() + crossings.len())?;
+        let bent = Bent {
+            leaves,
+            snap: &snap,
+            position: &position,
+            crossings: &crossings,
+            first_crossing: grid_points.len() as u32,
+        };
+        let per_leaf: Vec<Result<(Vec<[u32; 3]>, Angles), Error>> = cycles
+            .par_iter()
+            .enumerate()
+            .map(|(leaf, cycle)| bent.triangulate_leaf(cycle, edges_of_leaf.of(leaf)))
+            .collect();
+        let Some(first) = per_leaf.iter().position(Result::is_err) else {
+            break (
+                crossings,
+                per_leaf
+                    .into_iter()
+                    .map(|r| r.expect("no failure"))
+                    .collect::<Vec<_>>(),
+            );
+        };
+        // A vertex that moved further than a fraction of its shortest arm after the long sides
+        // were split (it moved by its reach before them) may fold a leaf: it goes back.
+        let mut changed = false;
+        for (leaf, result) in per_leaf.iter().enumerate() {
+            if result.is_ok() {
+                continue;
+            }
+            for v in present(&cycles[leaf]) {
+                let moved = home[v as usize].distance(position[v as usize]);
+                if matches!(snap[v as usize], Snap::Edge(_))
+                    && moved >= EDGE_SNAP * reach[v as usize]
+                {
+                    snap[v as usize] = Snap::Free;
+                    position[v as usize] = home[v as usize];
+                    changed = true;
+                }
+            }
+        }
+        if !changed {
+            return Err(per_leaf
+                .into_iter()
+                .nth(first)
+                .expect("a failure")
+                .expect_err("a failure"));
+        }
+    };
     let first_crossing = grid_points.len();
-    if first_crossing + crossings.len() >= NONE as usize {
-        return Err(Error::TooLarge {
-            what: "vertices",
-            count: first_crossing + crossings.len(),
-        });
-    }
-    let edges_of_leaf = edges_of_leaves(leaves.pieces, cycles.len());
     let bent = Bent {
         leaves,
         snap: &snap,
@@ -206,11 +245,6 @@ pub fn triangulate_graph<K: MortonKey>(
         crossings: &crossings,
         first_crossing: first_crossing as u32,
     };
-    let per_leaf: Vec<(Vec<[u32; 3]>, Angles)> = cycles
-        .par_iter()
-        .enumerate()
-        .map(|(leaf, cycle)| bent.triangulate_leaf(cycle, edges_of_leaf.of(leaf)))
-        .collect::<Result<_, _>>()?;
     let mut leaf_triangles = Vec::with_capacity(per_leaf.len() + 1);
     leaf_triangles.push(0);
     let mut angles = Angles {
@@ -264,27 +298,100 @@ fn grid_points(squares: &[[u128; 3]]) -> Vec<GridPoint> {
     points
 }
 
-/// The grid vertices around a leaf, at its [`SLOTS`] ([`NONE`] for a midpoint that is none).
+/// The grid vertices, each leaf's cycle of them and each one's shortest arm, once the long
+/// sides of the leaves edges pass through are split: a side longer than the shortest arm at
+/// one of its ends (twice it, in a balanced tree) gets its midpoint, whose arms are its
+/// halves. Without it, an edge passing a vertex just beyond the vertex's reach (a fraction of
+/// its shortest arm) would leave a strip that thin along the long side. The split points are
+/// not counted in the other vertices' arms, so splitting does not spread along the edges.
+fn split_grid(
+    grid: &Grid,
+    squares: &[[u128; 3]],
+    edges_of_leaf: &LeafEdges,
+) -> Result<(Vec<GridPoint>, Vec<[u32; SLOTS]>, Vec<f64>), Error> {
+    let corners = grid_points(squares);
+    check_count(corners.len())?;
+    let cycles: Vec<[u32; SLOTS]> = squares.par_iter().map(|&s| cycle_of(s, &corners)).collect();
+    let position: Vec<DVec2> = corners
+        .par_iter()
+        .map(|&[x, y]| grid.vertex(x, y))
+        .collect();
+    let arm = shortest_arms(&cycles, &position);
+    let mut splits: Vec<(GridPoint, f64)> = (0..squares.len())
+        .into_par_iter()
+        .filter(|&leaf| !edges_of_leaf.of(leaf).is_empty())
+        .flat_map_iter(|leaf| {
+            sides(&cycles[leaf])
+                .into_iter()
+                .filter_map(|[u, w]| {
+                    let length = position[u as usize].distance(position[w as usize]);
+                    let shortest = arm[u as usize].min(arm[w as usize]);
+                    let [gu, gw] = [corners[u as usize], corners[w as usize]];
+                    let even = (gu[0] + gw[0]) % 2 == 0 && (gu[1] + gw[1]) % 2 == 0;
+                    let middle = [(gu[0] + gw[0]) / 2, (gu[1] + gw[1]) / 2];
+                    (length > shortest * 1.5 && even).then_some((middle, length / 2.0))
+                })
+                .collect::<Vec<_>>()
+        })
+        .collect();
+    if splits.is_empty() {
+        return Ok((corners, cycles, arm));
+    }
+    splits.par_sort_unstable_by(|a, b| a.0.cmp(&b.0));
+    splits.dedup_by_key(|s| s.0);
+    let mut points: Vec<GridPoint> = corners
+        .iter()
+        .copied()
+        .chain(splits.iter().map(|s| s.0))
+        .collect();
+    points.par_sort_unstable();
+    check_count(points.len())?;
+    let mut new_arm = vec![f64::INFINITY; points.len()];
+    for (v, p) in corners.iter().enumerate() {
+        new_arm[points.binary_search(p).expect("a corner is kept")] = arm[v];
+    }
+    for (p, half) in &splits {
+        new_arm[points.binary_search(p).expect("a split point is added")] = *half;
+    }
+    let cycles = squares.par_iter().map(|&s| cycle_of(s, &points)).collect();
+    Ok((points, cycles, new_arm))
+}
+
+fn check_count(count: usize) -> Result<(), Error> {
+    if count >= NONE as usize {
+        return Err(Error::TooLarge {
+            what: "vertices",
+            count,
+        });
+    }
+    Ok(())
+}
+
+/// The grid vertices around a leaf, at its [`SLOTS`] ([`NONE`] for a point that is none): per
+/// side, from its first corner counter-clockwise, the points at 0, 1/4, 1/2 and 3/4 of the way.
 fn cycle_of([x, y, s]: [u128; 3], points: &[GridPoint]) -> [u32; SLOTS] {
-    let h = s / 2;
-    let at = [
-        [x, y],
-        [x + h, y],
-        [x + s, y],
-        [x + s, y + h],
-        [x + s, y + s],
-        [x + h, y + s],
-        [x, y + s],
-        [x, y + h],
-    ];
+    let starts = [[x, y], [x + s, y], [x + s, y + s], [x, y + s]];
+    let steps: [[i128; 2]; 4] = [[1, 0], [0, 1], [-1, 0], [0, -1]];
     let mut cycle = [NONE; SLOTS];
-    for (slot, p) in at.iter().enumerate() {
-        let midpoint = slot % 2 == 1;
-        if midpoint && h == 0 {
-            continue;
-        }
-        if let Ok(v) = points.binary_search(p) {
-            cycle[slot] = v as u32;
+    for side in 0..4 {
+        for k in 0..4u128 {
+            let along = match k {
+                0 => Some(0),
+                2 => (s % 2 == 0).then_some(s / 2),
+                _ => (s % 4 == 0).then_some(k * s / 4),
+            };
+            let Some(along) = along else {
+                continue;
+            };
+            let [sx, sy] = starts[side];
+            let [dx, dy] = steps[side];
+            let p = [
+                (sx as i128 + dx * along as i128) as u128,
+                (sy as i128 + dy * along as i128) as u128,
+            ];
+            if let Ok(v) = points.binary_search(&p) {
+                cycle[side * 4 + k as usize] = v as u32;
+            }
         }
     }
     cycle
@@ -390,10 +497,55 @@ fn snap_edges<K: MortonKey>(
         .collect();
     near.par_sort_unstable_by(|x, y| x.0.cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.cmp(&y.2)));
     near.dedup_by_key(|x| x.0);
+    let stay = steep_pairs(leaves, cycles, &near, position);
     for (v, _, e, foot) in near {
-        snap[v as usize] = Snap::Edge(e);
-        position[v as usize] = foot;
+        if stay.binary_search(&v).is_err() {
+            snap[v as usize] = Snap::Edge(e);
+            position[v as usize] = foot;
+        }
     }
+}
+
+/// The grid vertices that stay although they are close enough to an edge: of the two ends of a
+/// leaf side steeper than 45° to an edge that both would move onto it from opposite sides, the
+/// farther. Their feet would lie close together along the edge and could fold the leaves at
+/// their corners; the end that stays is at least a third of the side away from the edge.
+fn steep_pairs<K: MortonKey>(
+    leaves: &GraphLeaves<K>,
+    cycles: &[[u32; SLOTS]],
+    near: &[(u32, f64, u32, DVec2)],
+    position: &[DVec2],
+) -> Vec<u32> {
+    let moving = |v: u32| {
+        near.binary_search_by_key(&v, |x| x.0)
+            .ok()
+            .map(|k| (near[k].1, near[k].2))
+    };
+    let mut stay: Vec<u32> = (0..leaves.edges.len())
+        .into_par_iter()
+        .flat_map_iter(|e| {
+            let [a, b] = leaves.edges[e].map(|v| leaves.points[v as usize]);
+            let mut stay = Vec::new();
+            for piece in leaves.pieces.of(e) {
+                for [u, w] in sides(&cycles[piece.leaf as usize]) {
+                    let (Some((du, eu)), Some((dw, ew))) = (moving(u), moving(w)) else {
+                        continue;
+                    };
+                    let (pu, pw) = (position[u as usize], position[w as usize]);
+                    let steep = (pw - pu).normalize().dot((b - a).normalize()).abs()
+                        < std::f64::consts::FRAC_1_SQRT_2;
+                    let opposite = orientation(a, b, pu) != orientation(a, b, pw);
+                    if eu == e as u32 && ew == e as u32 && steep && opposite {
+                        stay.push(if (du, u) > (dw, w) { u } else { w });
+                    }
+                }
+            }
+            stay
+        })
+        .collect();
+    stay.par_sort_unstable();
+    stay.dedup();
+    stay
 }
 
 /// The nearest point to `p` on the segment `ab`, if it lies strictly between its ends.
@@ -462,10 +614,14 @@ fn crossing(a: DVec2, b: DVec2, pu: DVec2, pw: DVec2) -> Result<Option<DVec2>, E
     if oa == ob && oa != Orientation::On {
         return Ok(None);
     }
-    let within = |p: DVec2, q: DVec2, r: DVec2| (r - p).dot(q - p) >= 0.0 && (r - q).dot(p - q) >= 0.0;
+    let within =
+        |p: DVec2, q: DVec2, r: DVec2| (r - p).dot(q - p) >= 0.0 && (r - q).dot(p - q) >= 0.0;
     for (o, p) in [(ou, pu), (ow, pw)] {
         if o == Orientation::On && within(a, b, p) {
-            return Err(stuck(p, "an edge passes through a grid vertex it could not take"));
+            return Err(stuck(
+                p,
+                "an edge passes through a grid vertex it could not take",
+            ));
         }
     }
     for (o, p) in [(oa, a), (ob, b)] {
@@ -473,7 +629,11 @@ fn crossing(a: DVec2, b: DVec2, pu: DVec2, pw: DVec2) -> Result<Option<DVec2>, E
             return Err(stuck(p, "an edge ends on a leaf side"));
         }
     }
-    if ou == Orientation::On || ow == Orientation::On || oa == Orientation::On || ob == Orientation::On {
+    if ou == Orientation::On
+        || ow == Orientation::On
+        || oa == Orientation::On
+        || ob == Orientation::On
+    {
         return Ok(None);
     }
     let d = pw - pu;
@@ -572,10 +732,17 @@ impl<K: MortonKey> Bent<'_, K> {
     /// triangulation of a square with its midpoints, one per set of midpoints.
     fn plain(&self, cycle: &[u32; SLOTS]) -> Option<(Vec<[u32; 3]>, Angles)> {
         let moved = present(cycle).any(|v| self.snap[v as usize] != Snap::Free);
-        if moved || sides(cycle).iter().any(|&[u, w]| !self.crossings_on(u, w).is_empty()) {
+        if moved
+            || sides(cycle)
+                .iter()
+                .any(|&[u, w]| !self.crossings_on(u, w).is_empty())
+        {
             return None;
         }
-        let mask = (0..4).fold(0, |m, k| m | (usize::from(cycle[2 * k + 1] != NONE) << k));
+        if (0..4).any(|side| cycle[side * 4 + 1] != NONE || cycle[side * 4 + 3] != NONE) {
+            return None;
+        }
+        let mask = (0..4).fold(0, |m, k| m | (usize::from(cycle[4 * k + 2] != NONE) << k));
         let (slots, angles) = &plain_templates()[mask];
         Some((slots.iter().map(|t| t.map(|s| cycle[s])).collect(), *angles))
     }
@@ -606,7 +773,10 @@ impl<K: MortonKey> Bent<'_, K> {
         let at: Vec<DVec2> = corners.iter().map(|c| c.at).collect();
         let Some((triangles, angles)) = best_triangulation(&at, &kept) else {
             let centre = at.iter().copied().sum::<DVec2>() / at.len() as f64;
-            return Err(stuck(centre, "a bent leaf has no triangulation that keeps its edges"));
+            return Err(stuck(
+                centre,
+                "a bent leaf has no triangulation that keeps its edges",
+            ));
         };
         let triangles = triangles
             .into_iter()
@@ -682,7 +852,7 @@ fn plain_templates() -> &'static [(Vec<[usize; 3]>, Angles); 16] {
     TEMPLATES.get_or_init(|| {
         std::array::from_fn(|mask| {
             let slots: Vec<usize> = (0..SLOTS)
-                .filter(|&s| s % 2 == 0 || mask & (1 << (s / 2)) != 0)
+                .filter(|&s| s % 4 == 0 || (s % 4 == 2 && mask & (1 << (s / 4)) != 0))
                 .collect();
             let unit = [
                 [0.0, 0.0],
@@ -694,7 +864,7 @@ fn plain_templates() -> &'static [(Vec<[usize; 3]>, Angles); 16] {
                 [0.0, 1.0],
                 [0.0, 0.5],
             ];
-            let at: Vec<DVec2> = slots.iter().map(|&s| DVec2::from(unit[s])).collect();
+            let at: Vec<DVec2> = slots.iter().map(|&s| DVec2::from(unit[s / 2])).collect();
             let (triangles, angles) =
                 best_triangulation(&at, &[]).expect("a square with midpoints has a triangulation");
             (

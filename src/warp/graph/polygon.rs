@@ -241,9 +241,9 @@ mod tests {
         let corners = square_with_midpoints();
         let (triangles, _) = best_triangulation(&corners, &[[0, 4]]).unwrap();
         let has = |a, b| {
-            triangles
-                .iter()
-                .any(|t| (0..3).any(|i| t[i] == a && t[(i + 1) % 3] == b || t[i] == b && t[(i + 1) % 3] == a))
+            triangles.iter().any(|t| {
+                (0..3).any(|i| t[i] == a && t[(i + 1) % 3] == b || t[i] == b && t[(i + 1) % 3] == a)
+            })
         };
         assert!(has(0, 4));
         assert!(best_triangulation(&corners, &[[0, 4], [2, 6]]).is_none());
@@ -252,8 +252,15 @@ mod tests {
     #[test]
     fn a_reflex_corner_is_not_cut_across() {
         // An L shape: the diagonal from the reflex corner's neighbours across it is outside.
-        let corners = [[0.0, 0.0], [2.0, 0.0], [2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]]
-            .map(|[x, y]| DVec2::new(x, y));
+        let corners = [
+            [0.0, 0.0],
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [1.0, 1.0],
+            [1.0, 2.0],
+            [0.0, 2.0],
+        ]
+        .map(|[x, y]| DVec2::new(x, y));
         let (triangles, _) = best_triangulation(&corners, &[]).unwrap();
         assert_eq!(triangles.len(), 4);
         let twice_area: f64 = triangles
