@@ -183,60 +183,17 @@ pub fn triangulate_graph<K: MortonKey>(
         .map(|&[x, y]| leaves.grid.vertex(x, y))
         .collect();
     let home = position.clone();
-    let reach = shortest_arms(&cycles, &home);
     let mut snap = vec![Snap::Free; grid_points.len()];
     let point_vertex = snap_points(leaves, &cycles, &mut snap, &mut position)?;
     snap_edges(leaves, &cycles, &arm, &mut snap, &mut position);
-    let (crossings, per_leaf) = loop {
-        let crossings = crossings(leaves, &cycles, &snap, &position)?;
-        check_count(grid_points.len() + crossings.len())?;
-        let bent = Bent {
-            leaves,
-            snap: &snap,
-            position: &position,
-            crossings: &crossings,
-            first_crossing: grid_points.len() as u32,
-        };
-        let per_leaf: Vec<Result<(Vec<[u32; 3]>, Angles), Error>> = cycles
-            .par_iter()
-            .enumerate()
-            .map(|(leaf, cycle)| bent.triangulate_leaf(cycle, edges_of_leaf.of(leaf)))
-            .collect();
-        let Some(first) = per_leaf.iter().position(Result::is_err) else {
-            break (
-                crossings,
-                per_leaf
-                    .into_iter()
-                    .map(|r| r.expect("no failure"))
-                    .collect::<Vec<_>>(),
-            );
-        };
-        // A vertex that moved further than a fraction of its shortest arm after the long sides
-        // were split (it moved by its reach before them) may fold a leaf: it goes back.
-        let mut changed = false;
-        for (leaf, result) in per_leaf.iter().enumerate() {
-            if result.is_ok() {
-                continue;
-            }
-            for v in present(&cycles[leaf]) {
-                let moved = home[v as usize].distance(position[v as usize]);
-                if matches!(snap[v as usize], Snap::Edge(_))
-                    && moved >= EDGE_SNAP * reach[v as usize]
-                {
-                    snap[v as usize] = Snap::Free;
-                    position[v as usize] = home[v as usize];
-                    changed = true;
-                }
-            }
-        }
-        if !changed {
-            return Err(per_leaf
-                .into_iter()
-                .nth(first)
-                .expect("a failure")
-                .expect_err("a failure"));
-        }
+    let grid = BentGrid {
+        count: grid_points.len(),
+        cycles: &cycles,
+        edges_of_leaf: &edges_of_leaf,
+        reach: shortest_arms(&cycles, &home),
+        home,
     };
+    let (crossings, per_leaf) = grid.settle(leaves, &mut snap, &mut position)?;
     let first_crossing = grid_points.len();
     let bent = Bent {
         leaves,
@@ -279,6 +236,84 @@ pub fn triangulate_graph<K: MortonKey>(
     })
 }
 
+/// A leaf's triangles and their angles.
+type LeafTriangles = (Vec<[u32; 3]>, Angles);
+
+/// The grid vertices and leaf cycles the bending works on.
+struct BentGrid<'a> {
+    /// How many grid vertices.
+    count: usize,
+    cycles: &'a [[u32; SLOTS]],
+    edges_of_leaf: &'a LeafEdges,
+    /// Per grid vertex, its shortest arm once the long sides are split.
+    reach: Vec<f64>,
+    /// Per grid vertex, where it lies before moving.
+    home: Vec<DVec2>,
+}
+
+impl BentGrid<'_> {
+    /// The crossings and every leaf's triangles. A leaf no triangulation fits sends back the
+    /// vertices around it that moved by more than [`EDGE_SNAP`] of their shortest arm once the
+    /// long sides were split (they moved by their reach before), which may fold it, and all is
+    /// redone; a leaf that fails with none of those is refused.
+    fn settle<K: MortonKey>(
+        &self,
+        leaves: &GraphLeaves<K>,
+        snap: &mut [Snap],
+        position: &mut [DVec2],
+    ) -> Result<(Vec<Crossing>, Vec<LeafTriangles>), Error> {
+        loop {
+            let crossings = crossings(leaves, self.cycles, snap, position)?;
+            check_count(self.count + crossings.len())?;
+            let bent = Bent {
+                leaves,
+                snap,
+                position,
+                crossings: &crossings,
+                first_crossing: self.count as u32,
+            };
+            let per_leaf: Vec<Result<LeafTriangles, Error>> = self
+                .cycles
+                .par_iter()
+                .enumerate()
+                .map(|(leaf, cycle)| bent.triangulate_leaf(cycle, self.edges_of_leaf.of(leaf)))
+                .collect();
+            let Some(first) = per_leaf.iter().position(Result::is_err) else {
+                let per_leaf = per_leaf.into_iter().collect::<Result<_, _>>()?;
+                return Ok((crossings, per_leaf));
+            };
+            let failed: Vec<usize> = (0..per_leaf.len())
+                .filter(|&leaf| per_leaf[leaf].is_err())
+                .collect();
+            if !self.send_back(&failed, snap, position) {
+                return Err(per_leaf
+                    .into_iter()
+                    .nth(first)
+                    .and_then(Result::err)
+                    .expect("a failed leaf"));
+            }
+        }
+    }
+
+    /// Sends back the vertices around the `failed` leaves that moved beyond their reach;
+    /// whether any did.
+    fn send_back(&self, failed: &[usize], snap: &mut [Snap], position: &mut [DVec2]) -> bool {
+        let mut changed = false;
+        for &leaf in failed {
+            for v in present(&self.cycles[leaf]) {
+                let v = v as usize;
+                let moved = self.home[v].distance(position[v]);
+                if matches!(snap[v], Snap::Edge(_)) && moved >= EDGE_SNAP * self.reach[v] {
+                    snap[v] = Snap::Free;
+                    position[v] = self.home[v];
+                    changed = true;
+                }
+            }
+        }
+        changed
+    }
+}
+
 /// A leaf's lower-left corner and side, in units of the finest level.
 fn square_of<K: MortonKey>(cell: Cell<K>) -> [u128; 3] {
     let (x, y) = { cell.anchor }.decode();
@@ -298,6 +333,10 @@ fn grid_points(squares: &[[u128; 3]]) -> Vec<GridPoint> {
     points
 }
 
+/// The grid vertices, each leaf's cycle of them, and each vertex's shortest arm before the
+/// split (half the side split, for a split point).
+type SplitGrid = (Vec<GridPoint>, Vec<[u32; SLOTS]>, Vec<f64>);
+
 /// The grid vertices, each leaf's cycle of them and each one's shortest arm, once the long
 /// sides of the leaves edges pass through are split: a side longer than the shortest arm at
 /// one of its ends (twice it, in a balanced tree) gets its midpoint, whose arms are its
@@ -308,7 +347,7 @@ fn split_grid(
     grid: &Grid,
     squares: &[[u128; 3]],
     edges_of_leaf: &LeafEdges,
-) -> Result<(Vec<GridPoint>, Vec<[u32; SLOTS]>, Vec<f64>), Error> {
+) -> Result<SplitGrid, Error> {
     let corners = grid_points(squares);
     check_count(corners.len())?;
     let cycles: Vec<[u32; SLOTS]> = squares.par_iter().map(|&s| cycle_of(s, &corners)).collect();
