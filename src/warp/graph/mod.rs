@@ -526,7 +526,8 @@ fn snap_edges<K: MortonKey>(
                         continue;
                     };
                     let d = p.distance(foot);
-                    if d < EDGE_SNAP * arm[v as usize] {
+                    let end_near = foot.distance(a).min(foot.distance(b)) < arm[v as usize] * 0.5;
+                    if d < EDGE_SNAP * arm[v as usize] && !(end_near && d > 0.15 * arm[v as usize]) {
                         found.push((v, d, e as u32, foot));
                     }
                 }
