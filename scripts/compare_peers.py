@@ -118,7 +118,9 @@ directory) runs this comparison instead of the point sets. For every file and ev
   included;
 * quadmesh: ``quadmesh bench --input FILE --min-angle A --threads T --json`` for every T of
   ``--threads`` (plus ``--quadmesh-args``); its time is ``total_s`` (meshing, not reading the
-  file), its peak memory the process's high-water mark, the file as read included.
+  file), its peak memory the process's high-water mark, the file as read included. With
+  ``--quadmesh-args=--warp`` it is the warp mode's mesh, which takes no angle, set beside
+  Triangle's ``pq<A>``.
 
 The runs alternate, Triangle then quadmesh on each thread count, ``--repeats`` rounds. One table
 follows, a row per file, angle and thread count: triangles of each and their ratio
@@ -782,8 +784,10 @@ def pslg_runs(args, path, angle, switches):
     commands = {"Triangle": [sys.executable, str(Path(__file__).resolve()), PSLG_CHILD_MARK,
                              str(path), switches]}
     for t in args.threads:
-        commands[t] = ([str(QUADMESH), "bench", "--input", str(path), "--min-angle",
-                        f"{angle:g}", "--threads", str(t), "--json"] + extra)
+        # The warp mode takes no angle: it is compared as it is with Triangle's pq<A>.
+        angle_args = [] if "--warp" in extra else ["--min-angle", f"{angle:g}"]
+        commands[t] = ([str(QUADMESH), "bench", "--input", str(path)] + angle_args
+                       + ["--threads", str(t), "--json"] + extra)
     results = {label: ([], None) for label in commands}
     for i in range(args.repeats):
         for label, command in commands.items():

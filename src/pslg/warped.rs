@@ -129,25 +129,28 @@ impl Walls {
 }
 
 /// The triangle across the edge opposite each corner, or [`NONE`]: the one with the edge the
-/// other way round (directed edges sorted, so no hashing of every edge).
+/// other way round. Every edge's two sides are found by one sort of the edges by their ends.
 pub(crate) fn neighbours_of(triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    let mut directed: Vec<(u32, u32, u32)> = triangles
+    let mut sides: Vec<(u64, u32)> = triangles
         .par_iter()
         .enumerate()
         .flat_map_iter(|(t, &[a, b, c])| {
-            [(b, c, 0), (c, a, 1), (a, b, 2)]
+            [(b, c), (c, a), (a, b)]
                 .into_iter()
-                .map(move |(u, w, i)| (u, w, (t as u32) * 3 + i))
+                .enumerate()
+                .map(move |(i, (u, w))| {
+                    let key = (u64::from(u.min(w)) << 32) | u64::from(u.max(w));
+                    (key, (t as u32) * 3 + i as u32)
+                })
         })
         .collect();
-    directed.par_sort_unstable();
+    sides.par_sort_unstable();
     let mut neighbours = vec![[NONE; 3]; triangles.len()];
-    for &(u, w, slot) in &directed {
-        let at = directed.partition_point(|&(x, y, _)| (x, y) < (w, u));
-        if let Some(&(x, y, other)) = directed.get(at)
-            && (x, y) == (w, u)
-        {
-            neighbours[(slot / 3) as usize][(slot % 3) as usize] = other / 3;
+    for pair in sides.windows(2) {
+        let [(k0, s0), (k1, s1)] = [pair[0], pair[1]];
+        if k0 == k1 {
+            neighbours[(s0 / 3) as usize][(s0 % 3) as usize] = s1 / 3;
+            neighbours[(s1 / 3) as usize][(s1 % 3) as usize] = s0 / 3;
         }
     }
     neighbours

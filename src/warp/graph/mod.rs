@@ -26,7 +26,7 @@ use rayon::prelude::*;
 pub use polygon::Angles;
 pub(crate) use polygon::best_triangulation;
 
-use crate::balance::{BalancedTree, across};
+use crate::balance::{BalancedTree, Links, across};
 use crate::error::Error;
 use crate::framework::NONE;
 use crate::morton::{Cell, Grid, MortonKey, Side};
@@ -177,7 +177,8 @@ pub fn triangulate_graph<K: MortonKey>(
         .map(|l| square_of(l.cell))
         .collect();
     let edges_of_leaf = edges_of_leaves(leaves.pieces, squares.len());
-    let (grid_points, cycles, arm) = split_grid(leaves.grid, &squares, &edges_of_leaf)?;
+    let (grid_points, cycles, arm) =
+        split_grid((leaves.grid, &leaves.tree.links), &squares, &edges_of_leaf)?;
     let mut position: Vec<DVec2> = grid_points
         .par_iter()
         .map(|&[x, y]| leaves.grid.vertex(x, y))
@@ -344,13 +345,21 @@ type SplitGrid = (Vec<GridPoint>, Vec<[u32; SLOTS]>, Vec<f64>);
 /// its shortest arm) would leave a strip that thin along the long side. The split points are
 /// not counted in the other vertices' arms, so splitting does not spread along the edges.
 fn split_grid(
-    grid: &Grid,
+    (grid, links): (&Grid, &[Links]),
     squares: &[[u128; 3]],
     edges_of_leaf: &LeafEdges,
 ) -> Result<SplitGrid, Error> {
     let corners = grid_points(squares);
     check_count(corners.len())?;
-    let cycles: Vec<[u32; SLOTS]> = squares.par_iter().map(|&s| cycle_of(s, &corners)).collect();
+    let finder = CycleFinder {
+        points: &corners,
+        links,
+        splits: &[],
+    };
+    let cycles: Vec<[u32; SLOTS]> = (0..squares.len())
+        .into_par_iter()
+        .map(|leaf| finder.cycle(leaf, squares[leaf]))
+        .collect();
     let position: Vec<DVec2> = corners
         .par_iter()
         .map(|&[x, y]| grid.vertex(x, y))
@@ -392,7 +401,16 @@ fn split_grid(
     for (p, half) in &splits {
         new_arm[points.binary_search(p).expect("a split point is added")] = *half;
     }
-    let cycles = squares.par_iter().map(|&s| cycle_of(s, &points)).collect();
+    let split_points: Vec<GridPoint> = splits.iter().map(|s| s.0).collect();
+    let finder = CycleFinder {
+        points: &points,
+        links,
+        splits: &split_points,
+    };
+    let cycles = (0..squares.len())
+        .into_par_iter()
+        .map(|leaf| finder.cycle(leaf, squares[leaf]))
+        .collect();
     Ok((points, cycles, new_arm))
 }
 
@@ -406,34 +424,53 @@ fn check_count(count: usize) -> Result<(), Error> {
     Ok(())
 }
 
-/// The grid vertices around a leaf, at its [`SLOTS`] ([`NONE`] for a point that is none): per
-/// side, from its first corner counter-clockwise, the points at 0, 1/4, 1/2 and 3/4 of the way.
-fn cycle_of([x, y, s]: [u128; 3], points: &[GridPoint]) -> [u32; SLOTS] {
-    let starts = [[x, y], [x + s, y], [x + s, y + s], [x, y + s]];
-    let steps: [[i128; 2]; 4] = [[1, 0], [0, 1], [-1, 0], [0, -1]];
-    let mut cycle = [NONE; SLOTS];
-    for side in 0..4 {
-        for k in 0..4u128 {
-            let along = match k {
-                0 => Some(0),
-                2 => (s % 2 == 0).then_some(s / 2),
-                _ => (s % 4 == 0).then_some(k * s / 4),
-            };
-            let Some(along) = along else {
-                continue;
-            };
+/// What finds the grid vertices around a leaf: the sorted grid vertices, the leaves' links
+/// (a side has a midpoint where two leaves lie beyond it) and the sorted split points.
+struct CycleFinder<'a> {
+    points: &'a [GridPoint],
+    links: &'a [Links],
+    splits: &'a [GridPoint],
+}
+
+impl CycleFinder<'_> {
+    /// The grid vertices around leaf `leaf` (square `[x, y, s]`), at its [`SLOTS`] ([`NONE`]
+    /// for a point that is none): per side, from its first corner counter-clockwise, the
+    /// points at 0, 1/4, 1/2 and 3/4 of the way.
+    fn cycle(&self, leaf: usize, [x, y, s]: [u128; 3]) -> [u32; SLOTS] {
+        let starts = [[x, y], [x + s, y], [x + s, y + s], [x, y + s]];
+        let steps: [[i128; 2]; 4] = [[1, 0], [0, 1], [-1, 0], [0, -1]];
+        let beyond = [Side::South, Side::East, Side::North, Side::West];
+        let id = |p: &GridPoint| self.points.binary_search(p).ok().map(|v| v as u32);
+        let mut cycle = [NONE; SLOTS];
+        for side in 0..4 {
             let [sx, sy] = starts[side];
             let [dx, dy] = steps[side];
-            let p = [
-                (sx as i128 + dx * along as i128) as u128,
-                (sy as i128 + dy * along as i128) as u128,
-            ];
-            if let Ok(v) = points.binary_search(&p) {
-                cycle[side * 4 + k as usize] = v as u32;
+            let at = |along: u128| {
+                [
+                    (sx as i128 + dx * along as i128) as u128,
+                    (sy as i128 + dy * along as i128) as u128,
+                ]
+            };
+            cycle[side * 4] = id(&at(0)).expect("a leaf corner is a grid vertex");
+            if s % 2 != 0 {
+                continue;
+            }
+            let middle = at(s / 2);
+            let paired = across(self.links, leaf, beyond[side])[1] != NONE;
+            if paired || self.splits.binary_search(&middle).is_ok() {
+                cycle[side * 4 + 2] = id(&middle).unwrap_or(NONE);
+            }
+            if s % 4 == 0 && !self.splits.is_empty() {
+                for k in [1, 3] {
+                    let quarter = at(k * s / 4);
+                    if self.splits.binary_search(&quarter).is_ok() {
+                        cycle[side * 4 + k as usize] = id(&quarter).unwrap_or(NONE);
+                    }
+                }
             }
         }
+        cycle
     }
-    cycle
 }
 
 /// The grid vertices of a cycle, in order, the missing midpoints left out.
@@ -527,7 +564,8 @@ fn snap_edges<K: MortonKey>(
                     };
                     let d = p.distance(foot);
                     let end_near = foot.distance(a).min(foot.distance(b)) < arm[v as usize] * 0.5;
-                    if d < EDGE_SNAP * arm[v as usize] && !(end_near && d > 0.15 * arm[v as usize]) {
+                    if d < EDGE_SNAP * arm[v as usize] && !(end_near && d > 0.15 * arm[v as usize])
+                    {
                         found.push((v, d, e as u32, foot));
                     }
                 }
