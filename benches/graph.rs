@@ -2,8 +2,9 @@
 //! off (`cut`), then the features separated in a balanced tree (`tree`: Morton order, the
 //! crowding tests, the balance), on the cut graph made beforehand.
 //!
-//! Group `graph/<input>/t<threads>`, ids `cut/<points>` and `tree/<points>`; throughput is the
-//! number of input points. Inputs: nested closed curves of `QUADMESH_BENCH_SEGMENTS` segments
+//! Group `graph/<input>/t<threads>`, ids `cut/<points>`, `tree/<points>` and, for trees of at
+//! most [`WARP_LEAVES`] leaves, `warp/<points>` (the whole warped mesh through the front door:
+//! cleaning, cut, tree, bending, carving); throughput is the number of input points. Inputs: nested closed curves of `QUADMESH_BENCH_SEGMENTS` segments
 //! (default 200000; no acute wedge), a block with `QUADMESH_BENCH_HOLES` rectangular holes
 //! (default 2000; right angles only), and the Delaunay triangulation's edges of
 //! `QUADMESH_BENCH_DELAUNAY` uniform points (default 1000: almost every wedge is acute, and the
@@ -18,10 +19,13 @@ mod graphs;
 use common::{SEED, configure, env_counts, pools};
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use graphs::delaunay_graph;
-use quadmesh::Input;
 use quadmesh::generate::{block_with_holes, nested_curves};
 use quadmesh::pipeline::{GraphTree, GraphTreeOptions, StageTimes, graph_tree};
 use quadmesh::pslg::cut_acute_corners;
+use quadmesh::{Input, Options};
+
+/// The largest tree whose warped mesh is timed (a few seconds a run at most).
+const WARP_LEAVES: usize = 2_000_000;
 
 fn leaves(tree: &GraphTree) -> usize {
     match tree {
@@ -66,6 +70,12 @@ fn bench_graph(c: &mut Criterion, name: &str, input: &Input) {
                 })
             })
         });
+        if leaves(&tree) <= WARP_LEAVES {
+            let warp = Options::default().warp();
+            group.bench_function(BenchmarkId::new("warp", n), |b| {
+                b.iter_with_large_drop(|| pool.install(|| quadmesh::mesh(input, &warp)))
+            });
+        }
         group.finish();
     }
 }

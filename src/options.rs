@@ -83,6 +83,9 @@ pub enum Mode {
     /// The warped quadtree mesh: every angle in [26°, 120°], about 36 triangles per point
     /// (points separated by the blocks around their leaves' nearest corners). On a given
     /// rectangle ([`Region::Rectangle`], [`Region::BoundingBox`]) it is the block warp's mesh.
+    /// A planar straight-line graph is meshed over what its segments enclose from a quadtree
+    /// bent onto it (see [`crate::warp::triangulate_graph`]), with no angle bound proven yet:
+    /// [`Options::angle_bounds`] does not apply to it, and the report gives the angles reached.
     Warp,
     /// The block warp: every angle in [22.5°, 112.5°], about 104 triangles per point (each
     /// point's leaf centred in a 5×5 block of empty leaves); the tree the dynamic mesh keeps.

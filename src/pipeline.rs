@@ -515,6 +515,11 @@ fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Er
 /// through the warp, so a few GiB at most.
 pub const GRAPH_SQUARE_BUDGET: usize = 20_000_000;
 
+/// The clearance, in sides, the warp of a graph separates its features by: one side. The
+/// papers' three sides give four to five times the triangles and no better angles (on
+/// Triangle's examples; `benches/README.md`).
+pub const WARP_CLEARANCE: f64 = 1.0;
+
 /// The warped mesh of a planar straight-line graph (BET §5): cleaned, its acute corners cut
 /// off, its features separated in a balanced tree, the tree bent onto it and triangulated, the
 /// domain cut out with its holes and regions, the caps put back.
@@ -535,7 +540,7 @@ fn mesh_graph_warp(input: &Input, options: &Options) -> Result<(Mesh, MeshReport
     let cut = times.time("cut", || crate::pslg::cut_acute_corners(&clean))?;
     let tree_options = GraphTreeOptions {
         max_squares: Some(GRAPH_SQUARE_BUDGET),
-        ..GraphTreeOptions::default()
+        clearance: WARP_CLEARANCE,
     };
     let tree = graph_tree(&cut, tree_options, &mut times)?;
     let mut mesh = match &tree {

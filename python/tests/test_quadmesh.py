@@ -122,6 +122,21 @@ def test_point_sets_and_keyword_interface():
         quadmesh.mesh(points[:10], mode="acute")
 
 
+def test_a_graph_is_warped_over_what_its_segments_enclose():
+    # A square with a square hole: the warp mode meshes the ring, its segments conforming.
+    points = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [1, 1], [2, 1], [2, 2], [1, 2]], float)
+    segments = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4]])
+    m = quadmesh.mesh(points, segments=segments, holes=[[1.5, 1.5]], mode="warp")
+    assert (area(m.vertices, m.triangles) > 0).all()
+    assert np.isclose(area(m.vertices, m.triangles).sum(), 15.0, rtol=1e-12)
+    inputs = m.vertex_input[m.vertex_input >= 0]
+    assert sorted(inputs) == list(range(8))
+    assert (m.vertices[m.vertex_input >= 0] == points[inputs]).all()
+    assert m.report["min_angle"] > 0
+    one = quadmesh.mesh(points, segments=segments, holes=[[1.5, 1.5]], mode="warp", threads=1)
+    assert np.array_equal(one.triangles, m.triangles)
+
+
 def test_the_same_arrays_on_any_thread_count():
     rng = np.random.default_rng(5)
     points = rng.random((40000, 2))

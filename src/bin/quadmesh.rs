@@ -88,9 +88,9 @@ enum Command {
     },
     /// Mesh a point file or a planar straight-line graph (`.poly`): a Delaunay mesh with every
     /// angle at least `--min-angle` (of the points' convex hull, or of what the segments
-    /// enclose, holes removed and regions marked), or the warped quadtree mesh (`--warp`, point
-    /// sets only); every input point a vertex with its exact coordinates, every segment a union
-    /// of mesh edges carrying its marker.
+    /// enclose, holes removed and regions marked), or the warped quadtree mesh (`--warp`);
+    /// every input point a vertex with its exact coordinates, every segment a union of mesh
+    /// edges carrying its marker.
     Mesh {
         /// Input: Triangle `.poly` (points, segments, holes, regions), `.node` (points), or
         /// text with one `x y` or `x,y` per line.
@@ -230,7 +230,9 @@ struct QualityArgs {
     /// The warped quadtree mesh instead: every angle in [26°, 120°], about 35 triangles per
     /// point, on the points' bounding box centred in a square twice its larger side, or on a
     /// given `--domain` square; on a `--domain` rectangle that is not a square (or `bbox`),
-    /// the `--block-warp` mesh of it.
+    /// the `--block-warp` mesh of it. For a `.poly` graph: what its segments enclose, from a
+    /// quadtree bent onto the graph, with no angle bound proven yet (the report gives the
+    /// angles reached).
     #[arg(long, conflicts_with_all = ["min_angle", "max_area", "max_vertices"])]
     warp: bool,
     /// The block warp instead: every angle in [22.5°, 112.5°], about 104 triangles per point,

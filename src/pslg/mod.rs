@@ -3,8 +3,9 @@
 //! ([`cut_acute_corners`]), the first step of meshing it in the quadtree (BET §5).
 //!
 //! The steps after it are [`crate::pipeline::graph_tree`] (the features separated in a balanced
-//! tree, the edges cut at its leaves' sides); the templates that warp such a tree into a mesh
-//! are planned.
+//! tree, the edges cut at its leaves' sides), [`crate::warp::triangulate_graph`] (the leaves
+//! bent onto the graph and triangulated) and [`carve_warped`] (the domain cut out, the caps put
+//! back).
 
 mod corners;
 mod grid;

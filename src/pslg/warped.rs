@@ -42,6 +42,7 @@ pub fn carve_warped(
 ) -> Result<Mesh, Error> {
     let walls = Walls::new(cut, &leaves);
     let neighbours = neighbours_of(&leaves.triangles);
+    check_walls(&leaves, &walls)?;
     let (piece, pieces) = pieces(&leaves.triangles, &neighbours, &walls);
     let faces = Faces::new(
         input,
@@ -154,6 +155,29 @@ pub(crate) fn neighbours_of(triangles: &[[u32; 3]]) -> Vec<[u32; 3]> {
         }
     }
     neighbours
+}
+
+/// Every piece of every chain must be an edge of the triangles: a leaf whose bent polygon left
+/// an edge piece out would leave the graph unconformed.
+fn check_walls(leaves: &GraphTriangulation, walls: &Walls) -> Result<(), Error> {
+    let mut sides: Vec<(u32, u32)> = leaves
+        .triangles
+        .par_iter()
+        .flat_map_iter(|&[a, b, c]| [pair(a, b), pair(b, c), pair(c, a)])
+        .collect();
+    sides.par_sort_unstable();
+    sides.dedup();
+    for (&(a, b), _) in walls.edge_of.iter() {
+        if sides.binary_search(&(a, b)).is_err() {
+            let at = (leaves.vertices[a as usize] + leaves.vertices[b as usize]) * 0.5;
+            return Err(Error::WarpStuck {
+                x: at.x,
+                y: at.y,
+                why: "a piece of an edge is no edge of the bent leaves' triangles",
+            });
+        }
+    }
+    Ok(())
 }
 
 /// The pieces the walls cut the triangles into: each triangle's piece, and how many.

@@ -131,7 +131,9 @@ def mesh(
     ``min_angle`` (0 to 45; input angles smaller than it are kept) and every area at most
     ``max_area``; a point set's domain is its convex hull, a graph's what its segments enclose
     (``convex_hull=True``: the hull minus the holes). ``mode="warp"`` gives the warped quadtree
-    mesh of a point set, every angle in [26°, 120°] (about 36 triangles per point);
+    mesh of a point set, every angle in [26°, 120°] (about 36 triangles per point), or of
+    what a graph's segments enclose (a quadtree bent onto the graph; no angle bound proven yet,
+    the report gives the angles reached);
     ``mode="block_warp"`` the older warp, every angle in [22.5°, 112.5°] (about 104 triangles
     per point); ``mode="nonobtuse"`` the quadtree mesh
     split into right triangles at the points, every angle at most 90° (none bounded below).

@@ -877,7 +877,10 @@ impl<K: MortonKey> Bent<'_, K> {
         for pair in on.windows(2) {
             let (i, j) = (pair[0].1.min(pair[1].1), pair[0].1.max(pair[1].1));
             let neighbours = j == i + 1 || (i == 0 && j == n - 1);
-            if !neighbours {
+            let middle = (corners[i].at + corners[j].at) * 0.5;
+            // A piece whose middle lies outside the bent leaf runs through the leaf beside it
+            // (the edge passed just beyond a vertex on this leaf's side): it is that leaf's.
+            if !neighbours && inside(corners, middle) {
                 kept.push([i, j]);
             }
         }
@@ -921,6 +924,22 @@ impl<K: MortonKey> Bent<'_, K> {
         }
         (at, on.into_iter().map(|(_, _, v)| v).collect())
     }
+}
+
+/// Whether `p` lies inside the polygon of `corners` (crossings of a ray to the right).
+fn inside(corners: &[Corner], p: DVec2) -> bool {
+    let n = corners.len();
+    let mut odd = false;
+    for k in 0..n {
+        let (a, b) = (corners[k].at, corners[(k + 1) % n].at);
+        if (a.y > p.y) != (b.y > p.y) {
+            let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
+            if x > p.x {
+                odd = !odd;
+            }
+        }
+    }
+    odd
 }
 
 /// Per set of side midpoints (bit k: the midpoint at slot 2k + 1), the best triangulation of
