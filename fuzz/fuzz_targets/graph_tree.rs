@@ -2,15 +2,18 @@
 //! them): cleaned (crossings split or refused), its acute corners cut, its features separated
 //! in the quadtree. Each stage answers with its result or a typed error, never a panic; the
 //! tree must be valid, its crowded squares those of the brute force, its leaves uncrowded, and
-//! every edge's pieces must run from end to end without a gap.
+//! every edge's pieces must run from end to end without a gap. The tree is then bent onto the
+//! graph and the domain cut out (the warp mode's stages): a mesh must pass the PSLG check.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use quadmesh::balance::reference::graph_crowded_squares;
+use quadmesh::mesh::{AngleBounds, validate_pslg};
 use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::{GraphTree, GraphTreeBuild, GraphTreeOptions, StageTimes, graph_tree};
+use quadmesh::pslg::carve_warped;
 use quadmesh::pslg::{CleanOptions, CornerCut, clean, cut_acute_corners};
-use quadmesh::warp::finest_resolved_level;
+use quadmesh::warp::{GraphLeaves, finest_resolved_level, triangulate_graph};
 use quadmesh::{DVec2, Input, Segment};
 
 /// Points from 4 bytes each (two i16 on a 1/64 grid), or from 16 (raw f64 bits) when `raw`.
@@ -46,7 +49,11 @@ fn check<K: MortonKey>(cut: &CornerCut, build: &GraphTreeBuild<K>) {
     if build.crowded > BRUTE_FORCE_SQUARES {
         return;
     }
-    let points: Vec<DVec2> = build.vertices.iter().map(|&v| cut.points[v as usize]).collect();
+    let points: Vec<DVec2> = build
+        .vertices
+        .iter()
+        .map(|&v| cut.points[v as usize])
+        .collect();
     let finest = finest_resolved_level::<K>(false);
     let brute = graph_crowded_squares::<K>(
         &build.morton.grid,
@@ -55,7 +62,47 @@ fn check<K: MortonKey>(cut: &CornerCut, build: &GraphTreeBuild<K>) {
         (build.clearance, finest),
     )
     .expect("separable by the brute force too");
-    assert_eq!(brute.len(), build.crowded, "crowded squares differ from the brute force");
+    assert_eq!(
+        brute.len(),
+        build.crowded,
+        "crowded squares differ from the brute force"
+    );
+}
+
+/// The most leaves a tree may have for its warp to be checked (a run stays well under the
+/// time limit with the sanitizers on).
+const WARP_LEAVES: usize = 40_000;
+
+/// The warp of the tree and the domain cut out of it: a typed error, or a valid mesh.
+fn check_warp<K: MortonKey>(graph: &Input, cut: &CornerCut, build: &GraphTreeBuild<K>) {
+    if build.tree.tree.leaves.len() > WARP_LEAVES {
+        return;
+    }
+    let points: Vec<DVec2> = build
+        .vertices
+        .iter()
+        .map(|&v| cut.points[v as usize])
+        .collect();
+    let leaves = GraphLeaves {
+        tree: &build.tree,
+        grid: &build.morton.grid,
+        order: &build.morton.order,
+        points: &points,
+        edges: &build.edges,
+        pieces: &build.pieces,
+    };
+    let Ok(bent) = triangulate_graph(&leaves) else {
+        return;
+    };
+    let located = bent.clone();
+    let triangle_at = |p| located.triangle_at(&build.tree, &build.morton.grid, p);
+    if let Ok(mesh) = carve_warped(graph, cut, &build.vertices, bent, triangle_at) {
+        let any = AngleBounds {
+            min_deg: 0.0,
+            max_deg: 180.0,
+        };
+        validate_pslg(&mesh, graph, any).unwrap_or_else(|e| panic!("invalid warped mesh: {e}"));
+    }
 }
 
 fn check_pieces<K: MortonKey>(build: &GraphTreeBuild<K>) {
@@ -119,8 +166,14 @@ fuzz_target!(|data: &[u8]| {
         max_squares: Some(MAX_SQUARES),
     };
     match graph_tree(&cut, options, &mut StageTimes::default()) {
-        Ok(GraphTree::Narrow(build)) => check(&cut, &build),
-        Ok(GraphTree::Wide(build)) => check(&cut, &build),
+        Ok(GraphTree::Narrow(build)) => {
+            check(&cut, &build);
+            check_warp(&graph, &cut, &build);
+        }
+        Ok(GraphTree::Wide(build)) => {
+            check(&cut, &build);
+            check_warp(&graph, &cut, &build);
+        }
         Err(_) => {}
     }
 });
