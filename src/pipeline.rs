@@ -570,8 +570,13 @@ fn mesh_graph_warp(input: &Input, options: &Options) -> Result<(Mesh, MeshReport
     Ok((mesh, report))
 }
 
-/// The warp of a graph's separated tree and the domain cut out of it.
-fn warped_graph<K: MortonKey>(
+/// The warp of a graph's separated tree and the domain cut out of it: the mesh of the cleaned
+/// graph `clean` from the tree `build` of its cut `cut`. Stage times go to `times`: "warp",
+/// "carve".
+///
+/// # Errors
+/// What [`triangulate_graph`] and [`carve_warped`] refuse.
+pub fn warped_graph<K: MortonKey>(
     build: &GraphTreeBuild<K>,
     (clean, cut): (&Input, &CornerCut),
     times: &mut StageTimes,
@@ -591,9 +596,8 @@ fn warped_graph<K: MortonKey>(
     };
     let triangulated = times.time("warp", || triangulate_graph(&leaves))?;
     times.time("carve", || {
-        let located = triangulated.clone();
-        let triangle_at = |p| located.triangle_at(&build.tree, &build.morton.grid, p);
-        carve_warped(clean, cut, &build.vertices, triangulated, triangle_at)
+        let triangle_at = |p| triangulated.triangle_at(&build.tree, &build.morton.grid, p);
+        carve_warped(clean, cut, &build.vertices, &triangulated, triangle_at)
     })
 }
 

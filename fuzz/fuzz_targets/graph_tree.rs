@@ -10,10 +10,11 @@ use libfuzzer_sys::fuzz_target;
 use quadmesh::balance::reference::graph_crowded_squares;
 use quadmesh::mesh::{AngleBounds, validate_pslg};
 use quadmesh::morton::MortonKey;
-use quadmesh::pipeline::{GraphTree, GraphTreeBuild, GraphTreeOptions, StageTimes, graph_tree};
-use quadmesh::pslg::carve_warped;
+use quadmesh::pipeline::{
+    GraphTree, GraphTreeBuild, GraphTreeOptions, StageTimes, graph_tree, warped_graph,
+};
 use quadmesh::pslg::{CleanOptions, CornerCut, clean, cut_acute_corners};
-use quadmesh::warp::{GraphLeaves, finest_resolved_level, triangulate_graph};
+use quadmesh::warp::finest_resolved_level;
 use quadmesh::{DVec2, Input, Segment};
 
 /// Points from 4 bytes each (two i16 on a 1/64 grid), or from 16 (raw f64 bits) when `raw`.
@@ -78,25 +79,7 @@ fn check_warp<K: MortonKey>(graph: &Input, cut: &CornerCut, build: &GraphTreeBui
     if build.tree.tree.leaves.len() > WARP_LEAVES {
         return;
     }
-    let points: Vec<DVec2> = build
-        .vertices
-        .iter()
-        .map(|&v| cut.points[v as usize])
-        .collect();
-    let leaves = GraphLeaves {
-        tree: &build.tree,
-        grid: &build.morton.grid,
-        order: &build.morton.order,
-        points: &points,
-        edges: &build.edges,
-        pieces: &build.pieces,
-    };
-    let Ok(bent) = triangulate_graph(&leaves) else {
-        return;
-    };
-    let located = bent.clone();
-    let triangle_at = |p| located.triangle_at(&build.tree, &build.morton.grid, p);
-    if let Ok(mesh) = carve_warped(graph, cut, &build.vertices, bent, triangle_at) {
+    if let Ok(mesh) = warped_graph(build, (graph, cut), &mut StageTimes::default()) {
         let any = AngleBounds {
             min_deg: 0.0,
             max_deg: 180.0,

@@ -18,6 +18,7 @@ use super::{Cap, CornerCut, EdgeOrigin};
 use crate::domain::{BoundaryEdge, Domain, SubSegment};
 use crate::error::Error;
 use crate::mesh::{Mesh, NONE};
+use crate::morton::bounding_box;
 use crate::options::Input;
 use crate::predicates::{Orientation, orientation};
 use crate::warp::{GraphTriangulation, best_triangulation};
@@ -37,12 +38,12 @@ pub fn carve_warped(
     input: &Input,
     cut: &CornerCut,
     features: &[u32],
-    leaves: GraphTriangulation,
+    leaves: &GraphTriangulation,
     triangle_at: impl Fn(DVec2) -> Option<u32> + Sync,
 ) -> Result<Mesh, Error> {
-    let walls = Walls::new(cut, &leaves);
+    let walls = Walls::new(cut, leaves);
     let neighbours = neighbours_of(&leaves.triangles);
-    check_walls(&leaves, &walls)?;
+    check_walls(leaves, &walls)?;
     let (piece, pieces) = pieces(&leaves.triangles, &neighbours, &walls);
     let faces = Faces::new(
         input,
@@ -50,10 +51,10 @@ pub fn carve_warped(
         (&piece, pieces),
         &neighbours,
         &walls,
-        &leaves,
+        leaves,
         &triangle_at,
     )?;
-    let mut out = Output::new(&leaves, input, cut, features);
+    let mut out = Output::new(leaves, input, cut, features);
     for (t, &triangle) in leaves.triangles.iter().enumerate() {
         let p = piece[t] as usize;
         if !faces.cap_piece[p] && faces.kept(p) {
@@ -86,11 +87,11 @@ pub fn carve_warped(
 }
 
 /// The chains of the cut graph's edges, as walls between the leaves' triangles.
-struct Walls {
+struct Walls<'a> {
     /// The edge of the cut graph each wall lies on, by its two vertices (the smaller first).
     edge_of: HashMap<(u32, u32), u32>,
-    /// Per cut-graph edge, its chain of vertices from its first end to its second.
-    chains: Vec<Vec<u32>>,
+    /// The leaves, whose chains run along the cut graph's edges.
+    leaves: &'a GraphTriangulation,
     /// The cut-graph edge joining two cut points, by its ends (the smaller first).
     by_ends: HashMap<(u32, u32), u32>,
 }
@@ -99,14 +100,11 @@ fn pair(a: u32, b: u32) -> (u32, u32) {
     (a.min(b), a.max(b))
 }
 
-impl Walls {
-    fn new(cut: &CornerCut, leaves: &GraphTriangulation) -> Walls {
-        let chains: Vec<Vec<u32>> = (0..cut.edges.len())
-            .map(|e| leaves.chain(e).to_vec())
-            .collect();
+impl Walls<'_> {
+    fn new<'a>(cut: &CornerCut, leaves: &'a GraphTriangulation) -> Walls<'a> {
         let mut edge_of = HashMap::new();
-        for (e, chain) in chains.iter().enumerate() {
-            for w in chain.windows(2) {
+        for e in 0..cut.edges.len() {
+            for w in leaves.chain(e).windows(2) {
                 edge_of.insert(pair(w[0], w[1]), e as u32);
             }
         }
@@ -118,9 +116,14 @@ impl Walls {
             .collect();
         Walls {
             edge_of,
-            chains,
+            leaves,
             by_ends,
         }
+    }
+
+    /// The chain of cut-graph edge `e`, from its first end to its second.
+    fn chain(&self, e: u32) -> &[u32] {
+        self.leaves.chain(e as usize)
     }
 
     /// The cut-graph edge the mesh edge `a b` lies on, if any.
@@ -408,7 +411,7 @@ impl Output {
         let side = |k: usize| -> Vec<u32> {
             match walls.by_ends.get(&pair(cap.apex, cap.ends[k])) {
                 Some(&e) => {
-                    let mut chain = walls.chains[e as usize].clone();
+                    let mut chain = walls.chain(e).to_vec();
                     if cut.edges[e as usize].ends[0] != cap.apex {
                         chain.reverse();
                     }
@@ -424,7 +427,7 @@ impl Output {
             .by_ends
             .get(&pair(cap.ends[0], cap.ends[1]))
             .filter(|&&e| cut.edges[e as usize].origin == EdgeOrigin::Cut(c as u32))
-            .map(|&e| walls.chains[e as usize].clone())
+            .map(|&e| walls.chain(e).to_vec())
             .expect("every cap has its cutting edge");
         let mut polygon = first;
         polygon.extend(&cutting[1..]);
@@ -468,10 +471,7 @@ impl Output {
             .map(|s| (pair(s.vertices[0], s.vertices[1]), s.marker))
             .collect();
         let boundary = boundary_edges(&triangles, &neighbours, &marker_of);
-        let (lo, hi) = vertices.iter().fold(
-            (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-            |(lo, hi), &p| (lo.min(p), hi.max(p)),
-        );
+        let (lo, hi) = bounding_box(&vertices);
         let has_regions = !input.regions.is_empty();
         Mesh {
             vertices,
@@ -512,7 +512,7 @@ fn segment_pieces(
     let mut runs: Vec<Vec<(u32, Vec<u32>)>> = vec![Vec::new(); input.segments.len()];
     for (e, edge) in cut.edges.iter().enumerate() {
         if let EdgeOrigin::Segment(s) = edge.origin {
-            runs[s as usize].push((edge.ends[0], walls.chains[e].clone()));
+            runs[s as usize].push((edge.ends[0], walls.chain(e as u32).to_vec()));
         }
     }
     for cap in &cut.caps {

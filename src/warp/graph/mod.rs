@@ -205,16 +205,10 @@ pub fn triangulate_graph<K: MortonKey>(
     };
     let mut leaf_triangles = Vec::with_capacity(per_leaf.len() + 1);
     leaf_triangles.push(0);
-    let mut angles = Angles {
-        min: f64::INFINITY,
-        max: f64::NEG_INFINITY,
-    };
+    let mut angles = Angles::NONE;
     for (triangles, a) in &per_leaf {
         leaf_triangles.push(leaf_triangles.last().copied().unwrap_or(0) + triangles.len());
-        angles = Angles {
-            min: angles.min.min(a.min),
-            max: angles.max.max(a.max),
-        };
+        angles = angles.and(*a);
     }
     let triangles: Vec<[u32; 3]> = per_leaf.into_iter().flat_map(|(t, _)| t).collect();
     let (chain_at, chains) = bent.chains(&point_vertex);

@@ -18,7 +18,8 @@ pub struct Angles {
 }
 
 impl Angles {
-    const NONE: Angles = Angles {
+    /// Of no triangle: every angle of a triangle widens it.
+    pub(crate) const NONE: Angles = Angles {
         min: f64::INFINITY,
         max: f64::NEG_INFINITY,
     };
@@ -31,7 +32,8 @@ impl Angles {
         }
     }
 
-    fn and(self, other: Angles) -> Angles {
+    /// The angles of both sets together.
+    pub(crate) fn and(self, other: Angles) -> Angles {
         Angles {
             min: self.min.min(other.min),
             max: self.max.max(other.max),
