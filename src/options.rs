@@ -81,8 +81,9 @@ pub enum Mode {
     #[default]
     Delaunay,
     /// The warped quadtree mesh: every angle in [26°, 120°], about 36 triangles per point
-    /// (points separated by the blocks around their leaves' nearest corners). On a given
-    /// rectangle ([`Region::Rectangle`], [`Region::BoundingBox`]) it is the block warp's mesh.
+    /// (points separated by the blocks around their leaves' nearest corners), on any
+    /// rectangle: a given one ([`Region::Rectangle`], [`Region::BoundingBox`]) is cut into
+    /// cells within [`crate::morton::CELL_ANISOTROPY`] of square.
     /// A planar straight-line graph is meshed over what its segments enclose from a quadtree
     /// bent onto it (see [`crate::warp::triangulate_graph`]), with no angle bound proven yet:
     /// [`Options::angle_bounds`] does not apply to it, and the report gives the angles reached.
@@ -274,30 +275,22 @@ impl Options {
         self.sort
     }
 
-    /// Whether these options make the compact warp: the warp mode on the points' square or a
-    /// given square. A rectangle that is not a square, and the bounding box (square or not),
-    /// take the block warp.
+    /// Whether these options make the compact warp: the warp mode, on any region.
     pub(crate) fn compact_warp(&self) -> bool {
-        let square = match self.region {
-            Region::Rectangle(d) => d.is_square(),
-            Region::BoundingBox => false,
-            _ => true,
-        };
-        self.mode == Mode::Warp && square
+        self.mode == Mode::Warp
     }
 
     /// The angles every mesh of these options has, outside input angles smaller than the bound
     /// (the corners of a convex hull): at least the bound and at most 180° minus twice it in the
-    /// Delaunay mode, [26°, 120°] in the warp mode ([22.5°, 112.5°] on a given rectangle that
-    /// is not a square, on the bounding box, and in the block warp mode), at most 90° in the
-    /// nonobtuse mode.
+    /// Delaunay mode, [26°, 120°] in the warp mode, [22.5°, 112.5°] in the block warp mode, at
+    /// most 90° in the nonobtuse mode.
     pub fn angle_bounds(&self) -> AngleBounds {
         match self.mode {
-            Mode::Warp if self.compact_warp() => AngleBounds {
+            Mode::Warp => AngleBounds {
                 min_deg: COMPACT_ANGLE_BOUNDS.0,
                 max_deg: COMPACT_ANGLE_BOUNDS.1,
             },
-            Mode::Warp | Mode::BlockWarp => AngleBounds {
+            Mode::BlockWarp => AngleBounds {
                 min_deg: ANGLE_BOUNDS.0,
                 max_deg: ANGLE_BOUNDS.1,
             },

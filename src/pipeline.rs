@@ -13,8 +13,8 @@ use crate::framework::{Framework, build_framework};
 pub use crate::mesh::StageTimes;
 use crate::mesh::{AngleQuality, BoundarySide, Domain, Mesh, MeshReport, NONE, report_of};
 use crate::morton::{
-    Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm, bounding_box, morton_order,
-    morton_order_on, morton_order_wide, validate_points,
+    DomainCells, DomainLayout, Duplicates, Grid, Morton, MortonKey, MortonOrder, SortAlgorithm,
+    bounding_box, morton_order, morton_order_on, morton_order_wide, validate_points,
 };
 use crate::options::{Input, Mode, Options, Region};
 use crate::pslg::{CornerCut, carve_warped};
@@ -166,15 +166,15 @@ pub struct MeshOptions {
     pub nonobtuse: bool,
     /// The separation rule of the tree the warp moves: [`Separation::Corner`] for the compact
     /// warp (every angle in [`crate::warp::COMPACT_ANGLE_BOUNDS`]), [`Separation::Block`] for
-    /// the block warp ([`crate::warp::ANGLE_BOUNDS`]). The nonobtuse split and a given domain
-    /// that is not a square use the block rule whatever this says.
+    /// the block warp ([`crate::warp::ANGLE_BOUNDS`]). The nonobtuse split uses the block rule
+    /// whatever this says.
     pub separation: Separation,
 }
 
 impl MeshOptions {
     /// The rule the tree is built by: the one asked for where it applies.
     fn effective_separation(&self) -> Separation {
-        if self.nonobtuse || self.domain.is_some_and(|d| !d.is_square()) {
+        if self.nonobtuse {
             Separation::Block
         } else {
             self.separation
@@ -198,27 +198,56 @@ pub fn separated_tree(
 ) -> Result<(Tree, StageTimes), Error> {
     // A failed graded attempt's stages stay in the times: they were spent.
     let mut times = StageTimes::default();
+    if let Some(domain) = options.domain
+        && options.effective_separation() == Separation::Corner
+    {
+        let cells = domain_cells(points.len(), domain)?;
+        let tree = separated_tree_on(
+            points,
+            options,
+            (DomainLayout::Cells(cells), None),
+            &mut times,
+        )?;
+        return Ok((tree.expect("a cells grid needs no band"), times));
+    }
     let graded = options.domain.and_then(|d| graded_columns(points, d));
     if let Some(columns) = graded
-        && let Some(tree) = separated_tree_on(points, options, Some(columns), &mut times)?
+        && let Some(tree) = separated_tree_on(
+            points,
+            options,
+            (
+                DomainLayout::Columns(columns.level, columns.columns),
+                Some(columns),
+            ),
+            &mut times,
+        )?
     {
         return Ok((tree, times));
     }
-    let tree = separated_tree_on(points, options, None, &mut times)?;
+    let tree = separated_tree_on(points, options, (DomainLayout::Root, None), &mut times)?;
     Ok((tree.expect("a uniform band needs no grading"), times))
 }
 
-/// [`separated_tree`] with the domain's right side on the grid line `columns` gives, if any;
-/// `None` when the band along its top side turns out finer than that choice allows.
+/// The cells the compact warp cuts a given domain into: [`Error::ThinDomain`] when they would be
+/// more along a side than [`band_level_limit`] allows leaves along a band.
+fn domain_cells(points: usize, domain: Domain) -> Result<DomainCells, Error> {
+    let extent = domain.hi - domain.lo;
+    let limit = 1u64 << band_level_limit::<u64>(points);
+    DomainCells::for_rectangle(extent, limit).ok_or(Error::ThinDomain {
+        width: extent.x,
+        height: extent.y,
+    })
+}
+
+/// [`separated_tree`] on the grid `layout` lays on the options' domain (if any); `None` when the
+/// band along a graded domain's top side turns out finer than its columns allow.
 fn separated_tree_on(
     points: &[DVec2],
     options: &MeshOptions,
-    columns: Option<GradedColumns>,
+    (layout, columns): (DomainLayout, Option<GradedColumns>),
     times: &mut StageTimes,
 ) -> Result<Option<Tree>, Error> {
-    let domain = options
-        .domain
-        .map(|d| (d.lo, d.hi, columns.map(|c| (c.level, c.columns))));
+    let domain = options.domain.map(|d| (d.lo, d.hi, layout));
     let morton = times.time("morton", || morton_order_on(points, domain, options.sort))?;
     let m = match morton {
         Morton::Narrow(m) => {
@@ -316,7 +345,7 @@ fn band_level_limit<K: MortonKey>(points: usize) -> u8 {
 
 /// The quality mesh of `points` by warping on the current rayon pool, with its report: the
 /// block warp (angles in [22.5°, 112.5°]), or with [`Separation::Corner`] on the root square
-/// or a given square the compact warp (angles in [26°, 120°]), or the nonobtuse split, as the
+/// or a given rectangle the compact warp (angles in [26°, 120°]), or the nonobtuse split, as the
 /// options say. The domain is the options' rectangle, or else the quadtree's root square: the
 /// points' bounding box centred in a square of twice its larger side.
 ///
@@ -334,8 +363,12 @@ pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, Mes
     domain.check()?;
     validate_points(points)?;
     domain.check_holds(points)?;
-    // The mesher lines one side with equal cells (the top of a domain at least as wide as
-    // tall): it works in the mirror image that makes that side the better one.
+    // The block rule lines one side with equal cells (the top of a domain at least as wide as
+    // tall): it works in the mirror image that makes that side the better one. The corner
+    // rule cuts the domain into cells whose sides are all grid lines.
+    if options.effective_separation() == Separation::Corner {
+        return mesh_on(points, options);
+    }
     let reflections = domain_reflections(points, domain);
     if reflections.is_empty() {
         return mesh_on(points, options);
@@ -391,10 +424,16 @@ fn warp_build<K: MortonKey>(
     } = build;
     let mut tree = balanced.expect("a separated tree");
     tree.tree.internal = Vec::new();
-    if let Some(band) = band {
-        let right = morton.grid.inner_right();
+    // The leaves beyond a domain's sides inside the root go: above a band's row, or beyond a
+    // cells grid's lines.
+    let [right, top] = morton.grid.inner_lines();
+    let cut = match band {
+        Some(band) => Some((band.top_row, morton.grid.inner_right())),
+        None => (right.is_some() || top.is_some()).then(|| (top.unwrap_or(u128::MAX), right)),
+    };
+    if let Some((row, right)) = cut {
         tree = times
-            .time("warp band", || leaves_below(tree, band.top_row, right))
+            .time("warp band", || leaves_below(tree, row, right))
             .map_err(|p| {
                 let index = morton.order[p];
                 unresolvable(points[index as usize], index)

@@ -57,8 +57,8 @@ fn a_given_domain_is_meshed_exactly() {
     let (lo, hi) = quadmesh::morton::bounding_box(&points);
     let wider = format!("{},{},{},{}", lo.x - 0.5, lo.y, hi.x, hi.y + 2.0);
     for (domain, bounds) in [
-        ("bbox", WARP),
-        (wider.as_str(), WARP),
+        ("bbox", COMPACT),
+        (wider.as_str(), COMPACT),
         (
             "bbox",
             AngleBounds {

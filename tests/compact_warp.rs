@@ -1,4 +1,4 @@
-//! The compact warp (`Mode::Warp` on the square around the points): the corner-separated tree
+//! The compact warp (`Mode::Warp`, on the square around the points or a given rectangle): the corner-separated tree
 //! warped by the swept templates. Every mesh passes `Mesh::validate` with the mode's bounds
 //! ([26°, 120°]), is the same on 1 and 2 threads, and has about a third of the block warp's
 //! triangles.
@@ -97,7 +97,7 @@ fn grid_aligned_collinear_and_centred_points() {
     compact(&pair);
 }
 
-/// The compact warp of `points` on the square `domain`, checked as [`compact`] checks.
+/// The compact warp of `points` on the rectangle `domain`, checked as [`compact`] checks.
 fn compact_on(points: &[DVec2], domain: Domain) -> (Mesh, MeshReport) {
     let input = Input::points(points.to_vec());
     let options = Options::default().warp().region(Region::Rectangle(domain));
@@ -116,7 +116,7 @@ fn compact_on(points: &[DVec2], domain: Domain) -> (Mesh, MeshReport) {
     (one, report)
 }
 
-/// Points on every side and corner of a square, and inside it near the sides.
+/// Points on every side and corner of a rectangle, and inside it near the sides.
 fn touching(domain: Domain, n: usize, seed: u64) -> Vec<DVec2> {
     let (lo, hi) = (domain.lo, domain.hi);
     let at = |t: DVec2| lo + (hi - lo) * t;
@@ -177,22 +177,112 @@ fn on_a_given_square_points_on_its_sides_and_corners_move_corners_along_them() {
 }
 
 #[test]
-fn on_a_given_rectangle_the_warp_is_the_block_warp() {
-    let pts = points(Distribution2d::Uniform, 500, 5);
-    let domain = Domain {
-        lo: DVec2::new(-0.5, 0.0),
-        hi: DVec2::new(1.5, 1.0),
-    };
-    for region in [Region::Rectangle(domain), Region::BoundingBox] {
-        let warp = Options::default().warp().region(region);
-        let block = Options::default().block_warp().region(region);
-        assert_eq!(warp.angle_bounds(), block.angle_bounds());
-        let input = Input::points(pts.clone());
-        let (a, _) = mesh(&input, &warp).unwrap();
-        let (b, _) = mesh(&input, &block).unwrap();
-        assert!(a == b, "{region:?}");
-        a.validate(&pts, warp.angle_bounds()).unwrap();
+fn on_a_given_rectangle_the_cells_are_nearly_square_and_the_bounds_hold() {
+    // Wide and tall, a ratio with no small fraction near it (√2), nearly square, and strips
+    // a thousand times as long as wide: points on every side and corner and near them.
+    let rectangles = [
+        (DVec2::new(-0.5, 0.0), DVec2::new(1.5, 1.0)),
+        (DVec2::new(-0.1, -0.2), DVec2::new(3.3, 1.05)),
+        (DVec2::ZERO, DVec2::new(1.0, std::f64::consts::SQRT_2)),
+        (DVec2::ZERO, DVec2::new(1.0, 1.003)),
+        (DVec2::new(2.0, 1.0), DVec2::new(3.0, 1.001)),
+        (DVec2::ZERO, DVec2::new(1e-3, 1.0)),
+    ];
+    for (lo, hi) in rectangles {
+        let domain = Domain { lo, hi };
+        for (n, seed) in [(0, 1), (40, 2), (3000, 3)] {
+            let pts = touching(domain, n, seed);
+            let (m, report) = compact_on(&pts, domain);
+            let block = Options::default()
+                .block_warp()
+                .region(Region::Rectangle(domain));
+            let (b, _) = mesh(&Input::points(pts.clone()), &block).unwrap();
+            assert!(
+                m.triangles.len() * 2 < b.triangles.len(),
+                "{domain:?}: {} compact, {} block",
+                m.triangles.len(),
+                b.triangles.len()
+            );
+            assert!(report.min_angle >= COMPACT.min_deg, "{}", report.min_angle);
+            assert!(report.max_angle <= COMPACT.max_deg, "{}", report.max_angle);
+        }
     }
+    // The bounding box is such a rectangle.
+    let pts = points(Distribution2d::Uniform, 500, 5)
+        .into_iter()
+        .map(|p| p * DVec2::new(2.0, 0.7))
+        .collect::<Vec<_>>();
+    let options = Options::default().warp().region(Region::BoundingBox);
+    assert_eq!(options.angle_bounds(), COMPACT);
+    let (m, _) = mesh(&Input::points(pts.clone()), &options).unwrap();
+    m.validate(&pts, COMPACT).unwrap();
+}
+
+#[test]
+fn the_cells_of_a_rectangle_are_the_fewest_nearly_square() {
+    use quadmesh::morton::{CELL_ANISOTROPY, DomainCells};
+    let cells = |w: f64, h: f64| DomainCells::for_rectangle(DVec2::new(w, h), 1 << 20).unwrap();
+    assert_eq!(
+        cells(1.0, 1.0),
+        DomainCells {
+            level: 0,
+            columns: 1,
+            rows: 1
+        }
+    );
+    assert_eq!(
+        cells(2.0, 1.0),
+        DomainCells {
+            level: 1,
+            columns: 2,
+            rows: 1
+        }
+    );
+    assert_eq!(
+        cells(1.0, 3.0),
+        DomainCells {
+            level: 2,
+            columns: 1,
+            rows: 3
+        }
+    );
+    assert_eq!(
+        cells(1.01, 1.0),
+        DomainCells {
+            level: 0,
+            columns: 1,
+            rows: 1
+        }
+    );
+    assert_eq!(cells(1000.0, 1.0).columns, 1000);
+    for (w, h) in [
+        (std::f64::consts::SQRT_2, 1.0),
+        (3.4, 1.25),
+        (1.0, std::f64::consts::PI),
+    ] {
+        let c = cells(w, h);
+        let aspect = (w / c.columns as f64) / (h / c.rows as f64);
+        assert!((aspect - 1.0).abs() <= CELL_ANISOTROPY, "{w} x {h}: {c:?}");
+        assert!(
+            c.columns.max(c.rows) <= 1 << c.level && c.columns.max(c.rows) > (1 << c.level) / 2
+        );
+        // No fewer rows (columns along the short side) give cells that square.
+        let (long, short) = (w.max(h), w.min(h));
+        for few in 1..c.columns.min(c.rows) {
+            let many = (few as f64 * long / short).round();
+            let aspect = long / short * few as f64 / many;
+            assert!((aspect - 1.0).abs() > CELL_ANISOTROPY, "{w} x {h}: {few}");
+        }
+    }
+    // Too many cells along a side: none.
+    assert_eq!(
+        DomainCells::for_rectangle(DVec2::new(1e7, 1.0), 1 << 20),
+        None
+    );
+    assert_eq!(
+        DomainCells::for_rectangle(DVec2::new(1.0, 0.0), 1 << 20),
+        None
+    );
 }
 
 proptest! {

@@ -5,7 +5,8 @@
 mod common;
 
 use common::{
-    FAMILIES, check_warped, distinct_count, mixed_point_sets, on_threads, refused_beyond_f64,
+    COMPACT, FAMILIES, check_warped, check_warped_within, distinct_count, mixed_point_sets,
+    on_threads, refused_beyond_f64,
 };
 use proptest::prelude::*;
 use quadmesh::balance::{DomainSides, Separation, check_separated_in, separate_in};
@@ -26,11 +27,28 @@ fn options(domain: Domain) -> MeshOptions {
     }
 }
 
-/// The mesh of `points` on `domain`, checked: valid with the warp's bounds, covering exactly the
-/// domain, and every point on a side a vertex of boundary edges on that side.
+fn compact(domain: Domain) -> MeshOptions {
+    MeshOptions {
+        separation: Separation::Corner,
+        ..options(domain)
+    }
+}
+
+/// The block warp's mesh of `points` on `domain`, checked: valid with the warp's bounds,
+/// covering exactly the domain, and every point on a side a vertex of boundary edges on that
+/// side; and the compact warp's, checked the same with its bounds.
 fn mesh_in(points: &[DVec2], domain: Domain) -> (Mesh, MeshReport) {
+    let (mesh, report) = mesh_points(points, &compact(domain)).unwrap();
+    check_warped_within(points, &mesh, &report, COMPACT);
+    check_on_domain(points, &mesh, domain);
     let (mesh, report) = mesh_points(points, &options(domain)).unwrap();
     check_warped(points, &mesh, &report);
+    check_on_domain(points, &mesh, domain);
+    (mesh, report)
+}
+
+/// The mesh covers `domain`, and every point on a side is a vertex of boundary edges there.
+fn check_on_domain(points: &[DVec2], mesh: &Mesh, domain: Domain) {
     assert_eq!(mesh.domain, domain);
     for (v, &input) in mesh.vertex_input.iter().enumerate() {
         if input == u32::MAX {
@@ -48,7 +66,6 @@ fn mesh_in(points: &[DVec2], domain: Domain) -> (Mesh, MeshReport) {
             );
         }
     }
-    (mesh, report)
 }
 
 /// Checks the well-separated tree of `points` on a domain at least as wide as tall: balanced,
@@ -200,7 +217,7 @@ enum BandShape {
 /// The uniform band that lines the top side of `domain` (at least as wide as tall) on a root as
 /// wide as the domain, the fallback when no root width grades the side; the tree is checked.
 fn uniform_band_shape(points: &[DVec2], domain: Domain) -> BandShape {
-    let frame = Some((domain.lo, domain.hi, None));
+    let frame = Some((domain.lo, domain.hi, quadmesh::morton::DomainLayout::Root));
     let Morton::Narrow(m) = morton_order_on(points, frame, SortAlgorithm::default()).unwrap()
     else {
         panic!("narrow grid expected")

@@ -209,7 +209,11 @@ fn the_corner_checker_refuses_a_merely_balanced_tree() {
 fn corner_separated_on_the_square_like_brute_force(points: &[DVec2]) {
     use quadmesh::SortAlgorithm;
     use quadmesh::morton::{Morton, morton_order_on};
-    let frame = Some((DVec2::ZERO, DVec2::ONE, None));
+    let frame = Some((
+        DVec2::ZERO,
+        DVec2::ONE,
+        quadmesh::morton::DomainLayout::Root,
+    ));
     let Morton::Narrow(m) = morton_order_on(points, frame, SortAlgorithm::default()).unwrap()
     else {
         panic!("narrow grid expected")

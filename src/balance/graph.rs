@@ -133,8 +133,8 @@ impl<'a> GraphFeatures<'a> {
 pub fn reach<K: MortonKey>(grid: &Grid, cell: Cell<K>, clearance: f64) -> (DVec2, DVec2) {
     let (gx, gy) = { cell.anchor }.decode();
     let (corner, side) = grid.cell_rect(gx, gy, cell.level);
-    let margin = DVec2::splat(clearance * side);
-    (corner - margin, corner + DVec2::splat(side) + margin)
+    let margin = clearance * side;
+    (corner - margin, corner + side + margin)
 }
 
 /// Whether the closed segment `ab` meets the closed box `[lo, hi]`, exactly: the boxes

@@ -28,7 +28,7 @@ use rayon::prelude::*;
 
 use super::separate::{
     DomainSides, Move, Rules, around, chebyshev, clear_of_points, corner_block_parents, descend,
-    settle_against, settle_all, walk,
+    settle_against, settle_all, squares_across_lines, walk,
 };
 use super::split_set::{SplitSet, Squares, at_position, grid_position, last_position};
 use super::{BalancedTree, Separation, forced_by, linked_tree, separate_in};
@@ -44,7 +44,8 @@ pub struct SeparatedPoints<K: MortonKey> {
     keys: Vec<K>,
     /// The level of each point's leaf, by Morton position.
     levels: Vec<u8>,
-    /// The domain sides each point lies on; no side inside the root.
+    /// The domain sides each point lies on, and the right and top sides where they are grid
+    /// lines inside the root (a corner tree on a rectangle cut into cells).
     sides: DomainSides,
     /// The rule the tree is separated by.
     separation: Separation,
@@ -63,12 +64,32 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// on ([`super::ON_LEFT`] and the others), on a grid whose root is the domain, separated by
     /// `separation`.
     pub fn new(keys: Vec<K>, on: Vec<u8>, separation: Separation) -> Self {
+        Self::within(keys, on, separation, [None; 2])
+    }
+
+    /// [`Self::new`] on a domain whose right and top sides are the grid lines `lines` (finest
+    /// units) where given, inside the root (see [`crate::morton::Grid::inner_lines`]); only a
+    /// [`Separation::Corner`] tree takes them.
+    pub fn within(
+        keys: Vec<K>,
+        on: Vec<u8>,
+        separation: Separation,
+        lines: [Option<u128>; 2],
+    ) -> Self {
         assert_eq!(keys.len(), on.len(), "a side mask per key");
+        assert!(
+            separation == Separation::Corner || lines == [None; 2],
+            "only a corner tree takes sides inside the root"
+        );
         let sides = DomainSides {
             on,
+            inner_right: lines[0],
+            inner_top: lines[1].map(|line| line as f64),
             ..DomainSides::default()
         };
         let mut set = SplitSet::new();
+        // The squares across the sides stay split whatever the points.
+        set.insert_closed(squares_across_lines::<K>(lines));
         let mut levels = Vec::new();
         if !keys.is_empty() {
             let quadtree = expand(&build_framework(&keys), &keys);
@@ -100,6 +121,11 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// The rule the tree is separated by.
     pub fn separation(&self) -> Separation {
         self.separation
+    }
+
+    /// The domain's right and top sides where they are grid lines inside the root.
+    pub fn lines(&self) -> [Option<u128>; 2] {
+        Rules::new(Some(&self.sides)).lines()
     }
 
     /// The rules of the tree's separation on its domain.
@@ -210,6 +236,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
             }
         });
         let mut closed = SplitSet::new();
+        closed.insert_closed(squares_across_lines::<K>(self.lines()));
         closed.insert_closed(split);
         linked_tree(&closed.preorder(), keys)
     }
@@ -668,12 +695,17 @@ impl<K: MortonKey> SeparatedPoints<K> {
                 .any(|finer| self.set.contains(finer) && forced_by(finer).contains(&Some(square)))
         };
         if self.separation == Separation::Corner {
+            let lines = self.lines();
+            if lies_across(square, lines) {
+                return true;
+            }
             // On the path of such a point, or a parent of its corner block one level down.
             let demands = |j: usize| {
                 let key = self.keys[j];
                 self.levels[j] > level
                     && (square.contains(key)
-                        || corner_block_parents(key, level, self.sides.on[j]).any(|c| c == square))
+                        || corner_block_parents(key, level, self.sides.on[j], lines)
+                            .any(|c| c == square))
             };
             let by_a_point = around_and(square, 1).any(|cell| {
                 self.points_in(cell)
@@ -720,6 +752,18 @@ impl GridRect {
         let side = 1u128 << (K::AXIS_BITS - u32::from(cell.level));
         x < self.x1 && self.x0 < x + side && y < self.y1 && self.y0 < y + side
     }
+}
+
+/// Whether `square` lies across one of the domain sides `lines` (right, top; grid lines in
+/// finest units) and starts before the other: one of [`squares_across_lines`] or an ancestor.
+fn lies_across<K: MortonKey>(square: Cell<K>, lines: [Option<u128>; 2]) -> bool {
+    let (x, y) = { square.anchor }.decode();
+    let (x, y) = (u128::from(x), u128::from(y));
+    let side = 1u128 << (K::AXIS_BITS - u32::from(square.level));
+    let full = 1u128 << K::AXIS_BITS;
+    let [right, top] = lines;
+    let across = |at: u128, line: Option<u128>| line.is_some_and(|l| at < l && l < at + side);
+    (across(x, right) && y < top.unwrap_or(full)) || (across(y, top) && x < right.unwrap_or(full))
 }
 
 /// Takes the entries at the sorted, distinct `positions` out of `v`, moving each run between

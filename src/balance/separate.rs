@@ -50,7 +50,8 @@ pub enum Separation {
     /// The 2×2 block of same-size leaves around the leaf's corner nearest the point (the
     /// corner the warp moves, see [`nearest_corner`]) holds no other point, and no other
     /// point's block shares a leaf with it: the compact warp's tree, about a third the size.
-    /// On the root square, or a given square ([`DomainSides`] with no side inside the root),
+    /// On the root square, or a given domain whose sides inside the root are grid lines (a
+    /// rectangle cut into cells, see [`crate::morton::Grid::on_domain_cells`]),
     /// where the block of a point on a side is cut there.
     Corner,
 }
@@ -97,14 +98,16 @@ pub fn separate_in<K: MortonKey>(
     max_band_level: u8,
     separation: Separation,
 ) -> Result<(BalancedTree<K>, Option<Band>), BandError> {
-    assert!(
-        separation == Separation::Block
-            || sides.is_none_or(|s| s.inner_top.is_none() && s.inner_right.is_none()),
-        "corner separation is on square domains only"
-    );
     let rules = Rules::new(sides).separating(separation);
+    assert!(
+        separation == Separation::Block || rules.top.is_none_or(|t| t.floor == t.ceil),
+        "corner separation needs a domain whose sides are grid lines"
+    );
     let mut set = SplitSet::new();
     set.insert_closed(tree.internal.iter().map(|s| Squares::one(s.cell)));
+    if separation == Separation::Corner {
+        set.insert_closed(squares_across_lines::<K>(rules.lines()));
+    }
     let graded = sides.and_then(|s| s.graded_top).zip(rules.top);
     if let Some(((coarsest, _), top)) = graded {
         set.insert_closed(side_squares::<K>(top, rules.right, coarsest - 1));
@@ -134,7 +137,10 @@ pub fn separate_in<K: MortonKey>(
         }
         // Once the points are settled, the band goes in as split squares and the points near
         // it settle again; nothing that follows is finer than the band inside it.
-        let Some(top) = rules.top.filter(|_| band.is_none()) else {
+        let Some(top) = rules
+            .top
+            .filter(|_| band.is_none() && separation == Separation::Block)
+        else {
             break;
         };
         if let Some(((coarsest, finest), _)) = graded {
@@ -209,6 +215,44 @@ fn side_squares<K: MortonKey>(top: InnerTop, right: Option<u128>, level: u8) -> 
                 rows: (0, row),
             },
         ));
+    }
+    squares
+}
+
+/// The squares that a cells grid's domain sides inside the root (right and top, grid lines in
+/// finest units, see [`Rules::lines`]) cross, at the finest level where they cross any, along
+/// the domain: split with what balance forces (their parents among it), they leave no leaf
+/// across a side.
+pub(super) fn squares_across_lines<K: MortonKey>(lines: [Option<u128>; 2]) -> Vec<Squares<K>> {
+    let full = 1u128 << K::AXIS_BITS;
+    let [right, top] = lines;
+    let mut squares = Vec::new();
+    for (line, along, vertical) in [
+        (right, top.unwrap_or(full), true),
+        (top, right.unwrap_or(full), false),
+    ] {
+        let Some(line) = line.filter(|&l| l > 0 && l < full) else {
+            continue;
+        };
+        // The coarsest level whose grid lines include this one, and the level above it.
+        let level = (K::AXIS_BITS - line.trailing_zeros()) as u8 - 1;
+        let side = 1u128 << (K::AXIS_BITS - level as u32);
+        let across = u64::try_from(line / side).expect("a position within the root");
+        let span = (
+            0,
+            u64::try_from((along - 1) / side).expect("a position within the root"),
+        );
+        let rect = match vertical {
+            true => Rect {
+                columns: (across, across),
+                rows: span,
+            },
+            false => Rect {
+                columns: span,
+                rows: (across, across),
+            },
+        };
+        squares.extend(rect_squares(level, rect));
     }
     squares
 }
@@ -483,13 +527,19 @@ impl<'a> Rules<'a> {
         Rules { separation, ..self }
     }
 
+    /// The domain's right and top sides where they are grid lines inside the root (finest
+    /// units): what a corner block may not cross.
+    pub(super) fn lines(&self) -> [Option<u128>; 2] {
+        [self.right, self.top.map(|t| t.floor)]
+    }
+
     /// The squares of point `i`'s 5×5 block around `cell` that the rules look at: all of them,
     /// less those beyond a domain side the point lies on; `None` when the block crosses the
     /// root's side or the domain's top side elsewhere (the point's square must then be split).
     fn window<K: MortonKey>(&self, i: usize, cell: Cell<K>, key: K) -> Option<Rect> {
         let on = self.on(i);
         if self.separation == Separation::Corner {
-            return corner_block(cell, key, on);
+            return corner_block(cell, key, on, self.lines());
         }
         let (x, y) = grid_position(cell);
         let last = last_position(cell.level);
@@ -714,7 +764,7 @@ fn corner_demands_of<K: MortonKey>(
         if i > 0 && grandchild.contains(keys[i - 1]) && rules.on(i - 1) == on {
             continue;
         }
-        corner_block_parents(key, level, on).for_each(want);
+        corner_block_parents(key, level, on, rules.lines()).for_each(want);
     }
 }
 
@@ -725,8 +775,9 @@ pub(super) fn corner_block_parents<K: MortonKey>(
     key: K,
     level: u8,
     on: u8,
+    lines: [Option<u128>; 2],
 ) -> impl Iterator<Item = Cell<K>> {
-    let block = corner_block(Cell::containing(key, level + 1), key, on);
+    let block = corner_block(Cell::containing(key, level + 1), key, on, lines);
     block.into_iter().flat_map(move |block| {
         (block.columns.0 >> 1..=block.columns.1 >> 1).flat_map(move |x| {
             (block.rows.0 >> 1..=block.rows.1 >> 1).map(move |y| at_position(x, y, level))
@@ -755,19 +806,32 @@ pub fn nearest_corner<K: MortonKey>(cell: Cell<K>, key: K) -> (u64, u64) {
 
 /// The 2×2 squares of `cell`'s level around its corner nearest to `key`, cut at the domain
 /// sides `on` (bits as [`sides_of`] gives) the point lies on; `None` when they stick out of the
-/// root elsewhere.
-fn corner_block<K: MortonKey>(cell: Cell<K>, key: K, on: u8) -> Option<Rect> {
+/// domain elsewhere: past the root's sides, or across `lines`, the right and top sides where
+/// they are grid lines inside the root (finest units, see [`Rules::lines`]).
+fn corner_block<K: MortonKey>(
+    cell: Cell<K>,
+    key: K,
+    on: u8,
+    lines: [Option<u128>; 2],
+) -> Option<Rect> {
     let (cx, cy) = nearest_corner(cell, key);
-    let last = last_position(cell.level);
-    // The squares on either side of corner line `c`, less the one beyond a side the point is on.
-    let span = |c: u64, (low, high): (u8, u8)| match c {
-        0 => (on & low != 0).then_some((0, 0)),
-        c if c > last => (on & high != 0).then_some((last, last)),
-        c => Some((c - 1, c)),
+    let shift = K::AXIS_BITS - cell.level as u32;
+    let full = 1u128 << K::AXIS_BITS;
+    // The squares on either side of corner line `c`, less the one beyond a side the point is
+    // on; none if they would cross the far side `far`.
+    let span = |c: u64, far: Option<u128>, (low, high): (u8, u8)| {
+        let far = far.unwrap_or(full);
+        let at = u128::from(c) << shift;
+        match c {
+            0 => (on & low != 0).then_some((0, 0)),
+            c if at == far => (on & high != 0).then_some((c - 1, c - 1)),
+            _ if at + (1u128 << shift) > far => None,
+            c => Some((c - 1, c)),
+        }
     };
     Some(Rect {
-        columns: span(cx, (ON_LEFT, ON_RIGHT))?,
-        rows: span(cy, (ON_BOTTOM, ON_TOP))?,
+        columns: span(cx, lines[0], (ON_LEFT, ON_RIGHT))?,
+        rows: span(cy, lines[1], (ON_BOTTOM, ON_TOP))?,
     })
 }
 
@@ -1032,8 +1096,9 @@ pub fn check_corner_separated<K: MortonKey>(tree: &Quadtree<K>, keys: &[K]) -> R
     check_corner_separated_in(tree, keys, None)
 }
 
-/// [`check_corner_separated`] on a square domain: a block is cut at the sides its point lies
-/// on, and sticks out nowhere else.
+/// [`check_corner_separated`] on a given domain: a block is cut at the sides its point lies
+/// on, and sticks out nowhere else; no leaf lies across a side that is a grid line inside the
+/// root.
 pub fn check_corner_separated_in<K: MortonKey>(
     tree: &Quadtree<K>,
     keys: &[K],
@@ -1041,13 +1106,27 @@ pub fn check_corner_separated_in<K: MortonKey>(
 ) -> Result<(), String> {
     use std::collections::HashMap;
     let rules = Rules::new(sides);
+    let [right, top] = rules.lines();
+    for leaf in &tree.leaves {
+        let (x, y) = grid_position(leaf.cell);
+        let shift = K::AXIS_BITS - leaf.cell.level as u32;
+        let across = |at: u64, line: Option<u128>| {
+            let lo = u128::from(at) << shift;
+            line.is_some_and(|l| lo < l && l < lo + (1u128 << shift))
+        };
+        if across(x, right) || across(y, top) {
+            let cell = leaf.cell;
+            return Err(format!("{cell:?} lies across a side of the domain"));
+        }
+    }
     let leaf_point: HashMap<Cell<K>, u32> = tree.leaves.iter().map(|l| (l.cell, l.point)).collect();
     let mut claimed: HashMap<Cell<K>, u32> = HashMap::new();
     for leaf in tree.leaves.iter().filter(|l| l.point != NONE) {
         let cell = leaf.cell;
         let key = keys[leaf.point as usize];
-        let Some(block) = corner_block(cell, key, rules.on(leaf.point as usize)) else {
-            return Err(format!("corner block of {cell:?} leaves the root"));
+        let Some(block) = corner_block(cell, key, rules.on(leaf.point as usize), rules.lines())
+        else {
+            return Err(format!("corner block of {cell:?} leaves the domain"));
         };
         for square in rect_cells::<K>(block, cell.level) {
             match leaf_point.get(&square) {

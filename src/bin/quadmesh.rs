@@ -229,8 +229,7 @@ enum Command {
 struct QualityArgs {
     /// The warped quadtree mesh instead: every angle in [26°, 120°], about 35 triangles per
     /// point, on the points' bounding box centred in a square twice its larger side, or on a
-    /// given `--domain` square; on a `--domain` rectangle that is not a square (or `bbox`),
-    /// the `--block-warp` mesh of it. For a `.poly` graph: what its segments enclose, from a
+    /// `--domain` rectangle (`bbox` or given). For a `.poly` graph: what its segments enclose, from a
     /// quadtree bent onto the graph, with no angle bound proven yet (the report gives the
     /// angles reached).
     #[arg(long, conflicts_with_all = ["min_angle", "max_area", "max_vertices"])]

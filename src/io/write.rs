@@ -84,7 +84,7 @@ fn leaf_lines<K: MortonKey, W: Write>(
         writeln!(
             buf,
             "{},{},{},{},{}",
-            leaf.cell.level, corner.x, corner.y, size, point
+            leaf.cell.level, corner.x, corner.y, size.x, point
         )
     })
 }

@@ -180,7 +180,11 @@ mod tests {
             .map(|q| q + 1.0)
             .filter(|q| q.x < 2.0 && q.y < 2.0)
             .collect();
-        let domain = Some((DVec2::ONE, DVec2::splat(2.0), None));
+        let domain = Some((
+            DVec2::ONE,
+            DVec2::splat(2.0),
+            crate::morton::DomainLayout::Root,
+        ));
         let m = morton_order_on(&p, domain, SortAlgorithm::default()).unwrap();
         let f = float_morton_order(&p).unwrap();
         assert_eq!(f.order, grid_order(&m).0);

@@ -22,15 +22,27 @@ pub use float_order::{FloatOrder, float_key, float_morton_order};
 pub use interleave::has_pdep;
 pub use key::MortonKey;
 pub(crate) use key::{NARROW_LEVEL, in_width};
-pub use quantize::{GUARD_LEVELS, Grid};
+pub use quantize::{CELL_ANISOTROPY, DomainCells, GUARD_LEVELS, Grid};
 pub use sort::{Pair, SortAlgorithm, SortPairs, equal_key_runs};
 
 use crate::error::Error;
 use crate::par::collect_indexed;
 
-/// A given domain's lower-left and upper-right corners, and optionally the level and column of
-/// the grid line its right side is to lie on.
-pub type DomainFrame = (DVec2, DVec2, Option<(u32, u64)>);
+/// A given domain's lower-left and upper-right corners, and how the grid lies on it.
+pub type DomainFrame = (DVec2, DVec2, DomainLayout);
+
+/// How a grid lies on a given domain.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DomainLayout {
+    /// The root shares the domain's lower-left corner and larger side ([`Grid::on_domain`]).
+    Root,
+    /// As `Root`, the root widened so that the right side is the grid line of the given
+    /// column at the given level ([`Grid::on_domain_columns`]).
+    Columns(u32, u64),
+    /// The domain cut into nearly square cells whose far sides are grid lines
+    /// ([`Grid::on_domain_cells`]).
+    Cells(DomainCells),
+}
 
 /// How many duplicate pairs a report keeps as examples.
 pub const DUPLICATE_EXAMPLES: usize = 8;
@@ -78,9 +90,8 @@ pub fn morton_order(points: &[DVec2], sort: SortAlgorithm) -> Result<Morton, Err
     morton_order_on(points, None, sort)
 }
 
-/// [`morton_order`] on the root of [`Grid::on_domain`] for `domain` (its lower-left and
-/// upper-right corners, holding every point, and optionally the level and column of the grid
-/// line its right side is to lie on, see [`Grid::on_domain_columns`]), or around the points
+/// [`morton_order`] on the grid `domain` gives (its lower-left and upper-right corners, holding
+/// every point, and how the grid lies on it, see [`DomainLayout`]), or around the points
 /// without one.
 ///
 /// # Errors
@@ -113,8 +124,13 @@ fn grid_of(
     axis_bits: u32,
 ) -> Result<Grid, Error> {
     match domain {
-        Some((lo, hi, None)) => Grid::on_domain(lo, hi, axis_bits),
-        Some((lo, hi, Some(columns))) => Grid::on_domain_columns(lo, hi, axis_bits, columns),
+        Some((lo, hi, DomainLayout::Root)) => Grid::on_domain(lo, hi, axis_bits),
+        Some((lo, hi, DomainLayout::Columns(level, columns))) => {
+            Grid::on_domain_columns(lo, hi, axis_bits, (level, columns))
+        }
+        Some((lo, hi, DomainLayout::Cells(cells))) => {
+            Grid::on_domain_cells(lo, hi, axis_bits, cells)
+        }
         None => Grid::around(lo, hi, axis_bits),
     }
 }

@@ -20,7 +20,9 @@ pub const GUARD_LEVELS: u32 = 4;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Grid {
     origin: DVec2,
-    side: f64,
+    /// The root's width and height: equal except on a rectangle cut into near-square cells
+    /// ([`Grid::on_domain_cells`]).
+    side: DVec2,
     axis_bits: u32,
     scale: f64,
     /// The last cell along each axis that can hold a point.
@@ -31,6 +33,60 @@ pub struct Grid {
     /// root's side where the domain's side is the root's, the row moved onto a shorter domain's
     /// top side once the mesh has chosen it.
     far_line: [Option<u128>; 2],
+    /// Points at or past these coordinates lie on the domain's far sides and take the last cell
+    /// whatever f64 rounds (infinite unless the domain's sides are grid lines inside the root).
+    far_cells: DVec2,
+}
+
+/// A rectangle cut into `columns` × `rows` cells of `level`, nearly square (see
+/// [`DomainCells::for_rectangle`]): its right and top sides are grid lines of that level.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DomainCells {
+    /// The level of the cells.
+    pub level: u32,
+    /// The rectangle's width in cells.
+    pub columns: u64,
+    /// The rectangle's height in cells.
+    pub rows: u64,
+}
+
+/// How far a cell's width over its height may be from 1: the compact warp's swept angles stay
+/// in its bounds up to this (`warp::tests::the_sweep_bounds_leaves_of_nearly_square_cells`;
+/// twice as far they do not).
+pub const CELL_ANISOTROPY: f64 = 1.0 / 64.0;
+
+impl DomainCells {
+    /// The fewest cells, each at most [`CELL_ANISOTROPY`] from square, that cut a rectangle of
+    /// `extent`: the first count along the shorter side whose rounded count along the longer
+    /// side gives cells that square. `None` when that needs more than `max_cells` along a side.
+    pub fn for_rectangle(extent: DVec2, max_cells: u64) -> Option<DomainCells> {
+        let (long, short) = (extent.max_element(), extent.min_element());
+        if !(short > 0.0 && long.is_finite()) {
+            return None;
+        }
+        let aspect = long / short;
+        let limit = max_cells.min(1 << 62);
+        (1..=limit).find_map(|few| {
+            let many = (few as f64 * aspect).round();
+            if many > limit as f64 {
+                return Some(None);
+            }
+            let many = many as u64;
+            let cell_aspect = aspect * few as f64 / many as f64;
+            ((cell_aspect - 1.0).abs() <= CELL_ANISOTROPY).then(|| {
+                let (columns, rows) = if extent.x >= extent.y {
+                    (many, few)
+                } else {
+                    (few, many)
+                };
+                Some(DomainCells {
+                    level: many.next_power_of_two().ilog2(),
+                    columns,
+                    rows,
+                })
+            })
+        })?
+    }
 }
 
 /// The least area of a root square: its smallest triangles, at the wide grid's finest leaves
@@ -111,7 +167,7 @@ impl Grid {
         if columns >= 1 << level || extent.y >= extent.x {
             return Ok(grid);
         }
-        grid.side = extent.x * (2.0f64).powi(level as i32) / columns as f64;
+        grid.side = DVec2::splat(extent.x * (2.0f64).powi(level as i32) / columns as f64);
         if !grid.side.is_finite() {
             return Err(Error::CoordinateRange {
                 lo: lo.into(),
@@ -126,6 +182,43 @@ impl Grid {
         Ok(grid)
     }
 
+    /// The grid on the rectangle `[lo, hi]` cut into `cells`: the root's lower-left corner is
+    /// `lo`, its width `2^level / columns` times the rectangle's and its height `2^level /
+    /// rows` times, so the rectangle's right and top sides are grid lines of `level` whose
+    /// vertices take the rectangle's coordinates exactly, and points on those sides fall in the
+    /// cells before them.
+    ///
+    /// # Errors
+    /// As [`Grid::on_domain`]; also when `cells` counts more than `2^level` along a side.
+    pub fn on_domain_cells(
+        lo: DVec2,
+        hi: DVec2,
+        axis_bits: u32,
+        cells: DomainCells,
+    ) -> Result<Grid, Error> {
+        let mut grid = Grid::on_domain(lo, hi, axis_bits)?;
+        let extent = hi - lo;
+        let range = || Error::CoordinateRange {
+            lo: lo.into(),
+            hi: hi.into(),
+        };
+        let fits = |n: u64| n >= 1 && cells.level < axis_bits && n <= 1 << cells.level;
+        if !(fits(cells.columns) && fits(cells.rows)) {
+            return Err(range());
+        }
+        let cells_of = |n: u64| n as f64 / (2.0f64).powi(cells.level as i32);
+        grid.side = extent / DVec2::new(cells_of(cells.columns), cells_of(cells.rows));
+        if !(grid.side.is_finite() && side_measurable(grid.side.min_element())) {
+            return Err(range());
+        }
+        let line = |n: u64| u128::from(n) << (axis_bits - cells.level);
+        grid.far_line = [Some(line(cells.columns)), Some(line(cells.rows))];
+        let before = |n: u64| u64::try_from((line(n) >> GUARD_LEVELS) - 1).unwrap_or(u64::MAX);
+        grid.max_cell = [before(cells.columns), before(cells.rows)];
+        grid.far_cells = hi;
+        Ok(grid)
+    }
+
     fn square(origin: DVec2, side: f64, axis_bits: u32) -> Grid {
         let precision = axis_bits - GUARD_LEVELS;
         // Dividing by the side first, then scaling by a power of two (exact), works for sides
@@ -134,19 +227,20 @@ impl Grid {
         let last = (1u64 << (precision - 1) << 1).wrapping_sub(1);
         Grid {
             origin,
-            side,
+            side: DVec2::splat(side),
             axis_bits,
             scale,
             max_cell: [last; 2],
             far: None,
             far_line: [None; 2],
+            far_cells: DVec2::INFINITY,
         }
     }
 
     /// The last cell before a domain side `extent` from the origin: a point on the side belongs
     /// to it even when the side is a grid line.
     fn last_cell(&self, extent: f64) -> u64 {
-        let far = extent / self.side * self.scale;
+        let far = extent / self.side.x * self.scale;
         (far.ceil() as u64).saturating_sub(1).min(self.max_cell[0])
     }
 
@@ -155,8 +249,33 @@ impl Grid {
     pub fn inner_top(&self) -> Option<f64> {
         let far = self.far?;
         let height = far.y - self.origin.y;
-        (height < self.side)
-            .then(|| height / self.side * self.scale * (2.0f64).powi(GUARD_LEVELS as i32))
+        if self.far_cells.y.is_finite() {
+            // A cells grid's top side is a grid line: exactly its row.
+            let line = self.far_line[1]?;
+            return (line < 1u128 << self.axis_bits).then_some(line as f64);
+        }
+        (height < self.side.y)
+            .then(|| height / self.side.y * self.scale * (2.0f64).powi(GUARD_LEVELS as i32))
+    }
+
+    /// Whether the domain's sides are grid lines cut into cells ([`Grid::on_domain_cells`]).
+    pub fn has_domain_cells(&self) -> bool {
+        self.far_cells.is_finite()
+    }
+
+    /// The domain's right and top sides as grid lines (finest units) where they lie inside the
+    /// root on a cells grid ([`Grid::on_domain_cells`]).
+    pub fn inner_lines(&self) -> [Option<u128>; 2] {
+        let full = 1u128 << self.axis_bits;
+        match self.has_domain_cells() {
+            true => self.far_line.map(|l| l.filter(|&l| l < full)),
+            false => [None; 2],
+        }
+    }
+
+    /// Whether the root's cells are not squares (a rectangle cut into cells nearly square).
+    pub fn is_anisotropic(&self) -> bool {
+        self.side.x != self.side.y
     }
 
     /// The grid line of a domain's right side when that lies inside the root (finest units).
@@ -201,8 +320,13 @@ impl Grid {
         self.origin
     }
 
-    /// Side of the root square, in input coordinates.
+    /// Side of the root square, in input coordinates: its width (see [`Grid::sides`]).
     pub fn side(&self) -> f64 {
+        self.side.x
+    }
+
+    /// The root's width and height, in input coordinates: equal but on a cells grid.
+    pub fn sides(&self) -> DVec2 {
         self.side
     }
 
@@ -210,9 +334,12 @@ impl Grid {
     #[inline(always)]
     pub fn quantize(&self, p: DVec2) -> (u64, u64) {
         let q = (p - self.origin) / self.side * self.scale;
-        // `as` saturates: negatives go to 0, and the clamp catches rounding past the top.
-        let x = (q.x as u64).min(self.max_cell[0]);
-        let y = (q.y as u64).min(self.max_cell[1]);
+        // `as` saturates: negatives go to 0, and the clamp catches rounding past the top; a
+        // point on a far side that is a grid line takes the last cell even when f64 rounds
+        // it short.
+        let last = |q: f64, at_far: bool, max: u64| if at_far { max } else { (q as u64).min(max) };
+        let x = last(q.x, p.x >= self.far_cells.x, self.max_cell[0]);
+        let y = last(q.y, p.y >= self.far_cells.y, self.max_cell[1]);
         (x << GUARD_LEVELS, y << GUARD_LEVELS)
     }
 
@@ -222,7 +349,7 @@ impl Grid {
     /// domain's right and top sides exactly its own coordinates.
     pub fn vertex(&self, gx: u128, gy: u128) -> DVec2 {
         let unit = self.side / (2.0f64).powi(self.axis_bits as i32);
-        let mut p = self.origin + DVec2::new(gx as f64 * unit, gy as f64 * unit);
+        let mut p = self.origin + DVec2::new(gx as f64, gy as f64) * unit;
         if let Some(far) = self.far {
             if self.far_line[0] == Some(gx) {
                 p.x = far.x;
@@ -236,7 +363,7 @@ impl Grid {
 
     /// Lower-left corner and side, in input coordinates, of the cell at grid corner `(gx, gy)`
     /// and `level`.
-    pub fn cell_rect(&self, gx: u64, gy: u64, level: u8) -> (DVec2, f64) {
+    pub fn cell_rect(&self, gx: u64, gy: u64, level: u8) -> (DVec2, DVec2) {
         let unit = self.side / (2.0f64).powi(self.axis_bits as i32);
         let corner = self.origin + DVec2::new(gx as f64, gy as f64) * unit;
         (corner, self.side / (2.0f64).powi(level as i32))

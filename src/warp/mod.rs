@@ -875,7 +875,12 @@ mod tests {
     /// from the moved corner on a `steps`×`steps` grid spanning `reach` each way (boundary lines
     /// included), for every corner and every set of midpoints on the sides away from it.
     fn sweep(steps: u32, reach: f64) -> (f64, f64) {
-        let ring = unit_ring();
+        sweep_stretched(steps, reach, DVec2::ONE)
+    }
+
+    /// [`sweep`] on a leaf stretched by `stretch` along each axis (offsets stretched with it).
+    fn sweep_stretched(steps: u32, reach: f64, stretch: DVec2) -> (f64, f64) {
+        let ring = unit_ring().map(|p| p * stretch);
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for moved in [0u8, 2, 4, 6] {
             let turn = moved / 2;
@@ -884,7 +889,7 @@ mod tests {
                 for i in 0..=steps {
                     for j in 0..=steps {
                         let step = |k: u32| reach * (2.0 * k as f64 / steps as f64 - 1.0);
-                        let x = ring[moved as usize] + DVec2::new(step(i), step(j));
+                        let x = ring[moved as usize] + DVec2::new(step(i), step(j)) * stretch;
                         let (_, q, _) = choose_warped(&ring, mask, moved, x)
                             .unwrap_or_else(|| panic!("corner {moved}, mask {mask}, at {x}"));
                         lo = lo.min(q.min);
@@ -915,6 +920,40 @@ mod tests {
             lo >= COMPACT_ANGLE_BOUNDS.0 && hi <= COMPACT_ANGLE_BOUNDS.1,
             "[{lo}, {hi}]"
         );
+    }
+
+    #[test]
+    fn the_sweep_bounds_leaves_of_nearly_square_cells() {
+        // A rectangle cut into cells up to CELL_ANISOTROPY from square: its leaves are that
+        // much wider than tall or taller than wide, and the mode's bounds still hold, key
+        // rounding included, around moved corners and in the plain templates.
+        let a = crate::morton::CELL_ANISOTROPY;
+        let (mut low, mut high) = (f64::INFINITY, f64::NEG_INFINITY);
+        for stretch in [
+            (1.0 + a, 1.0),
+            (1.0, 1.0 + a),
+            (1.0 - a, 1.0),
+            (1.0, 1.0 - a),
+        ] {
+            let stretch = DVec2::from(stretch);
+            let (lo, hi) = sweep_stretched(80, 0.5 + 1.0 / 1024.0, stretch);
+            (low, high) = (low.min(lo), high.max(hi));
+            for code in 0..templates::KINDS as u8 {
+                for tri in &template(code).triangles {
+                    let [a, b, c] = tri.map(|l| templates::unit_position(l) * stretch);
+                    for angle in crate::mesh::angles_deg(a, b, c) {
+                        (low, high) = (low.min(angle), high.max(angle));
+                    }
+                }
+            }
+        }
+        assert!(
+            low >= COMPACT_ANGLE_BOUNDS.0 && high <= COMPACT_ANGLE_BOUNDS.1,
+            "[{low}, {high}]"
+        );
+        // Twice as far from square, the warped leaves' bound fails: the figure is not slack.
+        let (lo, _) = sweep_stretched(80, 0.5 + 1.0 / 1024.0, DVec2::new(1.0 + 2.0 * a, 1.0));
+        assert!(lo < COMPACT_ANGLE_BOUNDS.0, "{lo}");
     }
 
     #[test]

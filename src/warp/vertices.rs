@@ -41,7 +41,9 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
             point_leaf: &tree.point_leaf,
             grid,
             resolved_level: level_spanning(grid, K::AXIS_BITS, RESOLVED_SPACINGS),
-            template_level: level_spanning(grid, K::AXIS_BITS, TEMPLATE_SPACINGS),
+            // Cells not quite square do not have the templates' angles.
+            template_level: level_spanning(grid, K::AXIS_BITS, TEMPLATE_SPACINGS)
+                .filter(|_| !grid.is_anisotropic()),
             inner_top_row: grid.inner_top_row(),
         }
     }
@@ -183,12 +185,12 @@ fn level_spanning(grid: &Grid, axis_bits: u32, spacings: f64) -> Option<u8> {
     let lo = grid.origin();
     let largest = lo
         .abs()
-        .max(lo + grid.side())
+        .max((lo + grid.sides()).abs())
         .max_element()
-        .abs()
         .max(f64::MIN_POSITIVE);
     let spacing = largest * f64::EPSILON;
-    let spans = |level: u32| grid.side() / (2.0f64).powi(level as i32 + 1) >= spacing * spacings;
+    let side = grid.sides().min_element();
+    let spans = |level: u32| side / (2.0f64).powi(level as i32 + 1) >= spacing * spacings;
     (0..=axis_bits)
         .take_while(|&level| spans(level))
         .last()

@@ -4,7 +4,7 @@
 use proptest::prelude::*;
 use quadmesh::generate::Distribution2d;
 use quadmesh::mesh::{AngleBounds, angles_deg};
-use quadmesh::warp::ANGLE_BOUNDS;
+use quadmesh::warp::{ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS};
 use quadmesh::{DVec2, Error, Mesh, MeshReport};
 
 pub mod graphs;
@@ -66,21 +66,38 @@ pub const WARP: AngleBounds = AngleBounds {
     max_deg: ANGLE_BOUNDS.1,
 };
 
+/// The compact warp's angle bounds.
+#[allow(dead_code)]
+pub const COMPACT: AngleBounds = AngleBounds {
+    min_deg: COMPACT_ANGLE_BOUNDS.0,
+    max_deg: COMPACT_ANGLE_BOUNDS.1,
+};
+
 /// Checks a warped mesh of `points` and its report: the mesh passes `Mesh::validate` with the
 /// warp's bounds, and the report's counts and angles are the mesh's.
 pub fn check_warped(points: &[DVec2], mesh: &Mesh, report: &MeshReport) {
-    if let Err(fault) = mesh.validate(points, WARP) {
+    check_warped_within(points, mesh, report, WARP);
+}
+
+/// [`check_warped`] with the angle bounds `bounds`.
+pub fn check_warped_within(
+    points: &[DVec2],
+    mesh: &Mesh,
+    report: &MeshReport,
+    bounds: AngleBounds,
+) {
+    if let Err(fault) = mesh.validate(points, bounds) {
         panic!("invalid mesh of {} points: {fault}", points.len());
     }
     assert_eq!(report.triangles, mesh.triangles.len());
     assert_eq!(report.vertices, mesh.vertices.len());
     assert!(
-        report.min_angle >= WARP.min_deg - 1e-9,
+        report.min_angle >= bounds.min_deg - 1e-9,
         "{}",
         report.min_angle
     );
     assert!(
-        report.max_angle <= WARP.max_deg + 1e-9,
+        report.max_angle <= bounds.max_deg + 1e-9,
         "{}",
         report.max_angle
     );
