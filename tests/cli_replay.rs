@@ -29,13 +29,18 @@ fn output(prefix: &Path, extension: &str) -> Vec<u8> {
 
 #[test]
 fn replayed_files_equal_those_of_a_mesh_of_the_live_points() {
-    // The compact warp (the default) and the block warp.
-    for warp in ["--warp", "--block-warp"] {
-        replayed_files_equal_a_mesh(warp);
+    // The compact warp (the default) and the block warp on a square, the compact warp on a
+    // rectangle.
+    for (warp, domain) in [
+        ("--warp", "0,0,1,1"),
+        ("--block-warp", "0,0,1,1"),
+        ("--warp", "0,0,1,1.3"),
+    ] {
+        replayed_files_equal_a_mesh(warp, domain);
     }
 }
 
-fn replayed_files_equal_a_mesh(warp: &str) {
+fn replayed_files_equal_a_mesh(warp: &str, domain: &str) {
     let dir = TempDir::new("replay");
     let (points, edits, live) = written_inputs(&dir);
     let (replayed, meshed) = (dir.file("replayed"), dir.file("meshed"));
@@ -46,7 +51,7 @@ fn replayed_files_equal_a_mesh(warp: &str) {
         "-o",
         s(&replayed),
         "--domain",
-        "0,0,1,1",
+        domain,
         "--json",
         "--verify",
         warp,
@@ -61,15 +66,7 @@ fn replayed_files_equal_a_mesh(warp: &str) {
         lines[0]
     );
     assert!(lines[5].contains("\"identical\":true"), "{}", lines[5]);
-    let out = quadmesh(&[
-        "mesh",
-        s(&live),
-        "-o",
-        s(&meshed),
-        warp,
-        "--domain",
-        "0,0,1,1",
-    ]);
+    let out = quadmesh(&["mesh", s(&live), "-o", s(&meshed), warp, "--domain", domain]);
     assert!(out.status.success(), "{}", stderr(&out));
     // The same edits in batches of two.
     let batched = dir.file("batched");
@@ -80,7 +77,7 @@ fn replayed_files_equal_a_mesh(warp: &str) {
         "-o",
         s(&batched),
         "--domain",
-        "0,0,1,1",
+        domain,
         "--batch",
         "2",
         "--json",
@@ -134,6 +131,8 @@ fn a_bad_edit_is_named_and_nothing_is_written() {
             "{text:?} wrote files"
         );
     }
+    // A rectangle that is not a square takes the compact warp only.
+    std::fs::write(&edits, EDITS).unwrap();
     let out = quadmesh(&[
         "replay",
         s(&points),
@@ -142,6 +141,7 @@ fn a_bad_edit_is_named_and_nothing_is_written() {
         "x",
         "--domain",
         "0,0,2,1",
+        "--block-warp",
     ]);
     assert!(!out.status.success());
     assert!(stderr(&out).contains("square"), "{}", stderr(&out));

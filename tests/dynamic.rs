@@ -96,6 +96,67 @@ fn point(rng: &mut Rng) -> DVec2 {
     }
 }
 
+/// The point of `domain` at `p` of the unit square: the unit square's sides on the domain's,
+/// exactly.
+fn onto(domain: Domain, p: DVec2) -> DVec2 {
+    let axis = |t: f64, lo: f64, hi: f64| match t {
+        1.0 => hi,
+        t => (lo + t * (hi - lo)).min(hi),
+    };
+    DVec2::new(
+        axis(p.x, domain.lo.x, domain.hi.x),
+        axis(p.y, domain.lo.y, domain.hi.y),
+    )
+}
+
+/// Rectangles that are not squares: wide, tall, with no small fraction near their ratio, and
+/// long strips.
+fn rectangles() -> [Domain; 4] {
+    let d = |lo: (f64, f64), hi: (f64, f64)| Domain {
+        lo: lo.into(),
+        hi: hi.into(),
+    };
+    [
+        d((0.0, 0.0), (2.0, 1.0)),
+        d((-0.1, -0.2), (1.05, 3.3)),
+        d((0.0, 0.0), (std::f64::consts::SQRT_2, 1.0)),
+        d((1.0, 2.0), (1.0 + 1e-3, 2.05)),
+    ]
+}
+
+#[test]
+fn on_rectangles_random_edits_give_the_rebuilt_mesh_after_every_step() {
+    for domain in rectangles() {
+        random_edits_on(domain, Separation::Corner, 1..=2, 80);
+    }
+}
+
+#[test]
+fn on_rectangles_tracked_changes_turn_the_old_mesh_into_the_new() {
+    for domain in rectangles() {
+        let mut rng = Rng::seed_from_u64(5);
+        let mut initial: Vec<DVec2> = (0..60).map(|_| onto(domain, point(&mut rng))).collect();
+        initial.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
+        initial.dedup();
+        let mut dynamic = DynamicMesh::new(&initial, domain).unwrap();
+        dynamic.track_changes(true);
+        let mut mesh = dynamic.mesh().unwrap();
+        for step in 0..60 {
+            let edit = match step % 3 {
+                0 => Edit::Insert(onto(domain, point(&mut rng))),
+                1 => Edit::Delete(some_id(&dynamic, &mut rng)),
+                _ => Edit::Move(some_id(&dynamic, &mut rng), onto(domain, point(&mut rng))),
+            };
+            if let Err((_, e)) = dynamic.apply(&[edit]) {
+                assert!(matches!(e, Error::DuplicatePoint { .. }), "{e}");
+            }
+            let what = format!("{domain:?} step {step}: {edit:?}");
+            mesh = check_changes(&mut dynamic, &mesh, &what).0;
+            assert!(mesh == rebuilt(&dynamic), "{what}: differs from a rebuild");
+        }
+    }
+}
+
 /// A random live id.
 fn some_id(dynamic: &DynamicMesh, rng: &mut Rng) -> u32 {
     let (ids, _) = dynamic.live_points();
@@ -123,19 +184,31 @@ fn random_edits_give_the_rebuilt_mesh_after_every_step() {
 }
 
 fn random_edits_give_the_rebuilt_mesh_after_every_step_with(separation: Separation) {
-    for seed in 1..=4u64 {
+    random_edits_on(unit(), separation, 1..=4, 120);
+}
+
+/// Random edits of points of `domain`'s families (see [`point`]), seed by seed, each checked
+/// against a rebuild after every step.
+fn random_edits_on(
+    domain: Domain,
+    separation: Separation,
+    seeds: std::ops::RangeInclusive<u64>,
+    steps: usize,
+) {
+    let mut place = |rng: &mut Rng| onto(domain, point(rng));
+    for seed in seeds {
         let mut rng = Rng::seed_from_u64(seed * 0x2545_F491_4F6C_DD1D);
-        let initial: Vec<DVec2> = (0..30).map(|_| point(&mut rng)).collect();
+        let initial: Vec<DVec2> = (0..30).map(|_| place(&mut rng)).collect();
         let mut initial = initial;
         initial.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
         initial.dedup();
-        let mut dynamic = DynamicMesh::with_separation(&initial, unit(), separation).unwrap();
+        let mut dynamic = DynamicMesh::with_separation(&initial, domain, separation).unwrap();
         check(&dynamic, "the initial build");
-        for step in 0..120 {
+        for step in 0..steps {
             let edit = match rng.random_range(0..if dynamic.len() > 1 { 3 } else { 1 }) {
-                0 => Edit::Insert(point(&mut rng)),
+                0 => Edit::Insert(place(&mut rng)),
                 1 => Edit::Delete(some_id(&dynamic, &mut rng)),
-                _ => Edit::Move(some_id(&dynamic, &mut rng), point(&mut rng)),
+                _ => Edit::Move(some_id(&dynamic, &mut rng), place(&mut rng)),
             };
             match dynamic.apply(&[edit]) {
                 Ok(_) => check(&dynamic, &format!("seed {seed} step {step}: {edit:?}")),
@@ -460,14 +533,23 @@ fn one_and_several_threads_give_the_same_mesh_with(separation: Separation) {
 }
 
 #[test]
-fn a_domain_that_is_not_square_is_refused() {
+fn a_block_tree_on_a_domain_that_is_not_square_is_refused() {
     let domain = Domain {
         lo: DVec2::ZERO,
         hi: DVec2::new(2.0, 1.0),
     };
     assert!(matches!(
-        DynamicMesh::new(&[DVec2::new(0.5, 0.5)], domain),
+        DynamicMesh::with_separation(&[DVec2::new(0.5, 0.5)], domain, Separation::Block),
         Err(Error::InvalidOption { .. })
+    ));
+    assert!(DynamicMesh::new(&[DVec2::new(0.5, 0.5)], domain).is_ok());
+    let needle = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::new(1e7, 1.0),
+    };
+    assert!(matches!(
+        DynamicMesh::new(&[DVec2::new(0.5, 0.5)], needle),
+        Err(Error::ThinDomain { .. })
     ));
     assert!(matches!(
         DynamicMesh::new(&[DVec2::new(0.5, 0.5), DVec2::new(0.5, 0.5)], unit()),

@@ -292,7 +292,28 @@ def test_bad_dynamic_edits_raise_and_change_nothing():
             edit()
         _same_mesh(dynamic.mesh(), before)
     with pytest.raises(quadmesh.QuadmeshError, match="square"):
-        quadmesh.DynamicMesh([[0.5, 0.5]], (0, 0, 2, 1))
+        quadmesh.DynamicMesh([[0.5, 0.5]], (0, 0, 2, 1), mode="block_warp")
+
+
+def test_a_dynamic_warp_of_a_rectangle_is_the_static_warp_of_its_live_points():
+    rng = np.random.default_rng(11)
+    domain = (0.0, 0.0, 2.0, 0.7)
+    start = rng.random((300, 2)) * [2.0, 0.7]
+    dynamic = quadmesh.DynamicMesh(start, domain)
+    dynamic.insert(2.0, 0.35)
+    dynamic.delete(3)
+    dynamic.move_to(5, 1.0, 0.0)
+    live = np.delete(np.vstack([start, [[2.0, 0.35]]]), 3, axis=0)
+    live[4] = [1.0, 0.0]
+    mesh = dynamic.mesh()
+    _same_mesh(mesh, quadmesh.DynamicMesh(live, domain).mesh())
+    # It covers the rectangle exactly, its corners among its vertices.
+    assert mesh.vertices.min(axis=0).tolist() == [0.0, 0.0]
+    assert mesh.vertices.max(axis=0).tolist() == [2.0, 0.7]
+    corners = mesh.vertices[mesh.triangles]
+    a, b, c = corners[:, 0], corners[:, 1], corners[:, 2]
+    cross = (b - a)[:, 0] * (c - a)[:, 1] - (b - a)[:, 1] * (c - a)[:, 0]
+    assert abs(cross.sum() / 2 - 2.0 * 0.7) < 1e-12
 
 
 def test_a_time_step_moves_every_point():

@@ -811,16 +811,12 @@ mod tests {
     /// What `separate_in` builds for these keys from scratch.
     fn static_tree<K: MortonKey>(
         keys: &[K],
-        on: &[u8],
+        sides: &DomainSides,
         separation: Separation,
     ) -> Option<BalancedTree<K>> {
         if keys.is_empty() {
             return None;
         }
-        let sides = DomainSides {
-            on: on.to_vec(),
-            ..DomainSides::default()
-        };
         let quadtree = expand(&build_framework(keys), keys);
         Some(
             separate_in(&quadtree, keys, Some(&sides), u8::MAX, separation)
@@ -830,7 +826,7 @@ mod tests {
     }
 
     fn check_against_static<K: MortonKey>(points: &SeparatedPoints<K>) {
-        let Some(expected) = static_tree(&points.keys, &points.sides.on, points.separation) else {
+        let Some(expected) = static_tree(&points.keys, &points.sides, points.separation) else {
             return;
         };
         let tree = points.tree();
@@ -946,6 +942,69 @@ mod tests {
     }
 
     const SEPARATIONS: [Separation; 2] = [Separation::Block, Separation::Corner];
+
+    #[test]
+    fn on_a_rectangle_cut_into_cells_random_edits_keep_the_static_tree() {
+        // 3 × 2 cells of level 2 and 2 × 7 of level 3: the right and top sides are grid lines
+        // inside the root, and the squares across them stay split through every edit.
+        for (hi, columns, rows, level) in [
+            (DVec2::new(1.5, 1.0), 3, 2, 2),
+            (DVec2::new(0.5, 1.75), 2, 7, 3),
+        ] {
+            let cells = crate::morton::DomainCells {
+                level,
+                columns,
+                rows,
+            };
+            let grid = Grid::on_domain_cells(DVec2::ZERO, hi, u64::AXIS_BITS, cells).unwrap();
+            let lines = grid.inner_lines();
+            assert!(lines.iter().all(Option::is_some));
+            let onto = |p: DVec2| {
+                let axis = |t: f64, h: f64| if t == 1.0 { h } else { (t * h).min(h) };
+                DVec2::new(axis(p.x, hi.x), axis(p.y, hi.y))
+            };
+            for seed in 1..=6u64 {
+                let mut rng = Rng::seed_from_u64(seed * 0x9E37_79B9_7F4A_7C15);
+                let mut points = SeparatedPoints::<u64>::within(
+                    Vec::new(),
+                    Vec::new(),
+                    Separation::Corner,
+                    lines,
+                );
+                let mut live: Vec<u64> = Vec::new();
+                for step in 0..300 {
+                    if !live.is_empty()
+                        && (rng.random_range(0..5) < 2 || (100..160).contains(&step))
+                    {
+                        let key = live.swap_remove(rng.random_range(0..live.len()));
+                        points.remove(key);
+                    } else {
+                        let p = onto(point(&mut rng));
+                        let key = key_of(&grid, p);
+                        if points.contains(key) {
+                            continue;
+                        }
+                        points.insert(key, sides_of(p, DVec2::ZERO, hi));
+                        live.push(key);
+                    }
+                    check_against_static(&points);
+                    let tree = points.tree();
+                    crate::balance::check_corner_separated_in(
+                        &tree.tree,
+                        &points.keys,
+                        Some(&points.sides),
+                    )
+                    .unwrap();
+                    if live.is_empty() {
+                        // No points: the squares across the sides alone.
+                        let mut alone = SplitSet::<u64>::new();
+                        alone.insert_closed(squares_across_lines::<u64>(lines));
+                        assert_eq!(points.set.preorder(), alone.preorder());
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn moves_within_a_leaf_keep_the_static_tree() {

@@ -1114,7 +1114,9 @@ pub fn check_corner_separated_in<K: MortonKey>(
             let lo = u128::from(at) << shift;
             line.is_some_and(|l| lo < l && l < lo + (1u128 << shift))
         };
-        if across(x, right) || across(y, top) {
+        // Only the leaves that reach into the domain matter.
+        let before = |at: u64, line: Option<u128>| line.is_none_or(|l| u128::from(at) << shift < l);
+        if (across(x, right) && before(y, top)) || (across(y, top) && before(x, right)) {
             let cell = leaf.cell;
             return Err(format!("{cell:?} lies across a side of the domain"));
         }

@@ -143,7 +143,7 @@ enum Command {
         #[command(flatten)]
         quality: QualityArgs,
     },
-    /// Build the warped mesh of a point file on a fixed square domain, apply a file of edits
+    /// Build the warped mesh of a point file on a fixed rectangle, apply a file of edits
     /// to it one by one, and write the final mesh: the same files `mesh --warp --domain` (or
     /// `--block-warp`, `--nonobtuse`) writes for the live points in id order. The input points
     /// have ids 0..n-1 in file order.
@@ -156,8 +156,9 @@ enum Command {
         /// Output prefix, as for `mesh`.
         #[arg(short, long, value_name = "PREFIX")]
         output: PathBuf,
-        /// The square domain `X0,Y0,X1,Y1`, holding every point at every step.
-        #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_square, allow_hyphen_values = true)]
+        /// The rectangle `X0,Y0,X1,Y1`, holding every point at every step (a square for
+        /// `--block-warp` and `--nonobtuse`).
+        #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_box, allow_hyphen_values = true)]
         domain: Domain,
         /// The compact warped mesh (the default; accepted for clarity).
         #[arg(long)]
@@ -291,12 +292,9 @@ fn parse_domain(text: &str) -> Result<Region, String> {
     }))
 }
 
-/// `x0,y0,x1,y1`, a square.
-fn parse_square(text: &str) -> Result<Domain, String> {
+/// `x0,y0,x1,y1`, a rectangle.
+fn parse_box(text: &str) -> Result<Domain, String> {
     let [x0, y0, x1, y1] = parse_rectangle(text)?;
-    if x1 - x0 != y1 - y0 {
-        return Err(format!("{text:?}: a square expected (x1 - x0 = y1 - y0)"));
-    }
     Ok(Domain {
         lo: DVec2::new(x0, y0),
         hi: DVec2::new(x1, y1),

@@ -400,14 +400,15 @@ impl<K: MortonKey> Keyed<K> {
         let tree = self.separated.part_within(split, before, &keys);
         let order: Vec<u32> = (0..places.len() as u32).collect();
         let corner_keys = self.corner_keys(&keys);
-        let mesh = mesh_tree(&tree, (&order, corner_keys), &self.grid, &places, nonobtuse)?;
+        let leaves = tree.tree.leaves.len();
+        let mesh = mesh_tree(tree, (&order, corner_keys), &self.grid, &places, nonobtuse)?;
         let mut triangles: Vec<TriangleBits> = mesh
             .triangles
             .iter()
             .map(|t| triangle_bits(t.map(|v| mesh.vertices[v as usize])))
             .collect();
         triangles.sort_unstable();
-        Ok((triangles, tree.tree.leaves.len()))
+        Ok((triangles, leaves))
     }
 }
 

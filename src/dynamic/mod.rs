@@ -1,6 +1,6 @@
 //! Warped meshes kept current under point insertions, deletions and moves.
 //!
-//! A [`DynamicMesh`] lives on a square domain fixed when it is made, so that the grid, and with
+//! A [`DynamicMesh`] lives on a rectangle fixed when it is made, so that the grid, and with
 //! it every point's Morton key, stays put while points come and go. Its well-separated quadtree
 //! is kept by [`SeparatedPoints`], which re-runs the static separation rules only on the points
 //! an edit can reach; after any sequence of edits the tree, and the mesh [`DynamicMesh::mesh`]
@@ -21,8 +21,8 @@ use glam::DVec2;
 use crate::balance::{SeparatedPoints, Separation, remove_positions, sides_of};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, StageTimes};
-use crate::morton::{Grid, MortonKey};
-use crate::warp::{finest_resolved_level, split, unresolvable, warp};
+use crate::morton::{DomainCells, Grid, MortonKey};
+use crate::warp::{finest_resolved_level, leaves_below, split, unresolvable, warp};
 
 /// One edit of a dynamic mesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -76,7 +76,7 @@ pub struct BatchReport {
     pub rebuilt: bool,
 }
 
-/// A warped quality mesh of points on a fixed square domain, kept current under edits.
+/// A warped quality mesh of points on a fixed rectangle, kept current under edits.
 #[derive(Clone)]
 pub struct DynamicMesh {
     domain: Domain,
@@ -106,11 +106,13 @@ struct Keyed<K: MortonKey> {
 }
 
 impl DynamicMesh {
-    /// The dynamic mesh of `points` on the square `domain`, which holds them all (on its sides
+    /// The dynamic mesh of `points` on the rectangle `domain`, which holds them all (on its sides
     /// too); the points get ids `0..points.len()`.
     ///
     /// # Errors
-    /// [`Error::InvalidOption`] for a domain that is not a square of positive area,
+    /// [`Error::InvalidOption`] for a domain that is not a rectangle of positive area (a square
+    /// for [`Separation::Block`]), [`Error::ThinDomain`] for one that needs more than 2^20 cells
+    /// along a side,
     /// [`Error::NonFinite`], [`Error::OutsideDomain`], [`Error::DuplicatePoint`] for a point
     /// given twice, and [`Error::Unresolvable`] for points too close together for the wide
     /// grid.
@@ -119,7 +121,7 @@ impl DynamicMesh {
     }
 
     /// [`Self::new`] with the tree separated by `separation`: [`Separation::Corner`] for the
-    /// compact warp (what [`crate::mesh()`] gives in [`crate::Mode::Warp`] on a square, every
+    /// compact warp (what [`crate::mesh()`] gives in [`crate::Mode::Warp`] on the rectangle, every
     /// angle in [`crate::warp::COMPACT_ANGLE_BOUNDS`]), [`Separation::Block`] for the block
     /// warp ([`crate::Mode::BlockWarp`], [`crate::warp::ANGLE_BOUNDS`]) and the nonobtuse
     /// split ([`Self::mesh_nonobtuse`]).
@@ -133,11 +135,11 @@ impl DynamicMesh {
     ) -> Result<Self, Error> {
         domain.check()?;
         let extent = domain.hi - domain.lo;
-        if extent.x != extent.y {
+        if extent.x != extent.y && separation == Separation::Block {
             return Err(Error::InvalidOption {
                 option: "domain",
                 message: format!(
-                    "a dynamic mesh needs a square domain, not {} x {}",
+                    "a dynamic block warp needs a square domain, not {} x {}",
                     extent.x, extent.y
                 ),
             });
@@ -730,9 +732,15 @@ impl Tracked {
 
 impl<K: MortonKey> Keyed<K> {
     fn empty(domain: &Domain, axis_bits: u32, separation: Separation) -> Result<Self, Error> {
+        let grid = grid_on(domain, axis_bits, separation)?;
         Ok(Keyed {
-            grid: Grid::on_domain(domain.lo, domain.hi, axis_bits)?,
-            separated: SeparatedPoints::new(Vec::new(), Vec::new(), separation),
+            grid,
+            separated: SeparatedPoints::within(
+                Vec::new(),
+                Vec::new(),
+                separation,
+                grid.inner_lines(),
+            ),
             ids: Vec::new(),
         })
     }
@@ -769,7 +777,7 @@ impl<K: MortonKey> Keyed<K> {
             .map(|&(_, id)| sides_of(points[id as usize], domain.lo, domain.hi))
             .collect();
         let (keys, ids) = pairs.into_iter().unzip();
-        keyed.separated = SeparatedPoints::new(keys, on, separation);
+        keyed.separated = SeparatedPoints::within(keys, on, separation, keyed.grid.inner_lines());
         keyed.ids = ids;
         Ok(keyed)
     }
@@ -873,7 +881,7 @@ impl<K: MortonKey> Keyed<K> {
         let tree = self.separated.tree();
         let order: Vec<u32> = self.ids.iter().map(|&id| rank[id as usize]).collect();
         let keys = self.corner_keys(self.separated.keys());
-        mesh_tree(&tree, (&order, keys), &self.grid, live_points, nonobtuse)
+        mesh_tree(tree, (&order, keys), &self.grid, live_points, nonobtuse)
     }
 
     /// `keys`, the points' keys in Morton order, where the tree is a corner tree: what the
@@ -893,20 +901,50 @@ fn finest_resolved<K: MortonKey>(separation: Separation) -> u32 {
 /// order: the nonobtuse split of a block tree, or the warp of the tree's rule, compact given
 /// the points' keys `corner_keys` (a [`Separation::Corner`] tree).
 fn mesh_tree<K: MortonKey>(
-    tree: &crate::balance::BalancedTree<K>,
+    mut tree: crate::balance::BalancedTree<K>,
     (order, corner_keys): (&[u32], Option<&[K]>),
     grid: &Grid,
     points: &[DVec2],
     nonobtuse: bool,
 ) -> Result<Mesh, Error> {
     let mut times = StageTimes::default();
+    // The leaves beyond a rectangle's sides inside the root go, as in the static build.
+    if let [right, top] = grid.inner_lines()
+        && (right.is_some() || top.is_some())
+    {
+        tree = leaves_below(tree, top.unwrap_or(u128::MAX), right).map_err(|p| {
+            let index = order[p];
+            unresolvable(points[index as usize], index)
+        })?;
+    }
     let meshed = if nonobtuse {
-        split(tree, order, grid, points, &mut times)
+        split(&tree, order, grid, points, &mut times)
     } else {
-        warp(tree, (order, corner_keys), grid, points, &mut times)
+        warp(&tree, (order, corner_keys), grid, points, &mut times)
     };
     meshed.map(|(mesh, _)| mesh)
 }
+
+/// The grid a dynamic mesh keeps on `domain`: the static warp's, cut into nearly square cells
+/// for a corner tree (any rectangle), on the square for a block tree.
+fn grid_on(domain: &Domain, axis_bits: u32, separation: Separation) -> Result<Grid, Error> {
+    match separation {
+        Separation::Block => Grid::on_domain(domain.lo, domain.hi, axis_bits),
+        Separation::Corner => {
+            let extent = domain.hi - domain.lo;
+            let cells =
+                DomainCells::for_rectangle(extent, MAX_CELLS_ALONG).ok_or(Error::ThinDomain {
+                    width: extent.x,
+                    height: extent.y,
+                })?;
+            Grid::on_domain_cells(domain.lo, domain.hi, axis_bits, cells)
+        }
+    }
+}
+
+/// The most cells along a side of a dynamic mesh's rectangle: what the static warp allows
+/// whatever the number of points.
+const MAX_CELLS_ALONG: u64 = 1 << 20;
 
 /// `old` with `new` put in at the sorted `positions` of the merged list.
 fn merged(old: &[u32], positions: &[usize], new: impl Iterator<Item = u32>) -> Vec<u32> {

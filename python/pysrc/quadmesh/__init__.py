@@ -202,10 +202,11 @@ class _Dynamic:
 
 
 class DynamicMesh(_Dynamic):
-    """A warped quadtree mesh of points on a fixed square ``domain`` (x0, y0, x1, y1), kept
+    """A warped quadtree mesh of points on a fixed rectangle ``domain`` (x0, y0, x1, y1), kept
     current while points are inserted, deleted and moved: the compact warp (``mode="warp"``,
     every angle in [26°, 120°]) or the block warp (``mode="block_warp"``, [22.5°, 112.5°],
-    about three times the triangles, and the only one that also gives the nonobtuse mesh),
+    about three times the triangles, on a square only, and the only one that also gives the
+    nonobtuse mesh),
     as ``mesh(..., mode=...)`` gives them on that domain.
 
     The initial points have ids ``0 .. n-1``; each insertion takes the next id, and a deleted
