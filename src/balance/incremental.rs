@@ -819,7 +819,7 @@ mod tests {
         }
         let quadtree = expand(&build_framework(keys), keys);
         Some(
-            separate_in(&quadtree, keys, Some(&sides), u8::MAX, separation)
+            separate_in(&quadtree, keys, Some(sides), u8::MAX, separation)
                 .unwrap()
                 .0,
         )
