@@ -195,7 +195,7 @@ fn random_edits_on(
     seeds: std::ops::RangeInclusive<u64>,
     steps: usize,
 ) {
-    let mut place = |rng: &mut Rng| onto(domain, point(rng));
+    let place = |rng: &mut Rng| onto(domain, point(rng));
     for seed in seeds {
         let mut rng = Rng::seed_from_u64(seed * 0x2545_F491_4F6C_DD1D);
         let initial: Vec<DVec2> = (0..30).map(|_| place(&mut rng)).collect();
