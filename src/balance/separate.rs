@@ -1013,7 +1013,7 @@ fn crowded_by_points<K: MortonKey>(rules: &Rules, keys: &[K], i: usize, level: u
 }
 
 /// `v.partition_point(pred)` by galloping from index `i`: O(log d) for an answer d away.
-fn partition_from<T>(v: &[T], i: usize, pred: impl Fn(&T) -> bool) -> usize {
+pub(super) fn partition_from<T>(v: &[T], i: usize, pred: impl Fn(&T) -> bool) -> usize {
     let mut step = 1;
     if v.get(i).is_some_and(&pred) {
         // The answer lies right of `i`; `pred` holds below `lo`.
