@@ -1,5 +1,6 @@
 //! Any bytes as initial points and a sequence of edits of a dynamic warped mesh on the unit
-//! square, compact or block-warped as the first byte's top bit says: after every edit the mesh equals a build from scratch of the live points, the
+//! square (or, compact, a 1 × 1.41 rectangle), compact or block-warped as the first byte's top
+//! bit says: after every edit the mesh equals a build from scratch of the live points, the
 //! triangles the tracked changes report turn the mesh before into the mesh after, and a refused
 //! edit leaves it as it was.
 #![no_main]
@@ -45,15 +46,22 @@ fuzz_target!(|data: &[u8]| {
     } else {
         Separation::Block
     };
+    let rectangle = count & 0x40 != 0;
     let count = (count % 16) as usize;
     if rest.len() < 4 * count {
         return;
     }
     let (head, tail) = rest.split_at(4 * count);
     let initial: Vec<DVec2> = head.chunks_exact(4).map(point).collect();
+    // The corner tree may also keep a rectangle cut into nearly square cells (5 × 7 of them).
+    let top = if rectangle && separation == Separation::Corner {
+        1.41
+    } else {
+        1.0
+    };
     let domain = Domain {
         lo: DVec2::ZERO,
-        hi: DVec2::ONE,
+        hi: DVec2::new(1.0, top),
     };
     let Ok(mut dynamic) = DynamicMesh::with_separation(&initial, domain, separation) else {
         return;

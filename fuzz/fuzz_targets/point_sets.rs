@@ -3,8 +3,8 @@
 //! Delaunay check too) or a typed error. On the square, the Delaunay mode is also refined by
 //! `refine_points_in_order`, whose mesh must pass the same checks and have the same triangles
 //! for the points in reverse order. The quadtree modes may also mesh the square whose lower
-//! left corner is the points' least coordinates, as wide as their larger extent: points lie on
-//! its sides and corners.
+//! left corner is the points' least coordinates, as wide as their larger extent, or the points'
+//! bounding box: points lie on their sides and corners.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -86,7 +86,10 @@ fuzz_target!(|data: &[u8]| {
         Options::default().nonobtuse()
     };
     if choice & 1 != 0 && choice & 0x10 != 0 {
-        if let Some(square) = square_on_the_points(&points) {
+        if choice & 0x08 != 0 {
+            // The bounding box: a rectangle cut into nearly square cells in the warp.
+            options = options.region(Region::BoundingBox);
+        } else if let Some(square) = square_on_the_points(&points) {
             options = options.region(Region::Rectangle(square));
         }
     } else if choice & 0x40 != 0 {
