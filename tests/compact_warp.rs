@@ -323,3 +323,30 @@ fn points_whose_leaves_are_the_narrow_grids_finest_move_to_the_wide_grid() {
     let (_, report) = compact(&pts);
     assert!(report.min_angle >= 26.5 - 1e-6, "{}", report.min_angle);
 }
+
+/// A fuzzing finding: a point exactly at the centre of its leaf, whose leaf has midpoints on
+/// its sides away from the moved corner. The numbering gave the leaf the centre a plain leaf
+/// with those midpoints takes, the warped template used none, and that vertex, in no triangle,
+/// sat on the point. Every vertex must now be in a triangle (`validate` checks it).
+#[test]
+fn a_point_at_its_leafs_centre_leaves_no_vertex_out_of_every_triangle() {
+    let points = [
+        DVec2::new(1e-9, 0.187_500_001),
+        DVec2::new(0.1875, 0.1875),
+        DVec2::new(0.25, 0.003_906_251),
+        DVec2::new(0.0, 0.125_244_140_625),
+        DVec2::new(0.232_177_734_375, 1e-9),
+        DVec2::new(0.003_906_25, 0.001_220_703_125),
+    ];
+    let unit = Domain {
+        lo: DVec2::ZERO,
+        hi: DVec2::ONE,
+    };
+    let (mesh, _) = compact_on(&points, unit);
+    let at_the_point = mesh
+        .vertices
+        .iter()
+        .filter(|&&v| v == DVec2::new(0.1875, 0.1875))
+        .count();
+    assert_eq!(at_the_point, 1);
+}

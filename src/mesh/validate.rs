@@ -31,7 +31,7 @@ pub(super) const AREA_REL_TOL: f64 = 1e-9;
 /// Checks `mesh` against the input `points` it was made from; returns the first fault found.
 ///
 /// In order: sizes and indices, strict counter-clockwise orientation (exact), distinct vertices,
-/// edge manifold and neighbours, boundary edges against `mesh.boundary` and the domain's sides,
+/// every vertex in a triangle, edge manifold and neighbours, boundary edges against `mesh.boundary` and the domain's sides,
 /// total area against the domain's, conformity to `points`, and the angle bounds.
 ///
 /// # Errors
@@ -42,6 +42,7 @@ pub fn validate(mesh: &Mesh, points: &[DVec2], bounds: AngleBounds) -> Result<()
     check_orientation(mesh).map_err(fault(Orientation))?;
     let by_position = sorted_by_position(&mesh.vertices);
     check_distinct(&by_position).map_err(fault(DistinctVertices))?;
+    check_every_vertex_used(mesh).map_err(fault(Sizes))?;
     let single = check_edges(mesh).map_err(fault(Edges))?;
     check_boundary(mesh, &single).map_err(fault(Boundary))?;
     drop(single);
@@ -121,11 +122,30 @@ pub fn obtuse_beyond(angle: f64, allowance: f64) -> bool {
     angle > 90.0 + ANGLE_SLACK_DEG + allowance
 }
 
+/// Every vertex is a corner of some triangle: a vertex in none would be a node without an
+/// element for the mesh's users. (Run after the index checks.)
+fn check_every_vertex_used(mesh: &Mesh) -> Result<(), String> {
+    let mut used = vec![false; mesh.vertices.len()];
+    for t in &mesh.triangles {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    match used.iter().position(|&u| !u) {
+        Some(v) => Err(format!(
+            "vertex {v} at {} is in no triangle",
+            pt(mesh.vertices[v])
+        )),
+        None => Ok(()),
+    }
+}
+
 /// The checks [`validate`] and [`super::check_delaunay`] make, in order.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum MeshCheck {
-    /// Array sizes, index ranges, finite coordinates, the domain a rectangle.
+    /// Array sizes, index ranges, finite coordinates, the domain a rectangle, every vertex in a
+    /// triangle.
     Sizes,
     /// Every triangle strictly counter-clockwise (exact).
     Orientation,
@@ -1181,6 +1201,19 @@ mod tests {
         moved.vertex_input.swap(1, 2);
         let err = validate(&moved, &points, LOOSE).unwrap_err();
         assert_eq!(err.check, MeshCheck::Conformity, "{err}");
+    }
+
+    #[test]
+    fn vertex_in_no_triangle() {
+        let (mut mesh, points) = square();
+        mesh.vertices.push(DVec2::new(0.25, 0.5));
+        mesh.vertex_input.push(NONE);
+        fails(
+            &mesh,
+            &points,
+            LOOSE,
+            &["vertex 4", "(0.25, 0.5)", "no triangle"],
+        );
     }
 
     #[test]

@@ -81,9 +81,8 @@ pub fn warp<K: MortonKey>(
                 None => None,
             };
             let centred = |leaf: usize| {
-                compact
-                    .as_ref()
-                    .is_some_and(|c| c.kinds[leaf] != 0 && uses_centre(c.kinds[leaf] & !MOVED))
+                let kind = compact.as_ref().map_or(0, |c| c.kinds[leaf]);
+                (kind != 0).then(|| uses_centre(kind & !MOVED))
             };
             let numbering = Numbering::new(&geometry, centred)?;
             let (mut vertices, mut vertex_input) = numbering.vertices(&geometry);

@@ -246,7 +246,7 @@ pub fn split<K: MortonKey>(
     let geometry = resolved_geometry(tree, (order, false), grid, points)?;
     let point_at = |p: usize| points[order[p] as usize];
     let (numbering, vertices, vertex_input, splits) = times.time("split vertices", || {
-        let numbering = Numbering::new(&geometry, |_| false)?;
+        let numbering = Numbering::new(&geometry, |_| None)?;
         let (mut vertices, mut vertex_input) = numbering.vertices(&geometry);
         let places: Vec<Place> = (0..order.len())
             .into_par_iter()

@@ -215,15 +215,23 @@ pub struct Numbering {
 }
 
 impl Numbering {
-    /// The numbering of the leaves' vertices; a leaf `centred` says owns its centre whatever
-    /// its midpoints (a compact-warp leaf whose template uses one).
+    /// The numbering of the leaves' vertices; where `centred` answers for a leaf (a
+    /// compact-warp leaf: whether its template uses a centre), it owns its centre or not
+    /// whatever its midpoints, so that no vertex is left out of every triangle.
     pub fn new<K: MortonKey>(
         geometry: &LeafGeometry<K>,
-        centred: impl Fn(usize) -> bool + Sync,
+        centred: impl Fn(usize) -> Option<bool> + Sync,
     ) -> Result<Numbering, Error> {
         let owns: Vec<u8> = (0..geometry.leaves())
             .into_par_iter()
-            .map(|leaf| owned(geometry, leaf) | if centred(leaf) { own::CENTRE } else { 0 })
+            .map(|leaf| {
+                let owns = owned(geometry, leaf);
+                match centred(leaf) {
+                    Some(true) => owns | own::CENTRE,
+                    Some(false) => owns & !own::CENTRE,
+                    None => owns,
+                }
+            })
             .collect();
         let first = leaf_offsets(
             owns.len(),
