@@ -275,11 +275,6 @@ impl Options {
         self.sort
     }
 
-    /// Whether these options make the compact warp: the warp mode, on any region.
-    pub(crate) fn compact_warp(&self) -> bool {
-        self.mode == Mode::Warp
-    }
-
     /// The angles every mesh of these options has, outside input angles smaller than the bound
     /// (the corners of a convex hull): at least the bound and at most 180° minus twice it in the
     /// Delaunay mode, [26°, 120°] in the warp mode, [22.5°, 112.5°] in the block warp mode, at

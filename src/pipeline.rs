@@ -23,7 +23,7 @@ use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, ref
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{
-    EdgePieces, GraphLeaves, edge_pieces, finest_resolved_level, leaves_below,
+    EdgePieces, GraphLeaves, edge_pieces, finest_resolved_level, leaves_in_domain,
     point_finer_than_grid, split, triangulate_graph, unresolvable, warp,
 };
 
@@ -231,12 +231,7 @@ pub fn separated_tree(
 /// The cells the compact warp cuts a given domain into: [`Error::ThinDomain`] when they would be
 /// more along a side than [`band_level_limit`] allows leaves along a band.
 fn domain_cells(points: usize, domain: Domain) -> Result<DomainCells, Error> {
-    let extent = domain.hi - domain.lo;
-    let limit = 1u64 << band_level_limit::<u64>(points);
-    DomainCells::for_rectangle(extent, limit).ok_or(Error::ThinDomain {
-        width: extent.x,
-        height: extent.y,
-    })
+    DomainCells::for_domain(domain.hi - domain.lo, 1 << band_level_limit::<u64>(points))
 }
 
 /// [`separated_tree`] on the grid `layout` lays on the options' domain (if any); `None` when the
@@ -417,28 +412,19 @@ fn warp_build<K: MortonKey>(
     // links and point location only, so its internal squares go too, before the mesh's arrays
     // are made.
     let TreeBuild {
-        morton,
-        balanced,
-        band,
-        ..
+        morton, balanced, ..
     } = build;
     let mut tree = balanced.expect("a separated tree");
     tree.tree.internal = Vec::new();
     // The leaves beyond a domain's sides inside the root go: above a band's row, or beyond a
     // cells grid's lines.
-    let [right, top] = morton.grid.inner_lines();
-    let cut = match band {
-        Some(band) => Some((band.top_row, morton.grid.inner_right())),
-        None => (right.is_some() || top.is_some()).then(|| (top.unwrap_or(u128::MAX), right)),
+    let cut = morton.grid.inner_lines().iter().any(Option::is_some);
+    let tree = match cut {
+        true => times.time("warp band", || {
+            leaves_in_domain(tree, &morton.grid, (&morton.order, points))
+        })?,
+        false => tree,
     };
-    if let Some((row, right)) = cut {
-        tree = times
-            .time("warp band", || leaves_below(tree, row, right))
-            .map_err(|p| {
-                let index = morton.order[p];
-                unresolvable(points[index as usize], index)
-            })?;
-    }
     let (mesh, quality) = if let Some(separation) = separation {
         let keys = (separation == Separation::Corner).then_some(&morton.keys[..]);
         warp(&tree, (&morton.order, keys), &morton.grid, points, times)?
@@ -489,7 +475,7 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
                 sort: options.sort_algorithm(),
                 domain: rectangle,
                 nonobtuse: options.mode() == Mode::Nonobtuse,
-                separation: if options.compact_warp() {
+                separation: if options.mode() == Mode::Warp {
                     Separation::Corner
                 } else {
                     Separation::Block

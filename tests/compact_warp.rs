@@ -139,6 +139,24 @@ fn touching(domain: Domain, n: usize, seed: u64) -> Vec<DVec2> {
     pts
 }
 
+/// The compact warp of [`touching`]'s points on `domain`, checked by [`compact_on`], with
+/// fewer than half the block warp's triangles; its report.
+fn touching_meshed(domain: Domain, n: usize, seed: u64) -> MeshReport {
+    let pts = touching(domain, n, seed);
+    let (m, report) = compact_on(&pts, domain);
+    let block = Options::default()
+        .block_warp()
+        .region(Region::Rectangle(domain));
+    let (b, _) = mesh(&Input::points(pts), &block).unwrap();
+    assert!(
+        m.triangles.len() * 2 < b.triangles.len(),
+        "{domain:?}: {} compact, {} block",
+        m.triangles.len(),
+        b.triangles.len()
+    );
+    report
+}
+
 #[test]
 fn on_a_given_square_points_on_its_sides_and_corners_move_corners_along_them() {
     let squares = [
@@ -153,18 +171,7 @@ fn on_a_given_square_points_on_its_sides_and_corners_move_corners_along_them() {
     ];
     for domain in squares {
         for (n, seed) in [(0, 1), (40, 2), (3000, 3)] {
-            let pts = touching(domain, n, seed);
-            let (m, report) = compact_on(&pts, domain);
-            let block = Options::default()
-                .block_warp()
-                .region(Region::Rectangle(domain));
-            let (b, _) = mesh(&Input::points(pts.clone()), &block).unwrap();
-            assert!(
-                m.triangles.len() * 2 < b.triangles.len(),
-                "{} compact, {} block",
-                m.triangles.len(),
-                b.triangles.len()
-            );
+            let report = touching_meshed(domain, n, seed);
             assert!(report.min_angle >= 26.5 - 1e-6, "{}", report.min_angle);
             assert!(report.max_angle <= 118.1, "{}", report.max_angle);
         }
@@ -191,18 +198,7 @@ fn on_a_given_rectangle_the_cells_are_nearly_square_and_the_bounds_hold() {
     for (lo, hi) in rectangles {
         let domain = Domain { lo, hi };
         for (n, seed) in [(0, 1), (40, 2), (3000, 3)] {
-            let pts = touching(domain, n, seed);
-            let (m, report) = compact_on(&pts, domain);
-            let block = Options::default()
-                .block_warp()
-                .region(Region::Rectangle(domain));
-            let (b, _) = mesh(&Input::points(pts.clone()), &block).unwrap();
-            assert!(
-                m.triangles.len() * 2 < b.triangles.len(),
-                "{domain:?}: {} compact, {} block",
-                m.triangles.len(),
-                b.triangles.len()
-            );
+            let report = touching_meshed(domain, n, seed);
             assert!(report.min_angle >= COMPACT.min_deg, "{}", report.min_angle);
             assert!(report.max_angle <= COMPACT.max_deg, "{}", report.max_angle);
         }

@@ -28,7 +28,7 @@ use rayon::prelude::*;
 
 use super::separate::{
     DomainSides, Move, Rules, around, chebyshev, clear_of_points, corner_block_parents, descend,
-    partition_from, settle_against, settle_all, squares_across_lines, walk,
+    lies_across, partition_from, settle_against, settle_all, squares_across_lines, walk,
 };
 use super::split_set::{SplitSet, Squares, at_position, grid_position, last_position};
 use super::{BalancedTree, Separation, forced_by, linked_tree, separate_in};
@@ -778,18 +778,6 @@ impl GridRect {
         let side = 1u128 << (K::AXIS_BITS - u32::from(cell.level));
         x < self.x1 && self.x0 < x + side && y < self.y1 && self.y0 < y + side
     }
-}
-
-/// Whether `square` lies across one of the domain sides `lines` (right, top; grid lines in
-/// finest units) and starts before the other: one of [`squares_across_lines`] or an ancestor.
-fn lies_across<K: MortonKey>(square: Cell<K>, lines: [Option<u128>; 2]) -> bool {
-    let (x, y) = { square.anchor }.decode();
-    let (x, y) = (u128::from(x), u128::from(y));
-    let side = 1u128 << (K::AXIS_BITS - u32::from(square.level));
-    let full = 1u128 << K::AXIS_BITS;
-    let [right, top] = lines;
-    let across = |at: u128, line: Option<u128>| line.is_some_and(|l| at < l && l < at + side);
-    (across(x, right) && y < top.unwrap_or(full)) || (across(y, top) && x < right.unwrap_or(full))
 }
 
 /// Takes the entries at the sorted, distinct `positions` out of `v`, moving each run between

@@ -257,6 +257,19 @@ pub(super) fn squares_across_lines<K: MortonKey>(lines: [Option<u128>; 2]) -> Ve
     squares
 }
 
+/// Whether `square` lies across one of the domain sides `lines` (right, top; grid lines in
+/// finest units) and starts before the other, so reaches into the domain: one of
+/// [`squares_across_lines`] or an ancestor.
+pub(super) fn lies_across<K: MortonKey>(square: Cell<K>, lines: [Option<u128>; 2]) -> bool {
+    let (x, y) = { square.anchor }.decode();
+    let (x, y) = (u128::from(x), u128::from(y));
+    let side = 1u128 << (K::AXIS_BITS - u32::from(square.level));
+    let full = 1u128 << K::AXIS_BITS;
+    let [right, top] = lines;
+    let across = |at: u128, line: Option<u128>| line.is_some_and(|l| at < l && l < at + side);
+    (across(x, right) && y < top.unwrap_or(full)) || (across(y, top) && x < right.unwrap_or(full))
+}
+
 /// Whether a split square of level `finest` or finer crosses the top side left of the right
 /// side's line, so that leaves finer than `finest` meet the side in the domain.
 fn crossed_finer_than<K: MortonKey>(
@@ -1106,20 +1119,13 @@ pub fn check_corner_separated_in<K: MortonKey>(
 ) -> Result<(), String> {
     use std::collections::HashMap;
     let rules = Rules::new(sides);
-    let [right, top] = rules.lines();
-    for leaf in &tree.leaves {
-        let (x, y) = grid_position(leaf.cell);
-        let shift = K::AXIS_BITS - leaf.cell.level as u32;
-        let across = |at: u64, line: Option<u128>| {
-            let lo = u128::from(at) << shift;
-            line.is_some_and(|l| lo < l && l < lo + (1u128 << shift))
-        };
-        // Only the leaves that reach into the domain matter.
-        let before = |at: u64, line: Option<u128>| line.is_none_or(|l| u128::from(at) << shift < l);
-        if (across(x, right) && before(y, top)) || (across(y, top) && before(x, right)) {
-            let cell = leaf.cell;
-            return Err(format!("{cell:?} lies across a side of the domain"));
-        }
+    if let Some(leaf) = tree
+        .leaves
+        .iter()
+        .find(|l| lies_across(l.cell, rules.lines()))
+    {
+        let cell = leaf.cell;
+        return Err(format!("{cell:?} lies across a side of the domain"));
     }
     let leaf_point: HashMap<Cell<K>, u32> = tree.leaves.iter().map(|l| (l.cell, l.point)).collect();
     let mut claimed: HashMap<Cell<K>, u32> = HashMap::new();

@@ -22,7 +22,7 @@ use crate::balance::{SeparatedPoints, Separation, remove_positions, sides_of};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, StageTimes};
 use crate::morton::{DomainCells, Grid, MortonKey};
-use crate::warp::{finest_resolved_level, leaves_below, split, unresolvable, warp};
+use crate::warp::{finest_resolved_level, leaves_in_domain, split, unresolvable, warp};
 
 /// One edit of a dynamic mesh.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -901,7 +901,7 @@ fn finest_resolved<K: MortonKey>(separation: Separation) -> u32 {
 /// order: the nonobtuse split of a block tree, or the warp of the tree's rule, compact given
 /// the points' keys `corner_keys` (a [`Separation::Corner`] tree).
 fn mesh_tree<K: MortonKey>(
-    mut tree: crate::balance::BalancedTree<K>,
+    tree: crate::balance::BalancedTree<K>,
     (order, corner_keys): (&[u32], Option<&[K]>),
     grid: &Grid,
     points: &[DVec2],
@@ -909,14 +909,7 @@ fn mesh_tree<K: MortonKey>(
 ) -> Result<Mesh, Error> {
     let mut times = StageTimes::default();
     // The leaves beyond a rectangle's sides inside the root go, as in the static build.
-    if let [right, top] = grid.inner_lines()
-        && (right.is_some() || top.is_some())
-    {
-        tree = leaves_below(tree, top.unwrap_or(u128::MAX), right).map_err(|p| {
-            let index = order[p];
-            unresolvable(points[index as usize], index)
-        })?;
-    }
+    let tree = leaves_in_domain(tree, grid, (order, points))?;
     let meshed = if nonobtuse {
         split(&tree, order, grid, points, &mut times)
     } else {
@@ -931,12 +924,7 @@ fn grid_on(domain: &Domain, axis_bits: u32, separation: Separation) -> Result<Gr
     match separation {
         Separation::Block => Grid::on_domain(domain.lo, domain.hi, axis_bits),
         Separation::Corner => {
-            let extent = domain.hi - domain.lo;
-            let cells =
-                DomainCells::for_rectangle(extent, MAX_CELLS_ALONG).ok_or(Error::ThinDomain {
-                    width: extent.x,
-                    height: extent.y,
-                })?;
+            let cells = DomainCells::for_domain(domain.hi - domain.lo, MAX_CELLS_ALONG)?;
             Grid::on_domain_cells(domain.lo, domain.hi, axis_bits, cells)
         }
     }

@@ -87,6 +87,18 @@ impl DomainCells {
             })
         })?
     }
+
+    /// [`DomainCells::for_rectangle`], or [`Error::ThinDomain`] where it gives none.
+    ///
+    /// # Errors
+    /// [`Error::ThinDomain`] for a rectangle that needs more than `max_cells` along a side (or
+    /// has no area).
+    pub fn for_domain(extent: DVec2, max_cells: u64) -> Result<DomainCells, Error> {
+        Self::for_rectangle(extent, max_cells).ok_or(Error::ThinDomain {
+            width: extent.x,
+            height: extent.y,
+        })
+    }
 }
 
 /// The least area of a root square: its smallest triangles, at the wide grid's finest leaves
@@ -249,7 +261,7 @@ impl Grid {
     pub fn inner_top(&self) -> Option<f64> {
         let far = self.far?;
         let height = far.y - self.origin.y;
-        if self.far_cells.y.is_finite() {
+        if self.has_domain_cells() {
             // A cells grid's top side is a grid line: exactly its row.
             let line = self.far_line[1]?;
             return (line < 1u128 << self.axis_bits).then_some(line as f64);
@@ -263,14 +275,12 @@ impl Grid {
         self.far_cells.is_finite()
     }
 
-    /// The domain's right and top sides as grid lines (finest units) where they lie inside the
-    /// root on a cells grid ([`Grid::on_domain_cells`]).
+    /// The grid lines (finest units) whose vertices take the domain's right and top
+    /// coordinates where those sides lie inside the root: a cells grid's sides
+    /// ([`Grid::on_domain_cells`]), or the right side's column and the band's row once chosen
+    /// ([`Grid::on_domain_columns`], [`Grid::set_top_row`]). The mesh ends there.
     pub fn inner_lines(&self) -> [Option<u128>; 2] {
-        let full = 1u128 << self.axis_bits;
-        match self.has_domain_cells() {
-            true => self.far_line.map(|l| l.filter(|&l| l < full)),
-            false => [None; 2],
-        }
+        [self.inner_right(), self.inner_top_row()]
     }
 
     /// Whether the root's cells are not squares (a rectangle cut into cells nearly square).

@@ -1,13 +1,38 @@
 //! The leaves a given domain keeps: those below the grid row that the band along a short
-//! domain's top side moves onto that side (see [`crate::balance::Band`]).
+//! domain's top side moves onto that side (see [`crate::balance::Band`]), or inside a cells
+//! grid's sides.
 
 use rayon::prelude::*;
 
+use glam::DVec2;
+
 use crate::balance::{BalancedTree, Links};
+use crate::error::Error;
 use crate::mesh::NONE;
-use crate::morton::{MortonKey, Side};
+use crate::morton::{Grid, MortonKey, Side};
 use crate::par::{collect_indexed, exclusive_scan_u32_by};
 use crate::quadtree::{Leaf, Quadtree};
+
+/// The leaves of `tree` inside the domain of `grid`: [`leaves_below`] its sides inside the root
+/// ([`Grid::inner_lines`]), if any; `tree` itself otherwise. `order[i]` is the input index of
+/// the `i`-th point of `points` in Morton order.
+///
+/// # Errors
+/// [`Error::Unresolvable`] naming a point left without a leaf, which separation rules out.
+pub fn leaves_in_domain<K: MortonKey>(
+    tree: BalancedTree<K>,
+    grid: &Grid,
+    (order, points): (&[u32], &[DVec2]),
+) -> Result<BalancedTree<K>, Error> {
+    let [right, top] = grid.inner_lines();
+    if right.is_none() && top.is_none() {
+        return Ok(tree);
+    }
+    leaves_below(tree, top.unwrap_or(u128::MAX), right).map_err(|p| {
+        let index = order[p];
+        super::unresolvable(points[index as usize], index)
+    })
+}
 
 /// The leaves of `tree` whose tops lie at or below the finest-unit row `row` and, if given,
 /// whose right sides lie at or left of the finest-unit column `right`, in their order, with

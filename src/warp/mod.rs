@@ -19,7 +19,7 @@ mod split;
 mod templates;
 mod vertices;
 
-pub use cut::leaves_below;
+pub use cut::{leaves_below, leaves_in_domain};
 pub use edges::{EdgePiece, EdgePieces, edge_pieces, leaf_at, square_box};
 pub(crate) use graph::best_triangulation;
 pub use graph::{Angles, EDGE_SNAP, GraphLeaves, GraphTriangulation, triangulate_graph};
