@@ -24,16 +24,17 @@
 
 use std::collections::{HashMap, HashSet};
 
-use rayon::prelude::*;
-
 use super::separate::{
-    DomainSides, Move, Rules, around, chebyshev, clear_of_points, corner_block_parents, descend,
-    lies_across, partition_from, settle_against, settle_all, squares_across_lines, walk,
+    DomainSides, Move, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, Rules, around, chebyshev,
+    clear_of_points, corner_block_parents, descend, lies_across, partition_from, settle_against,
+    settle_all, squares_across_lines, walk,
 };
+use super::slack::SlackVec;
 use super::split_set::{SplitSet, Squares, at_position, grid_position, last_position};
 use super::{BalancedTree, Separation, forced_by, linked_tree, separate_in};
 use crate::framework::build_framework;
 use crate::morton::{Cell, MortonKey, Side};
+use crate::par;
 use crate::quadtree::expand;
 
 /// Distinct points' Morton keys with the well-separated tree of them, kept current under
@@ -41,12 +42,15 @@ use crate::quadtree::expand;
 #[derive(Clone)]
 pub struct SeparatedPoints<K: MortonKey> {
     /// Sorted, distinct.
-    keys: Vec<K>,
+    keys: SlackVec<K>,
     /// The level of each point's leaf, by Morton position.
-    levels: Vec<u8>,
+    levels: SlackVec<u8>,
     /// The domain sides each point lies on, and the right and top sides where they are grid
     /// lines inside the root (a corner tree on a rectangle cut into cells).
     sides: DomainSides,
+    /// The keys of the points on a domain side, sorted: the only points whose corner block
+    /// may reach past a corner on a side.
+    on_a_side: Vec<K>,
     /// The rule the tree is separated by.
     separation: Separation,
     /// The split squares, closed under balance.
@@ -81,8 +85,14 @@ impl<K: MortonKey> SeparatedPoints<K> {
             separation == Separation::Corner || lines == [None; 2],
             "only a corner tree takes sides inside the root"
         );
+        let on_a_side = keys
+            .iter()
+            .zip(&on)
+            .filter(|&(_, &on)| on != 0)
+            .map(|(&key, _)| key)
+            .collect();
         let sides = DomainSides {
-            on,
+            on: on.into(),
             inner_right: lines[0],
             inner_top: lines[1].map(|line| line as f64),
             ..DomainSides::default()
@@ -107,9 +117,10 @@ impl<K: MortonKey> SeparatedPoints<K> {
             at_level[level as usize] += 1;
         }
         SeparatedPoints {
-            keys,
-            levels,
+            keys: keys.into(),
+            levels: levels.into(),
             sides,
+            on_a_side,
             separation,
             set,
             at_level,
@@ -300,9 +311,13 @@ impl<K: MortonKey> SeparatedPoints<K> {
             "sorted, distinct keys"
         );
         let positions = self.merge_in(new);
+        for &(key, _) in new.iter().filter(|n| n.1 != 0) {
+            let at = self.on_a_side.partition_point(|k| *k < key);
+            self.on_a_side.insert(at, key);
+        }
         self.at_level[0] += new.len();
         self.touched = 0;
-        let moves = positions.par_iter().map(|&i| self.first_move(i)).collect();
+        let moves = par::filter_map(&positions, |&i| Some(self.first_move(i)));
         let mut crowded = self.leaves_taken(&positions);
         if self.separation == Separation::Corner {
             crowded.extend(self.corners_crowded_by(&positions));
@@ -340,28 +355,23 @@ impl<K: MortonKey> SeparatedPoints<K> {
         found
     }
 
-    /// Puts the keys `new` (sorted) with their sides into the arrays in place, at level 0,
-    /// moving each run of old entries once, from the back; returns their positions.
+    /// Puts the keys `new` (sorted) with their sides into the arrays in place, at level 0;
+    /// returns their positions.
     fn merge_in(&mut self, new: &[(K, u8)]) -> Vec<usize> {
-        let (old, added) = (self.keys.len(), new.len());
-        self.keys.resize(old + added, K::default());
-        self.levels.resize(old + added, 0);
-        self.sides.on.resize(old + added, 0);
-        let mut positions = vec![0; added];
-        // Entries at `end..` of the old part have moved; the next free slot is `write - 1`.
-        let (mut end, mut write) = (old, old + added);
-        for (j, &(key, on)) in new.iter().enumerate().rev() {
-            let start = self.keys[..end].partition_point(|k| *k < key);
-            assert!(start == end || self.keys[start] != key, "a new key");
-            let run = end - start;
-            self.keys.copy_within(start..end, write - run);
-            self.levels.copy_within(start..end, write - run);
-            self.sides.on.copy_within(start..end, write - run);
-            write -= run + 1;
-            (self.keys[write], self.levels[write], self.sides.on[write]) = (key, 0, on);
-            positions[j] = write;
-            end = start;
-        }
+        let positions: Vec<usize> = new
+            .iter()
+            .enumerate()
+            .map(|(j, &(key, _))| {
+                let before = self.keys.partition_point(|k| *k < key);
+                assert!(self.keys.get(before) != Some(&key), "a new key");
+                before + j
+            })
+            .collect();
+        let keys: Vec<K> = new.iter().map(|n| n.0).collect();
+        let on: Vec<u8> = new.iter().map(|n| n.1).collect();
+        self.keys.insert_sorted(&positions, &keys);
+        self.levels.insert_sorted(&positions, &vec![0; new.len()]);
+        self.sides.on.insert_sorted(&positions, &on);
         positions
     }
 
@@ -408,6 +418,14 @@ impl<K: MortonKey> SeparatedPoints<K> {
             return false;
         }
         self.keys[i] = to;
+        if on != 0 {
+            // The point's leaf holds no other key: the order stays.
+            let at = self
+                .on_a_side
+                .binary_search(&from)
+                .expect("a point on a side");
+            self.on_a_side[at] = to;
+        }
         self.touched = 0;
         true
     }
@@ -444,7 +462,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
             .first()
             .map_or(0, |&r| r.min(self.keys.len().saturating_sub(1)));
         self.drop_unsupported(&demanded, (&held_back, near));
-        let moves = restart.par_iter().map(|&q| self.first_move(q)).collect();
+        let moves = par::filter_map(&restart, |&q| Some(self.first_move(q)));
         self.run_rounds(moves, Vec::new());
         removed
     }
@@ -453,10 +471,17 @@ impl<K: MortonKey> SeparatedPoints<K> {
     fn compact_without(&mut self, removed: &[usize]) {
         for &i in removed {
             self.at_level[self.levels[i] as usize] -= 1;
+            if self.sides.on[i] != 0 {
+                let at = self
+                    .on_a_side
+                    .binary_search(&self.keys[i])
+                    .expect("a point on a side");
+                self.on_a_side.remove(at);
+            }
         }
-        remove_positions(&mut self.keys, removed);
-        remove_positions(&mut self.levels, removed);
-        remove_positions(&mut self.sides.on, removed);
+        self.keys.remove_sorted(removed);
+        self.levels.remove_sorted(removed);
+        self.sides.on.remove_sorted(removed);
     }
 
     /// The move of point `i` from the root: past split squares and squares whose block holds
@@ -606,6 +631,16 @@ impl<K: MortonKey> SeparatedPoints<K> {
         first..end
     }
 
+    /// The Morton positions of the points of `cell` that lie on a domain side.
+    fn on_a_side_in(&self, cell: Cell<K>) -> impl Iterator<Item = usize> + '_ {
+        let anchor = cell.anchor;
+        let first = self.on_a_side.partition_point(|k| *k < anchor);
+        self.on_a_side[first..]
+            .iter()
+            .take_while(move |&&k| cell.contains(k))
+            .map(|key| self.keys.binary_search(key).expect("a point"))
+    }
+
     /// The points of `cell` by Morton position.
     fn points_in(&self, cell: Cell<K>) -> std::ops::Range<usize> {
         let anchor = cell.anchor;
@@ -691,7 +726,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
     fn drop_unsupported(&mut self, demanded: &SplitSet<K>, held_back: (&HashSet<usize>, usize)) {
         for level in (0..=K::AXIS_BITS as u8).rev() {
             let squares: Vec<Cell<K>> = demanded
-                .squares_at(level)
+                .squares_of(level)
                 .filter(|&square| self.set.contains(square))
                 .collect();
             for square in squares {
@@ -725,17 +760,37 @@ impl<K: MortonKey> SeparatedPoints<K> {
             if lies_across(square, lines) {
                 return true;
             }
+            if level as u32 >= K::AXIS_BITS {
+                return false;
+            }
             // On the path of such a point, or a parent of its corner block one level down.
             let demands = |j: usize| {
                 let key = self.keys[j];
-                self.levels[j] > level
+                !held_back.contains(&j)
+                    && self.levels[j] > level
                     && (square.contains(key)
                         || corner_block_parents(key, level, self.sides.on[j], lines)
                             .any(|c| c == square))
             };
-            let by_a_point = around_and(square, 1).any(|cell| {
-                self.points_in_from(cell, near)
-                    .any(|j| !held_back.contains(&j) && demands(j))
+            if self.points_in_from(square, near).any(demands) {
+                return true;
+            }
+            // A point's corner block one level down reaches into `square` only from the
+            // quarter of its square next to the corner: two levels down, touching `square`.
+            // Which corner, and so whether it reaches, is the same for every point there
+            // but where the corner lies on a side, and then only points on a side reach.
+            let depth = 2.min(K::AXIS_BITS as u8 - level);
+            let by_a_point = touching_ring(square, depth).any(|cell| {
+                let reaches = |on: u8| {
+                    corner_block_parents(cell.anchor, level, on, lines).any(|c| c == square)
+                };
+                if reaches(0) {
+                    self.points_in_from(cell, near).any(demands)
+                } else if reaches(ON_LEFT | ON_BOTTOM | ON_RIGHT | ON_TOP) {
+                    self.on_a_side_in(cell).any(demands)
+                } else {
+                    false
+                }
             });
             return by_a_point || forced();
         }
@@ -780,24 +835,26 @@ impl GridRect {
     }
 }
 
-/// Takes the entries at the sorted, distinct `positions` out of `v`, moving each run between
-/// them once.
-pub(crate) fn remove_positions<T: Copy>(v: &mut Vec<T>, positions: &[usize]) {
-    let Some(&first) = positions.first() else {
-        return;
-    };
-    let mut write = first;
-    for (k, &gone) in positions.iter().enumerate() {
-        let end = positions.get(k + 1).copied().unwrap_or(v.len());
-        v.copy_within(gone + 1..end, write);
-        write += end - gone - 1;
-    }
-    v.truncate(write);
-}
-
 /// `cell` and the same-size squares within `radius` of it inside the root.
 fn around_and<K: MortonKey>(cell: Cell<K>, radius: i64) -> impl Iterator<Item = Cell<K>> {
     std::iter::once(cell).chain(around(cell, radius).flatten())
+}
+
+/// The squares `depth` levels below `square` that touch it from outside, inside the root.
+fn touching_ring<K: MortonKey>(square: Cell<K>, depth: u8) -> impl Iterator<Item = Cell<K>> {
+    let level = square.level + depth;
+    let (x, y) = grid_position(square);
+    let first = |c: u64| (i128::from(c) << depth) - 1;
+    let (x0, y0) = (first(x), first(y));
+    let span = (1i128 << depth) + 2;
+    let side = 1i128 << level;
+    let on_ring = move |i: i128, j: i128| i == 0 || j == 0 || i == span - 1 || j == span - 1;
+    (0..span)
+        .flat_map(move |i| (0..span).map(move |j| (i, j)))
+        .filter(move |&(i, j)| on_ring(i, j))
+        .map(move |(i, j)| (x0 + i, y0 + j))
+        .filter(move |&(cx, cy)| (0..side).contains(&cx) && (0..side).contains(&cy))
+        .map(move |(cx, cy)| at_position(cx as u64, cy as u64, level))
 }
 
 /// The squares of the level below whose split may force `square`: its children and those of
@@ -840,6 +897,11 @@ mod tests {
     }
 
     fn check_against_static<K: MortonKey>(points: &SeparatedPoints<K>) {
+        let on_a_side: Vec<K> = (0..points.keys.len())
+            .filter(|&i| points.sides.on[i] != 0)
+            .map(|i| points.keys[i])
+            .collect();
+        assert_eq!(points.on_a_side, on_a_side, "the points on a side, listed");
         let Some(expected) = static_tree(&points.keys, &points.sides, points.separation) else {
             return;
         };
@@ -1138,6 +1200,40 @@ mod tests {
     fn random_edits_of_the_corner_tree_give_the_static_tree_after_every_step() {
         let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
         random_edits(1..=12, |p| key_of(&grid, p), Separation::Corner);
+    }
+
+    /// A crowd in one corner of the domain, some of it on the sides there: the empty squares
+    /// beside it are judged from the corners of the crowd's edge, and on the sides only the
+    /// points on them reach across (the corner tree's deletions).
+    #[test]
+    fn a_crowd_in_a_corner_of_the_domain_edits_like_the_static_tree() {
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
+        for seed in 1..=4u64 {
+            let mut rng = Rng::seed_from_u64(seed);
+            let mut points =
+                SeparatedPoints::<u64>::new(Vec::new(), Vec::new(), Separation::Corner);
+            let mut live: Vec<u64> = Vec::new();
+            for step in 0..300 {
+                if !live.is_empty() && (rng.random_range(0..3) == 0 || step >= 240) {
+                    let key = live.swap_remove(rng.random_range(0..live.len()));
+                    points.remove(key);
+                } else {
+                    let (a, b) = (rng.random::<f64>() * 0.25, rng.random::<f64>() * 0.25);
+                    let p = match rng.random_range(0..6) {
+                        0 => DVec2::new(a, 0.0),
+                        1 => DVec2::new(0.0, a),
+                        _ => DVec2::new(a, b),
+                    };
+                    let key = key_of(&grid, p);
+                    if points.contains(key) {
+                        continue;
+                    }
+                    points.insert(key, on_sides(p));
+                    live.push(key);
+                }
+                check_against_static(&points);
+            }
+        }
     }
 
     #[test]

@@ -9,6 +9,7 @@ mod incremental;
 mod links;
 pub mod reference;
 mod separate;
+mod slack;
 mod split_set;
 
 use std::collections::HashSet;
@@ -18,7 +19,6 @@ pub use graph::{
     CLEARANCE, Conflict, GraphFeatures, TooCrowded, crowded_squares, reach, segment_meets_box,
     shares_an_end,
 };
-pub(crate) use incremental::remove_positions;
 pub use incremental::{GridRect, SeparatedPoints};
 use links::cross_links_by;
 pub use links::{Links, across, cross_links, point_leaves};
@@ -28,6 +28,7 @@ pub use separate::{
     coarsest_band_level, nearest_corner, separate, separate_in, separate_with, sides_of,
     upper_halves,
 };
+pub(crate) use slack::SlackVec;
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};

@@ -29,6 +29,7 @@
 
 use rayon::prelude::*;
 
+use super::slack::SlackVec;
 use super::split_set::{
     KeyMap, Rect, SplitSet, Squares, at_position, grid_position, last_position, rect_squares,
     window_tiles,
@@ -317,7 +318,7 @@ fn finest_near<K: MortonKey>(keys: &[K], level: &[u8], top: InnerTop) -> usize {
 pub struct DomainSides {
     /// Per point in Morton order, a bit per side it lies on: [`ON_LEFT`], [`ON_BOTTOM`],
     /// [`ON_RIGHT`], [`ON_TOP`].
-    pub on: Vec<u8>,
+    pub on: SlackVec<u8>,
     /// The domain's top side in finest-grid units when it lies inside the root.
     pub inner_top: Option<f64>,
     /// The domain's right side, a grid line (finest units), when it lies inside the root.
@@ -333,7 +334,8 @@ impl DomainSides {
     /// lies on, for a grid on a given domain; `None` for a grid around the points.
     pub fn of(points: &[DVec2], order: &[u32], grid: &Grid) -> Option<DomainSides> {
         let (lo, hi) = grid.given_domain()?;
-        let on = collect_indexed(order.len(), |i| sides_of(points[order[i] as usize], lo, hi));
+        let on =
+            collect_indexed(order.len(), |i| sides_of(points[order[i] as usize], lo, hi)).into();
         Some(DomainSides {
             on,
             inner_top: grid.inner_top(),
@@ -671,25 +673,22 @@ pub(super) fn settle_against<K: MortonKey>(
     level: &[u8],
     (candidates, points): (&[u32], bool),
 ) -> Vec<Move> {
-    candidates
-        .par_iter()
-        .filter_map(|&point| {
-            let i = point as usize;
-            let from = level[i];
-            let split = walk(set, keys[i], from);
-            let clear = match points {
-                true => clear_of_points(rules, keys, i, split),
-                false => split,
-            };
-            let to = descend(set, rules, keys, i, clear);
-            (to != from).then_some(Move {
-                point,
-                from,
-                split,
-                to,
-            })
+    crate::par::filter_map(candidates, |&point| {
+        let i = point as usize;
+        let from = level[i];
+        let split = walk(set, keys[i], from);
+        let clear = match points {
+            true => clear_of_points(rules, keys, i, split),
+            false => split,
+        };
+        let to = descend(set, rules, keys, i, clear);
+        (to != from).then_some(Move {
+            point,
+            from,
+            split,
+            to,
         })
-        .collect()
+    })
 }
 
 /// The level of the leaf of `key`, from its unsplit square at level `from` on, once the rules

@@ -304,6 +304,16 @@ impl<K: MortonKey> SplitSet<K> {
             })
     }
 
+    /// [`Self::squares_at`], one by one: for the few squares of an edit.
+    pub(super) fn squares_of(&self, level: u8) -> impl Iterator<Item = Cell<K>> + '_ {
+        self.levels[level as usize]
+            .iter()
+            .flat_map(move |(&tile, &mask)| {
+                let squares = Squares { tile, mask, level };
+                BitIndices(mask).map(move |i| squares.square(i))
+            })
+    }
+
     /// Appends to `out` the squares within `radius` of `cell` (`cell` included) that are not
     /// split, a tile at a time.
     pub(super) fn missing_near(&self, cell: Cell<K>, radius: u64, out: &mut Vec<Squares<K>>) {

@@ -18,7 +18,7 @@ pub use refined::{DynamicDelaunay, RefinedEdit};
 
 use glam::DVec2;
 
-use crate::balance::{SeparatedPoints, Separation, remove_positions, sides_of};
+use crate::balance::{SeparatedPoints, Separation, SlackVec, sides_of};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, StageTimes};
 use crate::morton::{DomainCells, Grid, MortonKey};
@@ -102,7 +102,7 @@ enum Tracked {
 struct Keyed<K: MortonKey> {
     grid: Grid,
     separated: SeparatedPoints<K>,
-    ids: Vec<u32>,
+    ids: SlackVec<u32>,
 }
 
 impl DynamicMesh {
@@ -741,7 +741,7 @@ impl<K: MortonKey> Keyed<K> {
                 separation,
                 grid.inner_lines(),
             ),
-            ids: Vec::new(),
+            ids: SlackVec::default(),
         })
     }
 
@@ -776,9 +776,9 @@ impl<K: MortonKey> Keyed<K> {
             .iter()
             .map(|&(_, id)| sides_of(points[id as usize], domain.lo, domain.hi))
             .collect();
-        let (keys, ids) = pairs.into_iter().unzip();
+        let (keys, ids): (Vec<K>, Vec<u32>) = pairs.into_iter().unzip();
         keyed.separated = SeparatedPoints::within(keys, on, separation, keyed.grid.inner_lines());
-        keyed.ids = ids;
+        keyed.ids = ids.into();
         Ok(keyed)
     }
 
@@ -832,7 +832,8 @@ impl<K: MortonKey> Keyed<K> {
             self.separated.remove_many(&keys);
             return None;
         }
-        self.ids = merged(&self.ids, &positions, new.iter().map(|n| n.2));
+        let ids: Vec<u32> = new.iter().map(|n| n.2).collect();
+        self.ids.insert_sorted(&positions, &ids);
         Some(touched)
     }
 
@@ -841,7 +842,7 @@ impl<K: MortonKey> Keyed<K> {
         let mut keys: Vec<K> = places.iter().map(|&p| self.key(p)).collect();
         keys.sort_unstable();
         let removed = self.separated.remove_many(&keys);
-        remove_positions(&mut self.ids, &removed);
+        self.ids.remove_sorted(&removed);
         self.separated.touched()
     }
 
@@ -933,18 +934,6 @@ fn grid_on(domain: &Domain, axis_bits: u32, separation: Separation) -> Result<Gr
 /// The most cells along a side of a dynamic mesh's rectangle: what the static warp allows
 /// whatever the number of points.
 const MAX_CELLS_ALONG: u64 = 1 << 20;
-
-/// `old` with `new` put in at the sorted `positions` of the merged list.
-fn merged(old: &[u32], positions: &[usize], new: impl Iterator<Item = u32>) -> Vec<u32> {
-    let mut out = Vec::with_capacity(old.len() + positions.len());
-    let mut old = old.iter().copied();
-    for (&at, id) in positions.iter().zip(new) {
-        out.extend(old.by_ref().take(at - out.len()));
-        out.push(id);
-    }
-    out.extend(old);
-    out
-}
 
 /// Refuses a point that is not finite or lies outside the domain.
 fn check_place(p: DVec2, index: usize, domain: &Domain) -> Result<(), Error> {

@@ -14,6 +14,23 @@ pub use write::{
     collect_segments_with_capacity, concat,
 };
 
+/// Below this many items a parallel loop costs more in waking and stealing than it saves (a
+/// dynamic edit's loops over the few points near it): [`filter_map`] runs it on the caller.
+pub const FEW: usize = 64;
+
+/// `items` filtered and mapped by `f`, in order: in parallel unless there are [`FEW`].
+pub fn filter_map<T: Sync, U: Send>(
+    items: &[T],
+    f: impl Fn(&T) -> Option<U> + Sync + Send,
+) -> Vec<U> {
+    use rayon::prelude::*;
+    if items.len() < FEW {
+        items.iter().filter_map(f).collect()
+    } else {
+        items.par_iter().filter_map(f).collect()
+    }
+}
+
 /// Items per task in scans and segment fills: large enough that rayon's task overhead is small.
 pub const GRAIN: usize = 1 << 13;
 
