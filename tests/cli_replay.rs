@@ -288,6 +288,23 @@ fn bench_dynamic_times_each_kind_of_edit() {
     // Only the warp mode is dynamic.
     let out = quadmesh(&["bench", "--points", "10", "--dynamic", "--min-angle", "25"]);
     assert!(!out.status.success());
+    // On a given rectangle with room around the points; a region that is not one is refused.
+    let roomy = bench_json(&[
+        "--points",
+        "2000",
+        "--dynamic",
+        "--edits",
+        "20",
+        "--domain",
+        "-1,-1,4,3",
+        "--json",
+    ]);
+    assert_eq!(json_number(&roomy, "edits"), 20.0);
+    assert!(json_number(&roomy, "delete_s") > 0.0, "{roomy}");
+    for region in ["bbox", "0.5,0,1,1"] {
+        let out = quadmesh(&["bench", "--points", "100", "--dynamic", "--domain", region]);
+        assert!(!out.status.success(), "{region}");
+    }
 }
 
 #[test]

@@ -132,10 +132,11 @@ enum Command {
         #[arg(long)]
         json: bool,
         /// Time a dynamic warped mesh of the points instead (on the square `--warp` takes by
-        /// default; the compact warp, or with `--block-warp` the block warp): `--edits`
-        /// insertions, then as many deletions and moves, one at a time, medians per kind
-        /// against a build of the final points from scratch and its mesh.
-        #[arg(long, conflicts_with_all = ["nonobtuse", "min_angle", "max_area", "max_vertices", "domain"])]
+        /// default, or a `--domain X0,Y0,X1,Y1` rectangle; the compact warp, or with
+        /// `--block-warp` the block warp): `--edits` insertions (uniform in the points'
+        /// bounding box), then as many deletions and moves there, one at a time, medians per
+        /// kind against a build of the final points from scratch and its mesh.
+        #[arg(long, conflicts_with_all = ["nonobtuse", "min_angle", "max_area", "max_vertices"])]
         dynamic: bool,
         /// With `--dynamic`: how many edits of each kind.
         #[arg(long, value_name = "K", default_value_t = 1000, requires = "dynamic")]
@@ -468,7 +469,8 @@ fn main() -> ExitCode {
                     true => Separation::Block,
                     false => Separation::Corner,
                 };
-                bench_dynamic(points, input, threads, json, (edits, separation))
+                let domain = quality.domain;
+                bench_dynamic(points, input, threads, json, (edits, separation, domain))
             }
             false => bench(points, input, threads, json, quality),
         },
@@ -1060,7 +1062,7 @@ fn bench_dynamic(
     input: Option<PathBuf>,
     threads: Option<NonZeroUsize>,
     json: bool,
-    (edits, separation): (usize, Separation),
+    (edits, separation, domain): (usize, Separation, Option<Region>),
 ) -> Result<()> {
     let pool = pool(threads)?;
     let seed = points.seed;
@@ -1080,16 +1082,23 @@ fn bench_dynamic(
             )
         }
     };
-    let domain = square_around(&initial)?;
+    // A given rectangle, or the square the warp takes by default.
+    let domain = match domain {
+        Some(Region::Rectangle(domain)) => domain,
+        Some(_) => anyhow::bail!("--dynamic takes a rectangle X0,Y0,X1,Y1 as --domain"),
+        None => square_around(&initial)?,
+    };
     pool.install(|| {
         let (built, build) =
             timed(|| DynamicMesh::with_separation(&initial, domain, separation));
         let mut dynamic = built?;
         let n = initial.len() as u64;
-        // New places, uniform in the square; ids to delete and to move, in a seeded order.
+        // New places, uniform in the points' bounding box (where the points are, whatever
+        // room the domain leaves around them); ids to delete and to move, in a seeded order.
+        let (lo, hi) = quadmesh::morton::bounding_box(&initial);
         let places: Vec<DVec2> = generate::points(Distribution2d::Uniform, 2 * edits, seed + 1)
             .into_iter()
-            .map(|u| domain.lo + u * (domain.hi - domain.lo))
+            .map(|u| lo + u * (hi - lo))
             .collect();
         let mut ids: Vec<u32> = (0..initial.len() as u32).collect();
         ids.sort_by_key(|&id| (u64::from(id) ^ seed).wrapping_mul(0x9E37_79B9_7F4A_7C15) % n.max(1));
