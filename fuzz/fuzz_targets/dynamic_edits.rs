@@ -1,6 +1,6 @@
 //! Any bytes as initial points and a sequence of edits of a dynamic warped mesh on the unit
-//! square (or, compact, a 1 × 1.41 rectangle), compact or block-warped as the first byte's top
-//! bit says: after every edit the mesh equals a build from scratch of the live points, the
+//! square (or, compact, a 1 × 1.41 rectangle), or on one four times as large with the points in
+//! its corner, compact or block-warped as the first byte's top bit says: after every edit the mesh equals a build from scratch of the live points, the
 //! triangles the tracked changes report turn the mesh before into the mesh after, and a refused
 //! edit leaves it as it was.
 #![no_main]
@@ -59,9 +59,11 @@ fuzz_target!(|data: &[u8]| {
     } else {
         1.0
     };
+    // Or room around the points (which lie in the unit square): four times as wide and tall.
+    let room = if count & 0x20 != 0 { 4.0 } else { 1.0 };
     let domain = Domain {
         lo: DVec2::ZERO,
-        hi: DVec2::new(1.0, top),
+        hi: DVec2::new(room, room * top),
     };
     let Ok(mut dynamic) = DynamicMesh::with_separation(&initial, domain, separation) else {
         return;
