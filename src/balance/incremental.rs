@@ -311,10 +311,6 @@ impl<K: MortonKey> SeparatedPoints<K> {
             "sorted, distinct keys"
         );
         let positions = self.merge_in(new);
-        for &(key, _) in new.iter().filter(|n| n.1 != 0) {
-            let at = self.on_a_side.partition_point(|k| *k < key);
-            self.on_a_side.insert(at, key);
-        }
         self.at_level[0] += new.len();
         self.touched = 0;
         let moves = par::filter_map(&positions, |&i| Some(self.first_move(i)));
@@ -355,8 +351,8 @@ impl<K: MortonKey> SeparatedPoints<K> {
         found
     }
 
-    /// Puts the keys `new` (sorted) with their sides into the arrays in place, at level 0;
-    /// returns their positions.
+    /// Puts the keys `new` (sorted) with their sides into the arrays in place, at level 0, and
+    /// those on a side into their list; returns their positions.
     fn merge_in(&mut self, new: &[(K, u8)]) -> Vec<usize> {
         let positions: Vec<usize> = new
             .iter()
@@ -372,6 +368,10 @@ impl<K: MortonKey> SeparatedPoints<K> {
         self.keys.insert_sorted(&positions, &keys);
         self.levels.insert_sorted(&positions, &vec![0; new.len()]);
         self.sides.on.insert_sorted(&positions, &on);
+        for &(key, _) in new.iter().filter(|n| n.1 != 0) {
+            let at = self.on_a_side.partition_point(|k| *k < key);
+            self.on_a_side.insert(at, key);
+        }
         positions
     }
 
@@ -467,7 +467,8 @@ impl<K: MortonKey> SeparatedPoints<K> {
         removed
     }
 
-    /// Takes the points at the sorted positions `removed` out of the arrays.
+    /// Takes the points at the sorted positions `removed` out of the arrays (and the list of
+    /// those on a side).
     fn compact_without(&mut self, removed: &[usize]) {
         for &i in removed {
             self.at_level[self.levels[i] as usize] -= 1;

@@ -153,8 +153,9 @@ impl<T: Copy + Default> SlackVec<T> {
         (self.buf, self.start) = (buf, room);
     }
 
-    /// Gives the room in front back once it exceeds the items, so that removals in front and
-    /// insertions at the back do not grow the buffer without end.
+    /// Gives the room in front back (all but a sixteenth of the items) once it exceeds half
+    /// the items, so that removals in front and insertions at the back do not grow the buffer
+    /// without end.
     fn recentre(&mut self) {
         let room = self.len() / 16;
         let len = self.len();

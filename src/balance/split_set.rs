@@ -298,20 +298,14 @@ impl<K: MortonKey> SplitSet<K> {
     pub(super) fn squares_at(&self, level: u8) -> impl ParallelIterator<Item = Cell<K>> + '_ {
         self.levels[level as usize]
             .par_iter()
-            .flat_map_iter(move |(&tile, &mask)| {
-                let squares = Squares { tile, mask, level };
-                BitIndices(mask).map(move |i| squares.square(i))
-            })
+            .flat_map_iter(move |(&tile, &mask)| Squares { tile, mask, level }.cells())
     }
 
     /// [`Self::squares_at`], one by one: for the few squares of an edit.
     pub(super) fn squares_of(&self, level: u8) -> impl Iterator<Item = Cell<K>> + '_ {
         self.levels[level as usize]
             .iter()
-            .flat_map(move |(&tile, &mask)| {
-                let squares = Squares { tile, mask, level };
-                BitIndices(mask).map(move |i| squares.square(i))
-            })
+            .flat_map(move |(&tile, &mask)| Squares { tile, mask, level }.cells())
     }
 
     /// Appends to `out` the squares within `radius` of `cell` (`cell` included) that are not

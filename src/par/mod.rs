@@ -18,7 +18,8 @@ pub use write::{
 /// dynamic edit's loops over the few points near it): [`filter_map`] runs it on the caller.
 pub const FEW: usize = 64;
 
-/// `items` filtered and mapped by `f`, in order: in parallel unless there are [`FEW`].
+/// `items` filtered and mapped by `f`, in order: in parallel unless there are fewer than
+/// [`FEW`].
 pub fn filter_map<T: Sync, U: Send>(
     items: &[T],
     f: impl Fn(&T) -> Option<U> + Sync + Send,
