@@ -19,6 +19,7 @@ pub use crate::domain::{BoundaryEdge, BoundarySide, Domain, Reflection, SubSegme
 pub use changes::MeshChange;
 pub(crate) use changes::{Corners, corner_bits};
 pub use delaunay_check::check_delaunay;
+pub(crate) use report::AngleTally;
 pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
 pub use topology::Edge;

@@ -47,6 +47,91 @@ impl AngleQuality {
     }
 }
 
+/// An [`AngleQuality`] filled triangle by triangle with the same angles
+/// [`super::angles_deg`] measures, but that calls `atan2` only for an angle a cosine cannot
+/// place: one that may be a new smallest or largest, or lies within [`Self::MARGIN`] of a bin's
+/// edge. The others fall strictly inside a bin, and their exact value changes nothing else.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct AngleTally {
+    quality: AngleQuality,
+    /// Cosines of the smallest and largest angle so far.
+    cos_min: f64,
+    cos_max: f64,
+}
+
+/// `cos(10 k°)` for the bins' inner edges, k = 1..=17.
+const BIN_EDGE_COS: [f64; 17] = {
+    // cos by its Taylor series in radians: exact enough for an edge that a margin surrounds.
+    let mut edges = [0.0; 17];
+    let mut k = 0;
+    while k < 17 {
+        let x = (k + 1) as f64 * 10.0 * std::f64::consts::PI / 180.0;
+        let (mut term, mut sum, mut i) = (1.0, 1.0, 1);
+        while i < 40 {
+            term = -term * x * x / ((2 * i - 1) * (2 * i)) as f64;
+            sum += term;
+            i += 1;
+        }
+        edges[k] = sum;
+        k += 1;
+    }
+    edges
+};
+
+impl AngleTally {
+    /// How near (in cosine) a bin's edge or an extreme an angle must be for `atan2` to decide
+    /// it: far above the cosine's own rounding (about 1e-15).
+    const MARGIN: f64 = 1e-9;
+
+    pub(crate) fn new() -> Self {
+        AngleTally {
+            quality: AngleQuality::empty(),
+            cos_min: f64::NEG_INFINITY,
+            cos_max: f64::INFINITY,
+        }
+    }
+
+    /// Adds the three angles of triangle `a, b, c`.
+    #[inline]
+    pub(crate) fn add_triangle(&mut self, a: glam::DVec2, b: glam::DVec2, c: glam::DVec2) {
+        self.add_between(b - a, c - a);
+        self.add_between(c - b, a - b);
+        self.add_between(a - c, b - c);
+    }
+
+    /// Adds the angle between `u` and `v`.
+    #[inline]
+    fn add_between(&mut self, u: glam::DVec2, v: glam::DVec2) {
+        let (dot, cross) = (u.dot(v), u.perp_dot(v).abs());
+        let cos = dot / (dot * dot + cross * cross).sqrt();
+        let near_edge = BIN_EDGE_COS
+            .iter()
+            .fold(false, |near, &e| near | ((cos - e).abs() <= Self::MARGIN));
+        let extreme = cos >= self.cos_min - Self::MARGIN || cos <= self.cos_max + Self::MARGIN;
+        if near_edge || extreme || !cos.is_finite() {
+            self.add_exact(cross.atan2(dot).to_degrees());
+            return;
+        }
+        let bin = BIN_EDGE_COS.iter().filter(|&&e| cos < e).count();
+        self.quality.histogram[bin] += 1;
+    }
+
+    fn add_exact(&mut self, angle: f64) {
+        let (min, max) = (self.quality.min, self.quality.max);
+        self.quality.add(angle, 1);
+        if self.quality.min != min {
+            self.cos_min = self.quality.min.to_radians().cos();
+        }
+        if self.quality.max != max {
+            self.cos_max = self.quality.max.to_radians().cos();
+        }
+    }
+
+    pub(crate) fn quality(&self) -> AngleQuality {
+        self.quality
+    }
+}
+
 /// Counts, angles and timings of a mesh run.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MeshReport {
@@ -114,5 +199,74 @@ pub(crate) fn report_of(
         histogram: quality.histogram,
         stages: times.0,
         cleaning: None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::angles_deg;
+    use glam::DVec2;
+
+    fn exact(triangles: &[[DVec2; 3]]) -> AngleQuality {
+        let mut q = AngleQuality::empty();
+        for &[a, b, c] in triangles {
+            angles_deg(a, b, c).into_iter().for_each(|x| q.add(x, 1));
+        }
+        q
+    }
+
+    #[test]
+    fn a_tally_counts_as_the_measured_angles_do() {
+        let mut triangles = vec![
+            // Right, 45°, 60°, 30° and flat angles: on bin edges.
+            [DVec2::ZERO, DVec2::X, DVec2::Y],
+            [DVec2::ZERO, DVec2::X, DVec2::new(0.5, 3f64.sqrt() / 2.0)],
+            [
+                DVec2::ZERO,
+                DVec2::new(3f64.sqrt(), 0.0),
+                DVec2::new(0.0, 1.0),
+            ],
+            [DVec2::ZERO, DVec2::X, DVec2::new(2.0, 0.0)],
+            [DVec2::ZERO, DVec2::X, DVec2::ZERO],
+            [
+                DVec2::splat(1e300),
+                DVec2::new(-1e300, 1e300),
+                DVec2::new(1e300, -1e300),
+            ],
+        ];
+        // Angles within a hair of every bin edge, on both sides, then random triangles.
+        for k in 1..18 {
+            for hair in [-1e-12, 0.0, 1e-12, 1e-7] {
+                let t = (10.0 * k as f64 + hair).to_radians();
+                triangles.push([DVec2::ZERO, DVec2::X, DVec2::new(t.cos(), t.sin())]);
+            }
+        }
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..20_000 {
+            triangles.push(std::array::from_fn(|_| DVec2::new(next(), next())));
+        }
+        let mut tally = AngleTally::new();
+        for &[a, b, c] in &triangles {
+            tally.add_triangle(a, b, c);
+        }
+        let (got, want) = (tally.quality(), exact(&triangles));
+        assert_eq!(got.histogram, want.histogram);
+        assert_eq!(got.min.to_bits(), want.min.to_bits());
+        assert_eq!(got.max.to_bits(), want.max.to_bits());
+    }
+
+    #[test]
+    fn the_bin_edges_are_the_cosines_of_multiples_of_ten_degrees() {
+        for (k, e) in BIN_EDGE_COS.iter().enumerate() {
+            let want = (10.0 * (k + 1) as f64).to_radians().cos();
+            assert!((e - want).abs() < 1e-14, "{k}: {e} against {want}");
+        }
     }
 }

@@ -357,9 +357,10 @@ impl Grid {
     /// right sides). Monotone in each coordinate, so vertices on one grid line share their
     /// coordinate bit for bit; the root's sides are exactly `origin` and `origin + side`, and a
     /// domain's right and top sides exactly its own coordinates.
+    #[inline]
     pub fn vertex(&self, gx: u128, gy: u128) -> DVec2 {
-        let unit = self.side / (2.0f64).powi(self.axis_bits as i32);
-        let mut p = self.origin + DVec2::new(gx as f64, gy as f64) * unit;
+        let unit = self.side / power_of_two(self.axis_bits);
+        let mut p = self.origin + DVec2::new(grid_to_f64(gx), grid_to_f64(gy)) * unit;
         if let Some(far) = self.far {
             if self.far_line[0] == Some(gx) {
                 p.x = far.x;
@@ -374,15 +375,50 @@ impl Grid {
     /// Lower-left corner and side, in input coordinates, of the cell at grid corner `(gx, gy)`
     /// and `level`.
     pub fn cell_rect(&self, gx: u64, gy: u64, level: u8) -> (DVec2, DVec2) {
-        let unit = self.side / (2.0f64).powi(self.axis_bits as i32);
+        let unit = self.side / power_of_two(self.axis_bits);
         let corner = self.origin + DVec2::new(gx as f64, gy as f64) * unit;
         (corner, self.side / (2.0f64).powi(level as i32))
+    }
+}
+
+/// `2^n` exactly, from its bits (`powi` is a loop in a library call, and the warp asks for
+/// grid vertices by the tens of millions).
+#[inline]
+fn power_of_two(n: u32) -> f64 {
+    debug_assert!(n <= 1023);
+    f64::from_bits((1023 + u64::from(n)) << 52)
+}
+
+/// A grid coordinate as f64, rounded as `as f64` rounds it: through `u64` where it fits, which
+/// the hardware converts (from `u128` it is a software routine).
+#[inline]
+fn grid_to_f64(v: u128) -> f64 {
+    match u64::try_from(v) {
+        Ok(v) => v as f64,
+        Err(_) => v as f64,
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_fast_conversions_round_as_the_library_ones() {
+        for n in 0..=1023 {
+            assert_eq!(power_of_two(n), 2f64.powi(n as i32), "2^{n}");
+        }
+        let mut values = vec![0u128, 1, (1 << 53) + 1, (1 << 54) + 3, u64::MAX as u128];
+        values.extend([u64::MAX as u128 + 1, 1u128 << 64 | 1, u128::MAX]);
+        // Values that round at every bit position, on both sides of a tie.
+        for shift in 0..120 {
+            let v = (1u128 << 60 | 0b1011) << shift >> 3;
+            values.extend([v, v + 1, v.saturating_sub(1)]);
+        }
+        for v in values {
+            assert_eq!(grid_to_f64(v).to_bits(), (v as f64).to_bits(), "{v}");
+        }
+    }
 
     #[test]
     fn points_land_in_the_central_half() {

@@ -32,7 +32,8 @@ use crate::balance::BalancedTree;
 use crate::balance::upper_halves;
 use crate::error::Error;
 use crate::mesh::{
-    AngleQuality, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, StageTimes, angles_deg,
+    AngleQuality, AngleTally, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, StageTimes,
+    angles_deg,
 };
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
 use crate::par::{GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, exclusive_scan_u32_by};
@@ -278,12 +279,12 @@ pub fn point_finer_than_grid<K: MortonKey>(tree: &BalancedTree<K>, corners: bool
 /// as [`LeafGeometry::template_accurate`] tells, by [`measured_quality`].)
 fn unmoved_quality(kinds: &[u8], inexact: impl Fn(usize) -> bool + Sync) -> AngleQuality {
     let unmoved_per_kind = kinds
-        .par_chunks(crate::par::GRAIN)
+        .par_chunks(GRAIN)
         .enumerate()
         .fold(
             || [0u64; templates::KINDS],
             |mut counts, (c, chunk)| {
-                let first = c * crate::par::GRAIN;
+                let first = c * GRAIN;
                 for (j, &k) in chunk.iter().enumerate() {
                     if k & MOVED == 0 && !inexact(first + j) {
                         counts[k as usize] += 1;
@@ -313,18 +314,21 @@ fn measured_quality(
     (triangles, vertices): (&[[u32; 3]], &[DVec2]),
     measure: impl Fn(usize) -> bool + Sync,
 ) -> AngleQuality {
-    (0..offsets.len() - 1)
+    let leaves = offsets.len() - 1;
+    // A tally per run of leaves: folding leaf by leaf would move the tally at each one.
+    (0..leaves.div_ceil(GRAIN))
         .into_par_iter()
-        .filter(|&leaf| measure(leaf))
-        .fold(AngleQuality::empty, |mut quality, leaf| {
-            let range = offsets[leaf] as usize..offsets[leaf + 1] as usize;
-            for t in &triangles[range] {
-                let [a, b, c] = t.map(|v| vertices[v as usize]);
-                angles_deg(a, b, c)
-                    .into_iter()
-                    .for_each(|angle| quality.add(angle, 1));
+        .map(|run| {
+            let mut tally = AngleTally::new();
+            let from = run * GRAIN;
+            for leaf in (from..leaves.min(from + GRAIN)).filter(|&l| measure(l)) {
+                let range = offsets[leaf] as usize..offsets[leaf + 1] as usize;
+                for t in &triangles[range] {
+                    let [a, b, c] = t.map(|v| vertices[v as usize]);
+                    tally.add_triangle(a, b, c);
+                }
             }
-            quality
+            tally.quality()
         })
         .reduce(AngleQuality::empty, AngleQuality::merge)
 }
@@ -416,7 +420,7 @@ fn compact_templates<K: MortonKey>(
     points: &[DVec2],
 ) -> Result<CompactWarp, Error> {
     // One point's block, its centres appended to `centres`.
-    let block = |p: usize, centres: &mut Vec<(u32, DVec2)>, quality: &mut AngleQuality| {
+    let block = |p: usize, centres: &mut Vec<(u32, DVec2)>, tally: &mut AngleTally| {
         let m = moves[p];
         let x = points[order[p] as usize];
         let mut out: WarpedBlock = [(NONE, 0); 4];
@@ -426,12 +430,11 @@ fn compact_templates<K: MortonKey>(
             }
             let ring = geometry.ring_positions(leaf as usize);
             let mask = geometry.midpoint_mask(leaf as usize);
-            let (kind, angles, centre) = choose_warped(&ring, mask, corner, x)?;
+            let (kind, centre) = choose_warped(&ring, mask, corner, x, tally)?;
             if uses_centre(kind.code()) {
                 centres.push((leaf, centre));
             }
             *slot = (leaf, kind.code() | MOVED);
-            *quality = quality.merge(angles);
         }
         Some(out)
     };
@@ -440,12 +443,12 @@ fn compact_templates<K: MortonKey>(
         .into_par_iter()
         .chunks(GRAIN)
         .map(|chunk| {
-            let (mut centres, mut quality) = (Vec::new(), AngleQuality::empty());
+            let (mut centres, mut tally) = (Vec::new(), AngleTally::new());
             let blocks = chunk
                 .into_iter()
-                .map(|p| block(p, &mut centres, &mut quality))
+                .map(|p| block(p, &mut centres, &mut tally))
                 .collect();
-            (blocks, centres, quality)
+            (blocks, centres, tally.quality())
         })
         .collect();
     let blocks = || parts.iter().flat_map(|(blocks, ..)| blocks);
@@ -485,13 +488,14 @@ const WARPED_MIN_TARGET_DEG: f64 = 26.5;
 /// largest up to 26.5°, then whose largest angle is smallest, then the first; and where its
 /// centre goes if it uses one ([`warped_centre`]). `None` when a split side meets the moved
 /// corner or no candidate qualifies. Candidates are compared by cosines; only the choice's
-/// angles are measured.
+/// angles are measured, into `tally`.
 pub(crate) fn choose_warped(
     ring: &[DVec2; 8],
     mask: u8,
     moved: u8,
     x: DVec2,
-) -> Option<(Kind, AngleQuality, DVec2)> {
+    tally: &mut AngleTally,
+) -> Option<(Kind, DVec2)> {
     let turn = moved / 2;
     let side_bit = |frame_side: u8| 1u8 << ((frame_side + turn) % 4);
     if mask & (side_bit(0) | side_bit(3)) != 0 {
@@ -525,14 +529,11 @@ pub(crate) fn choose_warped(
         }
     }
     let (kind, ..) = best?;
-    let mut quality = AngleQuality::empty();
     for tri in &template(kind.code()).triangles {
         let [a, b, c] = tri.map(at);
-        angles_deg(a, b, c)
-            .into_iter()
-            .for_each(|angle| quality.add(angle, 1));
+        tally.add_triangle(a, b, c);
     }
-    Some((kind, quality, centre))
+    Some((kind, centre))
 }
 
 /// The cosines of the smallest and the largest angle of template `kind` with vertices
@@ -889,8 +890,10 @@ mod tests {
                     for j in 0..=steps {
                         let step = |k: u32| reach * (2.0 * k as f64 / steps as f64 - 1.0);
                         let x = ring[moved as usize] + DVec2::new(step(i), step(j)) * stretch;
-                        let (_, q, _) = choose_warped(&ring, mask, moved, x)
+                        let mut tally = AngleTally::new();
+                        choose_warped(&ring, mask, moved, x, &mut tally)
                             .unwrap_or_else(|| panic!("corner {moved}, mask {mask}, at {x}"));
+                        let q = tally.quality();
                         lo = lo.min(q.min);
                         hi = hi.max(q.max);
                     }
@@ -962,7 +965,8 @@ mod tests {
             let turn = moved / 2;
             for near in [turn, (turn + 3) % 4] {
                 let x = ring[moved as usize] + DVec2::splat(0.1);
-                assert!(choose_warped(&ring, 1 << near, moved, x).is_none());
+                let mut tally = AngleTally::new();
+                assert!(choose_warped(&ring, 1 << near, moved, x, &mut tally).is_none());
             }
         }
     }
