@@ -20,6 +20,7 @@ pub use changes::MeshChange;
 pub(crate) use changes::{Corners, corner_bits};
 pub use delaunay_check::check_delaunay;
 pub(crate) use report::AngleTally;
+
 pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
 pub use topology::Edge;
@@ -115,11 +116,25 @@ impl Mesh {
 
 /// Angles of a triangle in degrees, at its corners in order.
 pub fn angles_deg(a: DVec2, b: DVec2, c: DVec2) -> [f64; 3] {
-    let angle = |p: DVec2, q: DVec2, r: DVec2| {
-        let (u, v) = (q - p, r - p);
-        u.perp_dot(v).abs().atan2(u.dot(v)).to_degrees()
-    };
-    [angle(a, b, c), angle(b, c, a), angle(c, a, b)]
+    [
+        angle_deg(b - a, c - a),
+        angle_deg(c - b, a - b),
+        angle_deg(a - c, b - c),
+    ]
+}
+
+/// The angle between `u` and `v`, degrees, as [`angles_deg`] measures a triangle's.
+#[inline]
+pub(crate) fn angle_deg(u: DVec2, v: DVec2) -> f64 {
+    u.perp_dot(v).abs().atan2(u.dot(v)).to_degrees()
+}
+
+/// The cosine of the angle between `u` and `v`, from their dot and cross products (NaN when
+/// either is zero).
+#[inline]
+pub(crate) fn cosine(u: DVec2, v: DVec2) -> f64 {
+    let (dot, cross) = (u.dot(v), u.perp_dot(v));
+    dot / (dot * dot + cross * cross).sqrt()
 }
 
 /// The interior angle at each corner of a counter-clockwise polygon, degrees (above 180 at a

@@ -94,26 +94,29 @@ impl AngleTally {
     /// Adds the three angles of triangle `a, b, c`.
     #[inline]
     pub(crate) fn add_triangle(&mut self, a: glam::DVec2, b: glam::DVec2, c: glam::DVec2) {
-        self.add_between(b - a, c - a);
-        self.add_between(c - b, a - b);
-        self.add_between(a - c, b - c);
+        for [p, q, r] in [[a, b, c], [b, c, a], [c, a, b]] {
+            let (u, v) = (q - p, r - p);
+            self.add_cosine(super::cosine(u, v), || super::angle_deg(u, v));
+        }
     }
 
-    /// Adds the angle between `u` and `v`.
+    /// Adds an angle whose cosine, as [`super::cosine`] computes it, is `cos`; `exact` gives it
+    /// in degrees as [`super::angle_deg`] measures it.
     #[inline]
-    fn add_between(&mut self, u: glam::DVec2, v: glam::DVec2) {
-        let (dot, cross) = (u.dot(v), u.perp_dot(v).abs());
-        let cos = dot / (dot * dot + cross * cross).sqrt();
-        let near_edge = BIN_EDGE_COS
-            .iter()
-            .fold(false, |near, &e| near | ((cos - e).abs() <= Self::MARGIN));
+    pub(crate) fn add_cosine(&mut self, cos: f64, exact: impl FnOnce() -> f64) {
+        // The edges are falling: those above `cos` are the bins the angle is past.
+        let mut bin = 0;
+        for e in BIN_EDGE_COS {
+            bin += usize::from(cos < e);
+        }
+        let near_edge = (bin > 0 && BIN_EDGE_COS[bin - 1] - cos <= Self::MARGIN)
+            || (bin < BIN_EDGE_COS.len() && cos - BIN_EDGE_COS[bin] <= Self::MARGIN);
         let extreme = cos >= self.cos_min - Self::MARGIN || cos <= self.cos_max + Self::MARGIN;
         if near_edge || extreme || !cos.is_finite() {
-            self.add_exact(cross.atan2(dot).to_degrees());
-            return;
+            self.add_exact(exact());
+        } else {
+            self.quality.histogram[bin] += 1;
         }
-        let bin = BIN_EDGE_COS.iter().filter(|&&e| cos < e).count();
-        self.quality.histogram[bin] += 1;
     }
 
     fn add_exact(&mut self, angle: f64) {

@@ -359,17 +359,25 @@ impl Grid {
     /// domain's right and top sides exactly its own coordinates.
     #[inline]
     pub fn vertex(&self, gx: u128, gy: u128) -> DVec2 {
-        let unit = self.side / power_of_two(self.axis_bits);
-        let mut p = self.origin + DVec2::new(grid_to_f64(gx), grid_to_f64(gy)) * unit;
-        if let Some(far) = self.far {
-            if self.far_line[0] == Some(gx) {
-                p.x = far.x;
-            }
-            if self.far_line[1] == Some(gy) {
-                p.y = far.y;
-            }
+        DVec2::new(self.x_of(gx), self.y_of(gy))
+    }
+
+    /// The x coordinate of the grid's vertical line `gx` ([`Grid::vertex`]'s).
+    #[inline]
+    pub fn x_of(&self, gx: u128) -> f64 {
+        match self.far {
+            Some(far) if self.far_line[0] == Some(gx) => far.x,
+            _ => self.origin.x + grid_to_f64(gx) * (self.side.x / power_of_two(self.axis_bits)),
         }
-        p
+    }
+
+    /// The y coordinate of the grid's horizontal line `gy` ([`Grid::vertex`]'s).
+    #[inline]
+    pub fn y_of(&self, gy: u128) -> f64 {
+        match self.far {
+            Some(far) if self.far_line[1] == Some(gy) => far.y,
+            _ => self.origin.y + grid_to_f64(gy) * (self.side.y / power_of_two(self.axis_bits)),
+        }
     }
 
     /// Lower-left corner and side, in input coordinates, of the cell at grid corner `(gx, gy)`
@@ -389,11 +397,11 @@ fn power_of_two(n: u32) -> f64 {
     f64::from_bits((1023 + u64::from(n)) << 52)
 }
 
-/// A grid coordinate as f64, rounded as `as f64` rounds it: through `u64` where it fits, which
-/// the hardware converts (from `u128` it is a software routine).
+/// A grid coordinate as f64, rounded as `as f64` rounds it: through `i64` where it fits, which
+/// the hardware converts in one instruction (from `u128` it is a software routine).
 #[inline]
 fn grid_to_f64(v: u128) -> f64 {
-    match u64::try_from(v) {
+    match i64::try_from(v) {
         Ok(v) => v as f64,
         Err(_) => v as f64,
     }

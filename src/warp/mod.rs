@@ -33,7 +33,7 @@ use crate::balance::upper_halves;
 use crate::error::Error;
 use crate::mesh::{
     AngleQuality, AngleTally, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, StageTimes,
-    angles_deg,
+    angle_deg, angles_deg, cosine,
 };
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
 use crate::par::{GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, exclusive_scan_u32_by};
@@ -511,9 +511,11 @@ pub(crate) fn choose_warped(
     // The best so far: its kind, the cosine of its smallest angle (floored at the target's)
     // and of its largest.
     let mut best: Option<(Kind, f64, f64)> = None;
+    let mut cosines = [[0.0; 3]; MAX_WARPED_TRIANGLES];
+    let mut best_cosines = [[0.0; 3]; MAX_WARPED_TRIANGLES];
     for choice in 0..WARPED_CANDIDATES[far as usize].len() as u8 {
         let kind = Kind::Warped { turn, far, choice };
-        let Some((of_min, of_max)) = oriented_cosines(kind, at) else {
+        let Some((of_min, of_max)) = oriented_cosines(kind, at, &mut cosines) else {
             continue;
         };
         if of_max < WARPED_MAX_CAP_COS {
@@ -526,29 +528,41 @@ pub(crate) fn choose_warped(
         });
         if better {
             best = Some((kind, score, of_max));
+            best_cosines = cosines;
         }
     }
     let (kind, ..) = best?;
-    for tri in &template(kind.code()).triangles {
+    // The choice's angles from the cosines measured already; `atan2` where the tally asks.
+    for (tri, cosines) in template(kind.code()).triangles.iter().zip(best_cosines) {
         let [a, b, c] = tri.map(at);
-        tally.add_triangle(a, b, c);
+        for (corner, cos) in cosines.into_iter().enumerate() {
+            let [p, q, r] = [[a, b, c], [b, c, a], [c, a, b]][corner];
+            tally.add_cosine(cos, || angle_deg(q - p, r - p));
+        }
     }
     Some((kind, centre))
 }
 
+/// The most triangles of a [`WARPED_CANDIDATES`] entry.
+const MAX_WARPED_TRIANGLES: usize = 6;
+
 /// The cosines of the smallest and the largest angle of template `kind` with vertices
-/// `at(label)`, or `None` if f64 does not orient every triangle counter-clockwise.
-fn oriented_cosines(kind: Kind, at: impl Fn(u8) -> DVec2) -> Option<(f64, f64)> {
+/// `at(label)`, or `None` if f64 does not orient every triangle counter-clockwise; every
+/// angle's cosine, by triangle and corner, in `cosines`.
+fn oriented_cosines(
+    kind: Kind,
+    at: impl Fn(u8) -> DVec2,
+    cosines: &mut [[f64; 3]; MAX_WARPED_TRIANGLES],
+) -> Option<(f64, f64)> {
     let (mut of_min, mut of_max) = (f64::NEG_INFINITY, f64::INFINITY);
-    for tri in &template(kind.code()).triangles {
+    for (tri, out) in template(kind.code()).triangles.iter().zip(cosines) {
         let [a, b, c] = tri.map(&at);
         if orientation(a, b, c) != Orientation::Left {
             return None;
         }
-        for (p, q, r) in [(a, b, c), (b, c, a), (c, a, b)] {
-            let (u, v) = (q - p, r - p);
-            let (dot, cross) = (u.dot(v), u.perp_dot(v));
-            let cos = dot / (dot * dot + cross * cross).sqrt();
+        for (k, (p, q, r)) in [(a, b, c), (b, c, a), (c, a, b)].into_iter().enumerate() {
+            let cos = cosine(q - p, r - p);
+            out[k] = cos;
             of_min = of_min.max(cos);
             of_max = of_max.min(cos);
         }

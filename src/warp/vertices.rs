@@ -149,17 +149,19 @@ impl<'a, K: MortonKey> LeafGeometry<'a, K> {
     pub fn ring_positions(&self, leaf: usize) -> [DVec2; 8] {
         let (x, y, size) = self.grid_square(leaf);
         let half = size / 2;
+        // Three grid lines each way: each coordinate converted once.
+        let [x0, x1, x2] = [x, x + half, x + size].map(|g| self.grid.x_of(g));
+        let [y0, y1, y2] = [y, y + half, y + size].map(|g| self.grid.y_of(g));
         [
-            (x, y),
-            (x + half, y),
-            (x + size, y),
-            (x + size, y + half),
-            (x + size, y + size),
-            (x + half, y + size),
-            (x, y + size),
-            (x, y + half),
+            DVec2::new(x0, y0),
+            DVec2::new(x1, y0),
+            DVec2::new(x2, y0),
+            DVec2::new(x2, y1),
+            DVec2::new(x2, y2),
+            DVec2::new(x1, y2),
+            DVec2::new(x0, y2),
+            DVec2::new(x0, y1),
         ]
-        .map(|(gx, gy)| self.vertex(gx, gy))
     }
 }
 
