@@ -515,12 +515,21 @@ pub(crate) fn choose_warped(
     let mut best_cosines = [[0.0; 3]; MAX_WARPED_TRIANGLES];
     for choice in 0..WARPED_CANDIDATES[far as usize].len() as u8 {
         let kind = Kind::Warped { turn, far, choice };
-        let Some((of_min, of_max)) = oriented_cosines(kind, at, &mut cosines) else {
+        // Measuring more angles only raises the score and lowers the largest angle's cosine,
+        // so a candidate that already cannot be taken, or cannot beat the best, is dropped
+        // there: the same choice, sooner.
+        let hopeless = |of_min: f64, of_max: f64| {
+            let score = of_min.max(WARPED_MIN_TARGET_COS);
+            of_max < WARPED_MAX_CAP_COS
+                || best.is_some_and(|(_, best_score, best_max)| {
+                    score >= best_score - WARPED_TIE_COS
+                        && (score > best_score + WARPED_TIE_COS
+                            || of_max <= best_max + WARPED_TIE_COS)
+                })
+        };
+        let Some((of_min, of_max)) = oriented_cosines(kind, at, &mut cosines, hopeless) else {
             continue;
         };
-        if of_max < WARPED_MAX_CAP_COS {
-            continue;
-        }
         let score = of_min.max(WARPED_MIN_TARGET_COS);
         let better = best.is_none_or(|(_, best_score, best_max)| {
             score < best_score - WARPED_TIE_COS
@@ -547,12 +556,14 @@ pub(crate) fn choose_warped(
 const MAX_WARPED_TRIANGLES: usize = 6;
 
 /// The cosines of the smallest and the largest angle of template `kind` with vertices
-/// `at(label)`, or `None` if f64 does not orient every triangle counter-clockwise; every
-/// angle's cosine, by triangle and corner, in `cosines`.
+/// `at(label)`, or `None` if f64 does not orient every triangle counter-clockwise or if
+/// `hopeless` says so of those cosines over the triangles measured so far; every angle's
+/// cosine, by triangle and corner, in `cosines`.
 fn oriented_cosines(
     kind: Kind,
     at: impl Fn(u8) -> DVec2,
     cosines: &mut [[f64; 3]; MAX_WARPED_TRIANGLES],
+    hopeless: impl Fn(f64, f64) -> bool,
 ) -> Option<(f64, f64)> {
     let (mut of_min, mut of_max) = (f64::NEG_INFINITY, f64::INFINITY);
     for (tri, out) in template(kind.code()).triangles.iter().zip(cosines) {
@@ -565,6 +576,9 @@ fn oriented_cosines(
             out[k] = cos;
             of_min = of_min.max(cos);
             of_max = of_max.min(cos);
+        }
+        if hopeless(of_min, of_max) {
+            return None;
         }
     }
     Some((of_min, of_max))
@@ -983,6 +997,80 @@ mod tests {
                 assert!(choose_warped(&ring, 1 << near, moved, x, &mut tally).is_none());
             }
         }
+    }
+
+    /// The candidate [`choose_warped`] must take: every candidate measured in full, then the
+    /// rule its documentation states.
+    fn chosen_by_measuring_all(ring: &[DVec2; 8], mask: u8, moved: u8, x: DVec2) -> Option<Kind> {
+        let turn = moved / 2;
+        let far = u8::from(mask & 1 << ((turn + 1) % 4) != 0)
+            | u8::from(mask & 1 << ((turn + 2) % 4) != 0) << 1;
+        let centre = warped_centre(ring, moved, x);
+        let at = |label: u8| match label {
+            CENTRE => centre,
+            l if l == moved => x,
+            l => ring[l as usize],
+        };
+        let mut cosines = [[0.0; 3]; MAX_WARPED_TRIANGLES];
+        let mut best: Option<(Kind, f64, f64)> = None;
+        for choice in 0..WARPED_CANDIDATES[far as usize].len() as u8 {
+            let kind = Kind::Warped { turn, far, choice };
+            let Some((of_min, of_max)) = oriented_cosines(kind, at, &mut cosines, |_, _| false)
+            else {
+                continue;
+            };
+            if of_max < WARPED_MAX_CAP_COS {
+                continue;
+            }
+            let score = of_min.max(WARPED_MIN_TARGET_COS);
+            let better = best.is_none_or(|(_, s, m)| {
+                score < s - WARPED_TIE_COS
+                    || (score <= s + WARPED_TIE_COS && of_max > m + WARPED_TIE_COS)
+            });
+            if better {
+                best = Some((kind, score, of_max));
+            }
+        }
+        best.map(|(kind, ..)| kind)
+    }
+
+    #[test]
+    fn dropping_hopeless_candidates_early_keeps_every_choice() {
+        let ring = unit_ring();
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut offsets: Vec<DVec2> = (0..=16)
+            .flat_map(|i| (0..=16).map(move |j| DVec2::new(i as f64, j as f64) / 32.0 - 0.25))
+            .collect();
+        offsets.extend((0..4000).map(|_| DVec2::new(next(), next()) - 0.5));
+        let mut taken = [0usize; 4];
+        for moved in [0u8, 2, 4, 6] {
+            let turn = moved / 2;
+            let far = [1u8 << ((turn + 1) % 4), 1 << ((turn + 2) % 4)];
+            for mask in [0, far[0], far[1], far[0] | far[1]] {
+                for &offset in &offsets {
+                    let x = ring[moved as usize] + offset;
+                    let mut tally = AngleTally::new();
+                    let got = choose_warped(&ring, mask, moved, x, &mut tally).map(|(k, _)| k);
+                    let want = chosen_by_measuring_all(&ring, mask, moved, x);
+                    assert_eq!(got, want, "corner {moved}, mask {mask}, at {x}");
+                    if let Some(Kind::Warped { choice, .. }) = got {
+                        taken[choice as usize] += 1;
+                    }
+                }
+            }
+        }
+        // The first three candidates each win somewhere, so later ones were dropped early
+        // against a best of every rank.
+        assert!(
+            taken[..3].iter().all(|&n| n > 0),
+            "choices taken: {taken:?}"
+        );
     }
 
     /// The smallest and largest angle of the 2×2 block around a corner at the origin moved to
