@@ -26,10 +26,11 @@ use super::{
 use crate::balance::BalancedTree;
 use crate::error::Error;
 use crate::mesh::{
-    AngleQuality, Domain, Mesh, NONE, StageTimes, angles_deg, largest_coordinate, obtuse_beyond,
-    rounding_allowance_deg,
+    AngleQuality, AngleTally, Domain, Mesh, NONE, StageTimes, angle_deg, angles_deg, cosine,
+    largest_coordinate, obtuse_beyond, rounding_allowance_deg,
 };
 use crate::morton::{Grid, MortonKey};
+use crate::par::GRAIN;
 use crate::predicates::{Orientation, orientation};
 
 /// The largest angle of a nonobtuse mesh, in degrees.
@@ -352,29 +353,40 @@ fn measured_and_bent(
     let (lo, hi) = grid.domain();
     let m = largest_coordinate(&Domain { lo, hi });
     let split = |leaf: usize| kinds[leaf] & MOVED != 0;
-    (0..kinds.len())
-        .into_par_iter()
-        .filter(|&leaf| split(leaf) || inexact(leaf))
-        .fold(
-            || (AngleQuality::empty(), None),
-            |(mut quality, mut bent), leaf| {
-                for t in &triangles[offsets[leaf] as usize..offsets[leaf + 1] as usize] {
-                    let corners = t.map(|v| vertices[v as usize]);
-                    let angles = angles_deg(corners[0], corners[1], corners[2]);
-                    angles.iter().for_each(|&angle| quality.add(angle, 1));
-                    let largest = angles.into_iter().fold(0.0, f64::max);
-                    let [a, b, c] = corners;
-                    if bent.is_none()
-                        && split(leaf)
-                        && (obtuse_beyond(largest, rounding_allowance_deg(corners, m))
-                            || orientation(a, b, c) != Orientation::Left)
-                    {
-                        bent = Some(leaf);
-                    }
+    // A tally per run of leaves: folding leaf by leaf would move it at each one.
+    let run_of = |run: usize| {
+        let (mut tally, mut bent) = (AngleTally::new(), None);
+        let from = run * GRAIN;
+        for leaf in (from..kinds.len().min(from + GRAIN)).filter(|&l| split(l) || inexact(l)) {
+            for t in &triangles[offsets[leaf] as usize..offsets[leaf + 1] as usize] {
+                let corners = t.map(|v| vertices[v as usize]);
+                let [a, b, c] = corners;
+                // Only a triangle with an angle not clearly acute (a cosine at most 1e-9, or
+                // NaN where the products overflow) needs its angles in degrees for the test.
+                let mut clearly_acute = true;
+                for [p, q, r] in [[a, b, c], [b, c, a], [c, a, b]] {
+                    let (u, v) = (q - p, r - p);
+                    let cos = cosine(u, v);
+                    clearly_acute &= cos > 1e-9;
+                    tally.add_cosine(cos, || angle_deg(u, v));
                 }
-                (quality, bent)
-            },
-        )
+                let obtuse = || {
+                    let largest = angles_deg(a, b, c).into_iter().fold(0.0, f64::max);
+                    obtuse_beyond(largest, rounding_allowance_deg(corners, m))
+                };
+                if bent.is_none()
+                    && split(leaf)
+                    && ((!clearly_acute && obtuse()) || orientation(a, b, c) != Orientation::Left)
+                {
+                    bent = Some(leaf);
+                }
+            }
+        }
+        (tally.quality(), bent)
+    };
+    (0..kinds.len().div_ceil(GRAIN))
+        .into_par_iter()
+        .map(run_of)
         .reduce(
             || (AngleQuality::empty(), None),
             |(a, x): (AngleQuality, Option<usize>), (b, y)| (a.merge(b), x.min(y).or(x).or(y)),
