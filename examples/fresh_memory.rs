@@ -21,6 +21,18 @@ fn filled<T: Copy + Send + Sync>(n: usize, value: T) -> Vec<T> {
     (0..n).into_par_iter().map(|_| value).collect()
 }
 
+/// A mesh's arrays: vertices, their input indices, triangles and neighbours, all `fill`.
+type Output = (Vec<[f64; 2]>, Vec<u32>, Vec<[u32; 3]>, Vec<[u32; 3]>);
+
+fn output(vertices: usize, triangles: usize, fill: u32) -> Output {
+    (
+        filled(vertices, [f64::from(fill); 2]),
+        filled(vertices, fill),
+        filled(triangles, [fill; 3]),
+        filled(triangles, [fill; 3]),
+    )
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().collect();
     let arg = |i: usize, default: usize| args.get(i).map_or(default, |s| s.parse().expect("count"));
@@ -31,22 +43,12 @@ fn main() {
         .expect("thread pool");
     pool.install(|| {
         let start = Instant::now();
-        let mesh = (
-            filled(vertices, [0.5f64; 2]),
-            filled(vertices, 7u32),
-            filled(triangles, [1u32; 3]),
-            filled(triangles, [2u32; 3]),
-        );
+        let mesh = output(vertices, triangles, 1);
         let fresh = start.elapsed().as_secs_f64();
         let bytes = vertices * 20 + triangles * 24;
         drop(mesh);
         let start = Instant::now();
-        let again = (
-            filled(vertices, [0.25f64; 2]),
-            filled(vertices, 9u32),
-            filled(triangles, [3u32; 3]),
-            filled(triangles, [4u32; 3]),
-        );
+        let again = output(vertices, triangles, 3);
         let reused = start.elapsed().as_secs_f64();
         assert_eq!(again.2[triangles / 2], [3; 3]);
         println!(

@@ -116,11 +116,19 @@ impl Mesh {
 
 /// Angles of a triangle in degrees, at its corners in order.
 pub fn angles_deg(a: DVec2, b: DVec2, c: DVec2) -> [f64; 3] {
-    [
-        angle_deg(b - a, c - a),
-        angle_deg(c - b, a - b),
-        angle_deg(a - c, b - c),
-    ]
+    corner_sides(a, b, c).map(|(u, v)| angle_deg(u, v))
+}
+
+/// The two sides leaving each corner of triangle `a, b, c`, in [`angles_deg`]'s order.
+#[inline]
+pub(crate) fn corner_sides(a: DVec2, b: DVec2, c: DVec2) -> [(DVec2, DVec2); 3] {
+    [(b - a, c - a), (c - b, a - b), (a - c, b - c)]
+}
+
+/// The cosines of the angles of triangle `a, b, c`, in [`angles_deg`]'s order.
+#[inline]
+pub(crate) fn corner_cosines(a: DVec2, b: DVec2, c: DVec2) -> [f64; 3] {
+    corner_sides(a, b, c).map(|(u, v)| cosine(u, v))
 }
 
 /// The angle between `u` and `v`, degrees, as [`angles_deg`] measures a triangle's.

@@ -3,6 +3,8 @@
 
 use std::time::{Duration, Instant};
 
+use glam::DVec2;
+
 use super::Mesh;
 
 /// Smallest and largest angle (degrees) and the count of angles per 10° bin.
@@ -91,19 +93,28 @@ impl AngleTally {
         }
     }
 
-    /// Adds the three angles of triangle `a, b, c`.
+    /// Adds the three angles of triangle `a, b, c`; returns their cosines
+    /// ([`super::corner_cosines`]).
     #[inline]
-    pub(crate) fn add_triangle(&mut self, a: glam::DVec2, b: glam::DVec2, c: glam::DVec2) {
-        for [p, q, r] in [[a, b, c], [b, c, a], [c, a, b]] {
-            let (u, v) = (q - p, r - p);
-            self.add_cosine(super::cosine(u, v), || super::angle_deg(u, v));
+    pub(crate) fn add_triangle(&mut self, a: DVec2, b: DVec2, c: DVec2) -> [f64; 3] {
+        let cosines = super::corner_cosines(a, b, c);
+        self.add_measured(a, b, c, cosines);
+        cosines
+    }
+
+    /// Adds the three angles of triangle `a, b, c`, whose cosines `cosines`
+    /// ([`super::corner_cosines`]) were measured already.
+    #[inline]
+    pub(crate) fn add_measured(&mut self, a: DVec2, b: DVec2, c: DVec2, cosines: [f64; 3]) {
+        for ((u, v), cos) in super::corner_sides(a, b, c).into_iter().zip(cosines) {
+            self.add_cosine(cos, || super::angle_deg(u, v));
         }
     }
 
     /// Adds an angle whose cosine, as [`super::cosine`] computes it, is `cos`; `exact` gives it
     /// in degrees as [`super::angle_deg`] measures it.
     #[inline]
-    pub(crate) fn add_cosine(&mut self, cos: f64, exact: impl FnOnce() -> f64) {
+    fn add_cosine(&mut self, cos: f64, exact: impl FnOnce() -> f64) {
         // The edges are falling: those above `cos` are the bins the angle is past.
         let mut bin = 0;
         for e in BIN_EDGE_COS {
@@ -209,7 +220,8 @@ pub(crate) fn report_of(
 mod tests {
     use super::*;
     use crate::mesh::angles_deg;
-    use glam::DVec2;
+    use rand::{Rng as _, SeedableRng};
+    use rand_xoshiro::Xoshiro256PlusPlus;
 
     fn exact(triangles: &[[DVec2; 3]]) -> AngleQuality {
         let mut q = AngleQuality::empty();
@@ -245,15 +257,11 @@ mod tests {
                 triangles.push([DVec2::ZERO, DVec2::X, DVec2::new(t.cos(), t.sin())]);
             }
         }
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
         for _ in 0..20_000 {
-            triangles.push(std::array::from_fn(|_| DVec2::new(next(), next())));
+            triangles.push(std::array::from_fn(|_| {
+                DVec2::new(rng.random(), rng.random())
+            }));
         }
         let mut tally = AngleTally::new();
         for &[a, b, c] in &triangles {

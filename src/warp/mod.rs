@@ -33,7 +33,7 @@ use crate::balance::upper_halves;
 use crate::error::Error;
 use crate::mesh::{
     AngleQuality, AngleTally, BoundaryEdge, BoundarySide, Domain, Mesh, NONE, StageTimes,
-    angle_deg, angles_deg, cosine,
+    angles_deg, corner_cosines,
 };
 use crate::morton::{GUARD_LEVELS, Grid, MortonKey, Side};
 use crate::par::{GRAIN, SegmentWriter, chunk_offsets, collect_segments_by, exclusive_scan_u32_by};
@@ -517,39 +517,33 @@ pub(crate) fn choose_warped(
         let kind = Kind::Warped { turn, far, choice };
         // Measuring more angles only raises the score and lowers the largest angle's cosine,
         // so a candidate that already cannot be taken, or cannot beat the best, is dropped
-        // there: the same choice, sooner.
-        let hopeless = |of_min: f64, of_max: f64| {
-            let score = of_min.max(WARPED_MIN_TARGET_COS);
-            of_max < WARPED_MAX_CAP_COS
-                || best.is_some_and(|(_, best_score, best_max)| {
-                    score >= best_score - WARPED_TIE_COS
-                        && (score > best_score + WARPED_TIE_COS
-                            || of_max <= best_max + WARPED_TIE_COS)
-                })
-        };
+        // there: the same choice, sooner. One that is measured in full beats the best.
+        let hopeless =
+            |of_min: f64, of_max: f64| of_max < WARPED_MAX_CAP_COS || !beats(best, of_min, of_max);
         let Some((of_min, of_max)) = oriented_cosines(kind, at, &mut cosines, hopeless) else {
             continue;
         };
-        let score = of_min.max(WARPED_MIN_TARGET_COS);
-        let better = best.is_none_or(|(_, best_score, best_max)| {
-            score < best_score - WARPED_TIE_COS
-                || (score <= best_score + WARPED_TIE_COS && of_max > best_max + WARPED_TIE_COS)
-        });
-        if better {
-            best = Some((kind, score, of_max));
-            best_cosines = cosines;
-        }
+        best = Some((kind, of_min.max(WARPED_MIN_TARGET_COS), of_max));
+        best_cosines = cosines;
     }
     let (kind, ..) = best?;
     // The choice's angles from the cosines measured already; `atan2` where the tally asks.
     for (tri, cosines) in template(kind.code()).triangles.iter().zip(best_cosines) {
         let [a, b, c] = tri.map(at);
-        for (corner, cos) in cosines.into_iter().enumerate() {
-            let [p, q, r] = [[a, b, c], [b, c, a], [c, a, b]][corner];
-            tally.add_cosine(cos, || angle_deg(q - p, r - p));
-        }
+        tally.add_measured(a, b, c, cosines);
     }
     Some((kind, centre))
+}
+
+/// Whether a candidate whose smallest and largest angles have cosines `of_min` and `of_max`
+/// beats `best` (its kind, score and largest angle's cosine): a smaller score (the smallest
+/// angle's cosine, floored at the target's), or an equal one with a smaller largest angle.
+fn beats(best: Option<(Kind, f64, f64)>, of_min: f64, of_max: f64) -> bool {
+    let score = of_min.max(WARPED_MIN_TARGET_COS);
+    best.is_none_or(|(_, best_score, best_max)| {
+        score < best_score - WARPED_TIE_COS
+            || (score <= best_score + WARPED_TIE_COS && of_max > best_max + WARPED_TIE_COS)
+    })
 }
 
 /// The most triangles of a [`WARPED_CANDIDATES`] entry.
@@ -571,12 +565,9 @@ fn oriented_cosines(
         if orientation(a, b, c) != Orientation::Left {
             return None;
         }
-        for (k, (p, q, r)) in [(a, b, c), (b, c, a), (c, a, b)].into_iter().enumerate() {
-            let cos = cosine(q - p, r - p);
-            out[k] = cos;
-            of_min = of_min.max(cos);
-            of_max = of_max.min(cos);
-        }
+        *out = corner_cosines(a, b, c);
+        of_min = out.iter().fold(of_min, |m, &cos| m.max(cos));
+        of_max = out.iter().fold(of_max, |m, &cos| m.min(cos));
         if hopeless(of_min, of_max) {
             return None;
         }
@@ -893,6 +884,8 @@ fn boundary_edges<K: MortonKey>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rand::{Rng as _, SeedableRng};
+    use rand_xoshiro::Xoshiro256PlusPlus;
 
     /// The unit square's ring: corners and side midpoints, labels 0–7.
     fn unit_ring() -> [DVec2; 8] {
@@ -999,8 +992,8 @@ mod tests {
         }
     }
 
-    /// The candidate [`choose_warped`] must take: every candidate measured in full, then the
-    /// rule its documentation states.
+    /// The candidate [`choose_warped`] must take: every candidate measured in full, then
+    /// compared by [`beats`].
     fn chosen_by_measuring_all(ring: &[DVec2; 8], mask: u8, moved: u8, x: DVec2) -> Option<Kind> {
         let turn = moved / 2;
         let far = u8::from(mask & 1 << ((turn + 1) % 4) != 0)
@@ -1019,16 +1012,8 @@ mod tests {
             else {
                 continue;
             };
-            if of_max < WARPED_MAX_CAP_COS {
-                continue;
-            }
-            let score = of_min.max(WARPED_MIN_TARGET_COS);
-            let better = best.is_none_or(|(_, s, m)| {
-                score < s - WARPED_TIE_COS
-                    || (score <= s + WARPED_TIE_COS && of_max > m + WARPED_TIE_COS)
-            });
-            if better {
-                best = Some((kind, score, of_max));
+            if of_max >= WARPED_MAX_CAP_COS && beats(best, of_min, of_max) {
+                best = Some((kind, of_min.max(WARPED_MIN_TARGET_COS), of_max));
             }
         }
         best.map(|(kind, ..)| kind)
@@ -1037,17 +1022,11 @@ mod tests {
     #[test]
     fn dropping_hopeless_candidates_early_keeps_every_choice() {
         let ring = unit_ring();
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            (state >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
         let mut offsets: Vec<DVec2> = (0..=16)
             .flat_map(|i| (0..=16).map(move |j| DVec2::new(i as f64, j as f64) / 32.0 - 0.25))
             .collect();
-        offsets.extend((0..4000).map(|_| DVec2::new(next(), next()) - 0.5));
+        offsets.extend((0..4000).map(|_| DVec2::new(rng.random(), rng.random()) - 0.5));
         let mut taken = [0usize; 4];
         for moved in [0u8, 2, 4, 6] {
             let turn = moved / 2;

@@ -26,8 +26,8 @@ use super::{
 use crate::balance::BalancedTree;
 use crate::error::Error;
 use crate::mesh::{
-    AngleQuality, AngleTally, Domain, Mesh, NONE, StageTimes, angle_deg, angles_deg, cosine,
-    largest_coordinate, obtuse_beyond, rounding_allowance_deg,
+    AngleQuality, AngleTally, Domain, Mesh, NONE, StageTimes, angles_deg, largest_coordinate,
+    obtuse_beyond, rounding_allowance_deg,
 };
 use crate::morton::{Grid, MortonKey};
 use crate::par::GRAIN;
@@ -363,13 +363,8 @@ fn measured_and_bent(
                 let [a, b, c] = corners;
                 // Only a triangle with an angle not clearly acute (a cosine at most 1e-9, or
                 // NaN where the products overflow) needs its angles in degrees for the test.
-                let mut clearly_acute = true;
-                for [p, q, r] in [[a, b, c], [b, c, a], [c, a, b]] {
-                    let (u, v) = (q - p, r - p);
-                    let cos = cosine(u, v);
-                    clearly_acute &= cos > 1e-9;
-                    tally.add_cosine(cos, || angle_deg(u, v));
-                }
+                let cosines = tally.add_triangle(a, b, c);
+                let clearly_acute = cosines.iter().all(|&cos| cos > 1e-9);
                 let obtuse = || {
                     let largest = angles_deg(a, b, c).into_iter().fold(0.0, f64::max);
                     obtuse_beyond(largest, rounding_allowance_deg(corners, m))
