@@ -7,7 +7,8 @@
 //! the last insertion; many points are split into vertical strips that are triangulated in
 //! parallel and glued by edge flips. For the hull, its sides are put in by flipping the edges
 //! that cross them, and what lies outside goes (`hull`). Then bad triangles (an angle below
-//! the bound or an area above it) are fixed smallest first, as in Har-Peled and Üngör:
+//! the bound or an area above it) are fixed smallest first, as in Har-Peled and Üngör (within
+//! a size class, the smallest angle first):
 //! each gets Üngör's off-center, the point on the bisector of its shortest edge that makes a
 //! triangle just meeting the bound with that edge, or its circumcenter when that is closer. A
 //! point that would encroach on a boundary edge (lie in its diametral circle) is not inserted;

@@ -10,9 +10,9 @@ pub(crate) struct Queued {
     pub triangle: u32,
     /// The largest vertex number of the triangle.
     pub newest: u32,
-    /// Morton key of the triangle's position: a class is worked through in this order, so
-    /// that consecutive insertions touch nearby memory.
-    pub place: u64,
+    /// Its order within its size class, smallest first: by its smallest angle, then its
+    /// position's Morton key (see `refiner::rank`).
+    pub rank: u64,
 }
 
 /// One stack per binary exponent of the squared shortest edge.
@@ -20,8 +20,8 @@ pub(crate) struct Queued {
 pub(crate) struct SizeQueue {
     classes: Vec<Vec<Queued>>,
     lowest: usize,
-    /// Per class, how many of its first entries are already in runs of descending Morton
-    /// order; later entries were queued since and are not.
+    /// Per class, how many of its first entries are already in runs of descending rank; later
+    /// entries were queued since and are not.
     sorted: Vec<usize>,
     /// Entries in all classes.
     len: usize,
@@ -55,7 +55,7 @@ impl SizeQueue {
         self.len += 1;
     }
 
-    /// The next entry: from the smallest non-empty class, in Morton order. Entries queued since
+    /// The next entry: from the smallest non-empty class, lowest rank first. Entries queued since
     /// the class was last taken from are put in order first and come first, so every entry is
     /// sorted once, and new bad triangles next to the last insertion are fixed while their
     /// memory is still in cache.
@@ -75,7 +75,7 @@ impl SizeQueue {
                 continue;
             }
             if class.len() > *sorted {
-                class[*sorted..].sort_unstable_by_key(|e| std::cmp::Reverse(e.place));
+                class[*sorted..].sort_unstable_by_key(|e| std::cmp::Reverse(e.rank));
             }
             let entry = class.pop();
             *sorted = class.len();
@@ -92,12 +92,12 @@ mod tests {
         Queued {
             triangle: t,
             newest: t,
-            place: u64::from(t),
+            rank: u64::from(t),
         }
     }
 
     #[test]
-    fn smallest_class_first_in_place_order_within_a_class() {
+    fn smallest_class_first_in_rank_order_within_a_class() {
         let mut q = SizeQueue::new();
         q.push(SizeQueue::class_of(4.0), entry(1));
         q.push(SizeQueue::class_of(0.3), entry(3));
