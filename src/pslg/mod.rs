@@ -226,10 +226,12 @@ pub fn clean(input: &Input, options: CleanOptions) -> Result<(Input, CleanReport
     drop_repeats(&mut pieces, &mut report);
 
     for round in 0.. {
-        let grid = Grid::new(&points, &pieces);
-        split_at_points(&points, &mut pieces, &grid, &mut report);
-        drop_repeats(&mut pieces, &mut report);
-        let grid = Grid::new(&points, &pieces);
+        let mut grid = Grid::new(&points, &pieces);
+        // The pieces are as the grid has them unless split here or at crossings before.
+        if split_at_points(&points, &mut pieces, &grid, &mut report) || round > 0 {
+            drop_repeats(&mut pieces, &mut report);
+            grid = Grid::new(&points, &pieces);
+        }
         let crossings = find_crossings(&points, &pieces, &grid);
         let Some(c) = crossings.first() else {
             break;
@@ -332,41 +334,44 @@ fn split_piece(points: &[DVec2], piece: Piece, mut at: Vec<u32>, out: &mut Vec<P
     }
 }
 
-/// Splits every piece at the points lying exactly in its interior.
+/// Splits every piece at the points lying exactly in its interior; whether any was.
 fn split_at_points(
     points: &[DVec2],
     pieces: &mut Vec<Piece>,
     grid: &Grid,
     report: &mut CleanReport,
-) {
-    let found: Vec<Vec<u32>> = pieces
-        .par_iter()
-        .map_init(Vec::new, |cells, piece| {
-            let [a, b] = piece.ends.map(|e| points[e as usize]);
-            grid.cells_of(a, b, cells);
-            let mut on = Vec::new();
-            for &cell in cells.iter() {
-                for &q in grid.points_in(cell) {
+) -> bool {
+    // (piece, point) for each point inside a piece, found cell by cell: a point lies in one
+    // cell, and a piece is listed once in each of its cells, so each pair is found once.
+    let mut found: Vec<(u32, u32)> = (0..grid.piece_cell_count())
+        .into_par_iter()
+        .flat_map_iter(|k| {
+            let (here, near) = (grid.pieces_in(k), grid.points_in_cell_of(k));
+            let mut out = Vec::new();
+            for &i in here {
+                let [a, b] = pieces[i as usize].ends.map(|e| points[e as usize]);
+                for &q in near {
                     let p = points[q as usize];
                     if orientation(a, b, p) == Orientation::On && strictly_between(a, b, p) {
-                        on.push(q);
+                        out.push((i, q));
                     }
                 }
             }
-            on.sort_unstable();
-            on
+            out
         })
         .collect();
-    if found.iter().all(Vec::is_empty) {
-        return;
+    if found.is_empty() {
+        return false;
     }
-    let mut out = Vec::with_capacity(pieces.len() + found.iter().map(Vec::len).sum::<usize>());
-    for (&piece, on) in pieces.iter().zip(found) {
-        if on.is_empty() {
+    found.par_sort_unstable();
+    let mut out = Vec::with_capacity(pieces.len() + found.len());
+    let mut hits = found.chunk_by(|x, y| x.0 == y.0).peekable();
+    for (i, &piece) in pieces.iter().enumerate() {
+        let Some(on) = hits.next_if(|h| h[0].0 == i as u32) else {
             out.push(piece);
             continue;
-        }
-        for &point in &on {
+        };
+        for &(_, point) in on {
             report.vertex_splits += 1;
             if report.vertex_split_examples.len() < REPORT_EXAMPLES {
                 report.vertex_split_examples.push(VertexSplit {
@@ -375,9 +380,10 @@ fn split_at_points(
                 });
             }
         }
-        split_piece(points, piece, on, &mut out);
+        split_piece(points, piece, on.iter().map(|h| h.1).collect(), &mut out);
     }
     *pieces = out;
+    true
 }
 
 /// Where the interiors of pieces `a = [p, q]` and `b = [r, s]` meet, if they do; pieces sharing
@@ -422,7 +428,7 @@ fn meet(points: &[DVec2], a: Piece, b: Piece) -> Option<DVec2> {
 
 /// Every pair of pieces whose interiors meet, sorted by their input segments, then pieces.
 fn find_crossings(points: &[DVec2], pieces: &[Piece], grid: &Grid) -> Vec<Crossing> {
-    let mut found: Vec<Crossing> = (0..grid.cell_count())
+    let mut found: Vec<Crossing> = (0..grid.piece_cell_count())
         .into_par_iter()
         .flat_map_iter(|cell| {
             let here = grid.pieces_in(cell);
