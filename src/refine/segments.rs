@@ -44,8 +44,8 @@ struct NarrowCorner {
 /// The segments of a planar straight-line graph as refinement sees them.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Walls {
-    /// Input segments by their end vertices, the smaller first.
-    by_ends: HashMap<(u32, u32), u32>,
+    /// Input segments by their end vertices, the smaller first, sorted.
+    by_ends: Vec<((u32, u32), u32)>,
     /// Per vertex of the triangulation before refinement, whether a corner between walls
     /// there is narrower than [`ACUTE_CORNER_DEG`].
     acute: Vec<bool>,
@@ -75,10 +75,10 @@ impl Walls {
 
     /// The input segment joining vertices `a` and `b`, or [`NONE`].
     pub fn segment_between(&self, a: u32, b: u32) -> u32 {
+        let ends = (a.min(b), a.max(b));
         self.by_ends
-            .get(&(a.min(b), a.max(b)))
-            .copied()
-            .unwrap_or(NONE)
+            .binary_search_by_key(&ends, |&(e, _)| e)
+            .map_or(NONE, |k| self.by_ends[k].1)
     }
 
     /// Whether the corner of a triangle at vertex `v` (at `at`, the triangle's other corners
@@ -145,16 +145,25 @@ pub(super) fn constrain(
     let ends = |k: usize| input.segments[k].ends.map(|i| vertex_of[i as usize]);
     let mut stars = Stars::of(t);
     let mut touched = Vec::new();
-    for k in 0..input.segments.len() {
+    // Most segments are edges already, which is found in parallel. Recovering one flips only
+    // edges that cross it, which no other segment is.
+    let edge_of = |t: &Triangulation, stars: &Stars, k: usize| {
+        let [u, v] = ends(k);
+        stars.edge(t, u, v).or_else(|| stars.edge(t, v, u))
+    };
+    let missing: Vec<usize> = (0..input.segments.len())
+        .into_par_iter()
+        .filter(|&k| edge_of(t, &stars, k).is_none())
+        .collect();
+    for k in missing {
         let [u, v] = ends(k);
         recover_edge(t, &mut stars, (u, v), &mut touched)?;
     }
-    for k in 0..input.segments.len() {
-        let [u, v] = ends(k);
-        let (id, i) = stars
-            .edge(t, u, v)
-            .or_else(|| stars.edge(t, v, u))
-            .expect("a recovered segment is an edge");
+    let found: Vec<(u32, usize)> = (0..input.segments.len())
+        .into_par_iter()
+        .map(|k| edge_of(t, &stars, k).expect("a recovered segment is an edge"))
+        .collect();
+    for (id, i) in found {
         mark_wall(t, id, i);
     }
     let edges = touched
@@ -188,12 +197,15 @@ pub(super) fn constrain(
         t.regions
             .reserve(t.corners.capacity().saturating_sub(t.regions.len()));
     }
-    let by_ends = (0..input.segments.len())
+    let mut by_ends: Vec<((u32, u32), u32)> = (0..input.segments.len())
+        .into_par_iter()
         .filter_map(|k| {
             let [u, v] = ends(k).map(|x| vertex_map.of(x));
             (u != NONE && v != NONE).then_some(((u.min(v), u.max(v)), k as u32))
         })
         .collect();
+    // Cleaning left one segment per pair of ends.
+    by_ends.par_sort_unstable();
     let mut walls = Walls {
         by_ends,
         ..Walls::default()
@@ -377,10 +389,11 @@ fn spread_regions(t: &Triangulation, outside: &[bool], seeds: &[Option<u32>]) ->
 /// than [`ACUTE_CORNER_DEG`] and those narrower than the bound.
 fn find_corners(t: &Triangulation, walls: &mut Walls, min_angle_deg: f64) {
     let stars = Stars::of(t);
+    let narrowest = min_angle_deg.max(ACUTE_CORNER_DEG);
     let found: Vec<(u32, Vec<WallCorner>)> = (0..t.vertices.len() as u32)
         .into_par_iter()
         .filter_map(|v| {
-            let corners = corners_at(t, &stars, v);
+            let corners = corners_at(t, &stars, v, narrowest);
             (!corners.is_empty()).then_some((v, corners))
         })
         .collect();
@@ -413,23 +426,26 @@ fn find_corners(t: &Triangulation, walls: &mut Walls, min_angle_deg: f64) {
 /// counter-clockwise.
 type WallCorner = (f64, u32, u32);
 
-/// The corners between consecutive walls around vertex `v`, each as its angle (degrees) and
-/// the far ends of its two walls, counter-clockwise from the first; none where fewer than two
-/// walls meet.
-fn corners_at(t: &Triangulation, stars: &Stars, v: u32) -> Vec<WallCorner> {
+/// The corners narrower than `narrowest` degrees between consecutive walls around vertex
+/// `v`, each as its angle (degrees) and the far ends of its two walls, counter-clockwise from
+/// the first; none where fewer than two walls meet.
+fn corners_at(t: &Triangulation, stars: &Stars, v: u32, narrowest: f64) -> Vec<WallCorner> {
     let at = t.vertices[v as usize];
     // Clockwise around v; in each triangle, with v at corner i, the edge from v to the corner
     // PREV[i] (opposite NEXT[i]) comes first, the edge to NEXT[i] (opposite PREV[i]) last.
-    let fan: Vec<(u32, usize)> = stars.around(t, v).collect();
     let starts_at_wall = |(id, i): (u32, usize)| is_wall(t.across[id as usize][NEXT[i]]);
     let ends_at_wall = |(id, i): (u32, usize)| is_wall(t.across[id as usize][PREV[i]]);
-    let Some(start) = fan.iter().position(|&f| starts_at_wall(f)) else {
+    let Some(start) = stars.around(t, v).find(|&f| starts_at_wall(f)) else {
         return Vec::new();
     };
+    // The fan from the first triangle after a wall, around once.
+    let fan = stars
+        .around(t, v)
+        .skip_while(move |&f| f != start)
+        .chain(stars.around(t, v).take_while(move |&f| f != start));
     let mut corners = Vec::new();
     let (mut angle, mut second) = (0.0, NONE);
-    for k in 0..fan.len() {
-        let (id, i) = fan[(start + k) % fan.len()];
+    for (id, i) in fan {
         let c = t.corners[id as usize];
         if starts_at_wall((id, i)) {
             angle = 0.0;
@@ -439,8 +455,11 @@ fn corners_at(t: &Triangulation, stars: &Stars, v: u32) -> Vec<WallCorner> {
             t.vertices[c[NEXT[i]] as usize] - at,
             t.vertices[c[PREV[i]] as usize] - at,
         );
-        angle += x.perp_dot(y).atan2(x.dot(y)).to_degrees();
-        if ends_at_wall((id, i)) {
+        // The angle grows with each triangle; past the narrowest that counts, it is not summed.
+        if angle < narrowest {
+            angle += x.perp_dot(y).atan2(x.dot(y)).to_degrees();
+        }
+        if ends_at_wall((id, i)) && angle < narrowest {
             corners.push((angle, c[NEXT[i]], second));
         }
     }
