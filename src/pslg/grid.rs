@@ -17,6 +17,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::Piece;
+use crate::morton::bounding_box;
 
 /// The widening of a piece's cells, as a fraction of a cell.
 const MARGIN: f64 = 0.01;
@@ -52,16 +53,7 @@ pub(super) struct Grid {
 impl Grid {
     /// The grid of `points` (finite) and `pieces` between them.
     pub fn new(points: &[DVec2], pieces: &[Piece]) -> Grid {
-        let (lo, hi) = points
-            .par_iter()
-            .fold(
-                || (DVec2::INFINITY, DVec2::NEG_INFINITY),
-                |(lo, hi), &p| (lo.min(p), hi.max(p)),
-            )
-            .reduce(
-                || (DVec2::INFINITY, DVec2::NEG_INFINITY),
-                |a, b| (a.0.min(b.0), a.1.max(b.1)),
-            );
+        let (lo, hi) = bounding_box(points);
         let (lo, extent) = if points.is_empty() {
             (DVec2::ZERO, DVec2::ZERO)
         } else {
@@ -99,12 +91,12 @@ impl Grid {
         let mut by_piece: Vec<(u64, u32)> = pieces
             .par_iter()
             .enumerate()
-            .map_init(Vec::new, |cells, (i, piece)| {
+            .flat_map_iter(|(i, piece)| {
                 let [a, b] = piece.ends.map(|e| points[e as usize]);
-                grid.cells_of(a, b, cells);
-                cells.iter().map(|&c| (c, i as u32)).collect::<Vec<_>>()
+                let mut cells = Vec::new();
+                grid.cells_of(a, b, &mut cells);
+                cells.into_iter().map(move |c| (c, i as u32))
             })
-            .flatten_iter()
             .collect();
         by_piece.par_sort_unstable();
         (grid.point_cells, grid.point_ids) = by_point.into_par_iter().unzip();

@@ -151,18 +151,26 @@ pub(super) fn constrain(
         let [u, v] = ends(k);
         stars.edge(t, u, v).or_else(|| stars.edge(t, v, u))
     };
-    let missing: Vec<usize> = (0..input.segments.len())
+    let located: Vec<Option<(u32, usize)>> = (0..input.segments.len())
         .into_par_iter()
-        .filter(|&k| edge_of(t, &stars, k).is_none())
+        .map(|k| edge_of(t, &stars, k))
         .collect();
-    for k in missing {
+    let missing: Vec<usize> = (0..located.len())
+        .filter(|&k| located[k].is_none())
+        .collect();
+    for &k in &missing {
         let [u, v] = ends(k);
         recover_edge(t, &mut stars, (u, v), &mut touched)?;
     }
-    let found: Vec<(u32, usize)> = (0..input.segments.len())
-        .into_par_iter()
-        .map(|k| edge_of(t, &stars, k).expect("a recovered segment is an edge"))
-        .collect();
+    // The flips of a recovery may move edges found before to other triangles: find them again.
+    let found: Vec<(u32, usize)> = if missing.is_empty() {
+        located.into_iter().flatten().collect()
+    } else {
+        (0..input.segments.len())
+            .into_par_iter()
+            .map(|k| edge_of(t, &stars, k).expect("a recovered segment is an edge"))
+            .collect()
+    };
     for (id, i) in found {
         mark_wall(t, id, i);
     }

@@ -523,7 +523,7 @@ pub(crate) fn choose_warped(
         let Some((of_min, of_max)) = oriented_cosines(kind, at, &mut cosines, hopeless) else {
             continue;
         };
-        best = Some((kind, of_min.max(WARPED_MIN_TARGET_COS), of_max));
+        best = Some((kind, score(of_min), of_max));
         best_cosines = cosines;
     }
     let (kind, ..) = best?;
@@ -539,11 +539,17 @@ pub(crate) fn choose_warped(
 /// beats `best` (its kind, score and largest angle's cosine): a smaller score (the smallest
 /// angle's cosine, floored at the target's), or an equal one with a smaller largest angle.
 fn beats(best: Option<(Kind, f64, f64)>, of_min: f64, of_max: f64) -> bool {
-    let score = of_min.max(WARPED_MIN_TARGET_COS);
+    let score = score(of_min);
     best.is_none_or(|(_, best_score, best_max)| {
         score < best_score - WARPED_TIE_COS
             || (score <= best_score + WARPED_TIE_COS && of_max > best_max + WARPED_TIE_COS)
     })
+}
+
+/// A candidate's score, smaller is better: the cosine of its smallest angle, floored at the
+/// target's (every smallest angle of at least 26.5° is as good).
+fn score(of_min: f64) -> f64 {
+    of_min.max(WARPED_MIN_TARGET_COS)
 }
 
 /// The most triangles of a [`WARPED_CANDIDATES`] entry.
@@ -1013,7 +1019,7 @@ mod tests {
                 continue;
             };
             if of_max >= WARPED_MAX_CAP_COS && beats(best, of_min, of_max) {
-                best = Some((kind, of_min.max(WARPED_MIN_TARGET_COS), of_max));
+                best = Some((kind, score(of_min), of_max));
             }
         }
         best.map(|(kind, ..)| kind)
