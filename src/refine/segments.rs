@@ -519,7 +519,7 @@ pub(super) fn segment_pieces(
         })
         .collect();
     let boundary = found
-        .iter()
+        .par_iter()
         .filter(|(_, boundary)| *boundary)
         .map(|(s, _)| BoundaryEdge {
             vertices: s.vertices,
@@ -531,7 +531,7 @@ pub(super) fn segment_pieces(
         })
         .collect();
     let mut pieces: Vec<(SubSegment, [f64; 2])> = found
-        .into_iter()
+        .into_par_iter()
         .filter(|(s, _)| s.segment != NONE)
         .map(|(mut s, _)| {
             let [i, j] = input.segments[s.segment as usize].ends;
@@ -548,7 +548,7 @@ pub(super) fn segment_pieces(
         })
         .collect();
     pieces.par_sort_unstable_by(|(s, x), (r, y)| s.segment.cmp(&r.segment).then(by_key(*x, *y)));
-    (pieces.into_iter().map(|(s, _)| s).collect(), boundary)
+    (pieces.into_par_iter().map(|(s, _)| s).collect(), boundary)
 }
 
 /// Where a point on a segment of direction `d` lies along it, as a key that orders the points
