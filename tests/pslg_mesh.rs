@@ -468,6 +468,15 @@ fn large_graphs_refine_in_tiles_the_same_on_any_thread_count() {
     assert!(mesh.triangles.len() > 20_000);
 }
 
+#[test]
+fn a_graph_of_many_points_is_triangulated_in_strips_the_same_on_any_thread_count() {
+    // Over 65 536 points, crowded enough along every seam for the strips glued at seam points.
+    let block = quadmesh::generate::block_with_holes(17_000, 7);
+    assert!(block.points.len() > 1 << 16);
+    let (mesh, _) = mesh_checked(&block, Options::default().min_angle(20.0), false);
+    assert!(mesh.triangles.len() > block.points.len());
+}
+
 /// A polygon star-shaped around `centre`: corners at the given angles (radians, increasing in
 /// [0, 2π)) and radii.
 fn star(centre: DVec2, corners: &[(f64, f64)]) -> Vec<DVec2> {

@@ -219,7 +219,13 @@ impl Triangulation {
     /// Flips edges until every one is locally Delaunay, starting from the edges opposite the
     /// given corners (`(triangle, corner)`): Lawson's flips, each of which replaces an edge whose
     /// far apex lies strictly inside the circumcircle, checking the four edges around it again.
-    pub fn flip_to_delaunay(&mut self, mut edges: Vec<(u32, usize)>) {
+    pub fn flip_to_delaunay(&mut self, edges: Vec<(u32, usize)>) {
+        self.flip_to_delaunay_within(edges, usize::MAX);
+    }
+
+    /// As [`Self::flip_to_delaunay`], giving up (`false`) after `budget` flips.
+    pub fn flip_to_delaunay_within(&mut self, mut edges: Vec<(u32, usize)>, budget: usize) -> bool {
+        let mut flips = 0;
         while let Some((t, i)) = edges.pop() {
             let u = self.across[t as usize][i];
             if is_wall(u) {
@@ -230,9 +236,14 @@ impl Triangulation {
             if !in_circumcircle(self, t, far) {
                 continue;
             }
+            if flips == budget {
+                return false;
+            }
+            flips += 1;
             self.flip(t, i, u, j);
             edges.extend([(t, 0), (t, 2), (u, 0), (u, 2)]);
         }
+        true
     }
 
     /// The corner of triangle `u` opposite its edge shared with triangle `t`.
@@ -944,6 +955,18 @@ mod tests {
         assert_eq!(t.len(), 2 * 49 + 2);
         assert!(is_delaunay(&t));
         assert!((area(&t) - 64.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn flips_stop_at_their_budget() {
+        // A quadrilateral whose diagonal 0-2 is not Delaunay: corner 3 is inside the circle
+        // through 0, 1, 2.
+        let mut t = Triangulation::rectangle(DVec2::ZERO, DVec2::splat(4.0));
+        t.vertices[2] = DVec2::splat(5.0);
+        assert!(!is_delaunay(&t));
+        assert!(!t.clone().flip_to_delaunay_within(vec![(0, 1)], 0));
+        assert!(t.flip_to_delaunay_within(vec![(0, 1)], 1));
+        assert!(is_delaunay(&t));
     }
 
     #[test]

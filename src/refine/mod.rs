@@ -46,6 +46,7 @@ mod replay;
 mod segments;
 mod sides;
 mod strips;
+use strips::Seams;
 mod tiles;
 
 pub(crate) use local_changes::{local_changes, point_bits};
@@ -222,7 +223,9 @@ pub struct PslgOptions {
 /// The input is cleaned first ([`crate::pslg::clean`]): duplicates merged, segments split at
 /// points on them (and at crossings, if asked). The mesh's `vertex_input` and its segment
 /// pieces' `segment` refer to the input as given. Corners between segments narrower than the
-/// angle bound keep their angle (see the module's notes); refinement is the sequential loop.
+/// angle bound keep their angle (see the module's notes). From 65 536 points that crowd the
+/// strips' seams the points are triangulated in strips; from 16 384 points refinement runs by
+/// tiles; the mesh is the same on any thread count.
 ///
 /// # Errors
 /// What [`crate::pslg::clean`] refuses, [`Error::InvalidOption`] for a bound out of range,
@@ -247,7 +250,13 @@ pub fn refine_pslg(
     let distinct = morton.order.len();
     let capacity = 2 * options.expected_vertices(distinct);
     let (mut t, mut vertex_input) = times.time("delaunay", || {
-        delaunay_of(points, &morton.order, square, capacity, PSLG_STRIPS)
+        delaunay_of(
+            points,
+            &morton.order,
+            square,
+            capacity,
+            Some(Seams::WhereCrowded),
+        )
     })?;
     if pslg.convex_hull {
         times.time("hull", || hull::cut_to_hull(&mut t, &mut vertex_input))?;
@@ -301,12 +310,6 @@ pub fn refine_pslg(
     within_budget(mesh, report, unmet, budget)
 }
 
-/// Whether a graph's points are triangulated in strips: no. The strips' seams cross every curve
-/// of a graph whose points are sampled along curves, and gluing them there takes many flips
-/// on nearly cocircular points, each decided exactly (200 000 points on nested rings: 3.6 s
-/// glued, 0.12 s in one sequence of rounds).
-const PSLG_STRIPS: bool = false;
-
 /// For each cleaned point, the first input point at its position ([`NONE`] for a point the
 /// cleaning made at a crossing).
 pub(crate) fn first_occurrences(point_map: &[u32], cleaned: usize) -> Vec<u32> {
@@ -318,23 +321,30 @@ pub(crate) fn first_occurrences(point_map: &[u32], cleaned: usize) -> Vec<u32> {
 }
 
 /// The Delaunay triangulation of the distinct points in Morton order `order` and the corners
-/// of `square`, in strips where there are many points and `strips` allows, and the input index
-/// of each vertex.
+/// of `square`, in strips glued at `strips` where there are many points and `strips` is given,
+/// and the input index of each vertex.
 fn delaunay_of(
     points: &[DVec2],
     order: &[u32],
     square: Domain,
     capacity: usize,
-    strips: bool,
+    strips: Option<Seams>,
 ) -> Result<(Triangulation, Vec<u32>), Error> {
-    let strip_count = if strips {
-        strips::strip_count(order.len())
-    } else {
-        1
-    };
-    if strip_count > 1 {
-        return strips::triangulate(points, order, square, strip_count, capacity);
+    let strip_count = strips.map_or(1, |_| strips::strip_count(order.len()));
+    if let (Some(glue_at), true) = (strips, strip_count > 1) {
+        return strips::triangulate(points, order, square, strip_count, capacity, glue_at);
     }
+    insert_in_one_sequence(points, order, square, capacity)
+}
+
+/// The Delaunay triangulation of the corners of `square` and the points `order` names,
+/// inserted one after another, and the input index of each vertex.
+fn insert_in_one_sequence(
+    points: &[DVec2],
+    order: &[u32],
+    square: Domain,
+    capacity: usize,
+) -> Result<(Triangulation, Vec<u32>), Error> {
     let mut t = Triangulation::rectangle(square.lo, square.hi);
     t.reserve(capacity, order.len() + 4);
     let vertex_input = insert_in_order(&mut t, points, order)?;
@@ -485,7 +495,7 @@ fn refine_order(
         // Without bounds the mesh of a rectangle is the Delaunay triangulation of the points and
         // its corners alone, which the strips' seams would add vertices to.
         let hull = options.domain == RefineDomain::ConvexHull;
-        let strips = hull || !options.unbounded();
+        let strips = (hull || !options.unbounded()).then_some(Seams::Always);
         delaunay_of(points, &morton.order, square, capacity, strips)
     })?;
     let outline = match options.domain {

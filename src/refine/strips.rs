@@ -7,6 +7,14 @@
 //! flips from the seams make Delaunay. The ends of each seam stay as vertices on the domain's
 //! bottom and top sides.
 //!
+//!
+//! A strip's side is one edge, so the points next to a seam are fanned to the seam's two ends,
+//! and the flips undo those fans. Where points spread over an area the fans are small; where
+//! curves leave empty stretches beside a seam they hold thousands of points, and the flips grow
+//! with the square of their size (200 000 points on nested rings: 75 million flips, 5.8 s).
+//! Graphs, whose points lie on curves, are therefore glued only where their points crowd every
+//! seam, and within a budget of flips; elsewhere their points go in one sequence.
+//!
 //! The strips depend on the points alone, never on the thread count, and the flips run in a
 //! fixed order, so the result is the same on any number of threads.
 
@@ -14,7 +22,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::delaunay::{Store, Triangulation};
-use super::insert_in_order;
+use super::{insert_in_one_sequence, insert_in_order};
 use crate::error::Error;
 use crate::mesh::{Domain, NONE};
 
@@ -28,6 +36,20 @@ const MAX_STRIPS: usize = 1 << u8::BITS;
 /// How many strips `points` points are split into; one means no split.
 pub(super) fn strip_count(points: usize) -> usize {
     (points / POINTS_PER_STRIP).clamp(1, MAX_STRIPS)
+}
+
+/// The flips a graph's seams may take, per point, before its strips are given up for one
+/// sequence of insertions.
+const FLIPS_PER_POINT: usize = 8;
+
+/// Where strips are glued.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Seams {
+    /// Wherever they fall: for point sets, spread over an area.
+    Always,
+    /// Only where the points crowd every seam, and within [`FLIPS_PER_POINT`]; in one sequence
+    /// elsewhere: for graphs, whose points lie on curves.
+    WhereCrowded,
 }
 
 /// One strip's triangulation: local vertices 0 to 3 are its corners, counter-clockwise from
@@ -51,8 +73,16 @@ pub(super) fn triangulate(
     domain: Domain,
     count: usize,
     capacity: usize,
+    glue_at: Seams,
 ) -> Result<(Triangulation, Vec<u32>), Error> {
     let seams = seams(points, domain, count);
+    let budget = match glue_at {
+        Seams::Always => usize::MAX,
+        Seams::WhereCrowded if crowded(points, order.len(), &seams) => {
+            FLIPS_PER_POINT * order.len() + (1 << 16)
+        }
+        Seams::WhereCrowded => return insert_in_one_sequence(points, order, domain, capacity),
+    };
     let orders = strip_orders(points, order, &seams);
     let mut sides = Vec::with_capacity(seams.len() + 2);
     sides.push(domain.lo.x);
@@ -68,9 +98,55 @@ pub(super) fn triangulate(
         })
         .collect::<Result<_, _>>()?;
     let (mut t, vertex_input, seam_edges) = glue(&strips, &seams, domain, capacity);
-    t.flip_to_delaunay(seam_edges);
-    Ok((t, vertex_input))
+    drop(strips);
+    if t.flip_to_delaunay_within(seam_edges, budget) {
+        return Ok((t, vertex_input));
+    }
+    drop(t);
+    insert_in_one_sequence(points, order, domain, capacity)
 }
+
+/// Whether `distinct` points crowd the seams: probes along each seam, about the points' mean
+/// spacing over their bounding box apart, at most an eighth of them with no point within a
+/// spacing. A probe alone marks an empty stretch beside the seam, where the glue's fans grow
+/// (the nested rings: most probes alone; a block with many small holes: none).
+fn crowded(points: &[DVec2], distinct: usize, seams: &[f64]) -> bool {
+    let (lo, hi) = crate::morton::bounding_box(points);
+    let size = hi - lo;
+    let spacing = (size.x * size.y / distinct.max(1) as f64).sqrt();
+    // A NaN count converts to 0, an infinite one to the most.
+    let probes = ((size.y / spacing).ceil() as u64).clamp(1, MAX_PROBES);
+    if probes < 2 {
+        return true;
+    }
+    let bin = |y: f64| ((y - lo.y) / size.y * probes as f64) as u64;
+    // (seam, bin) of every point within a spacing of a seam.
+    let mut near: Vec<(u32, u64)> = points
+        .par_iter()
+        .filter_map(|p| {
+            let j = seams.partition_point(|&s| s < p.x);
+            [j.checked_sub(1), (j < seams.len()).then_some(j)]
+                .into_iter()
+                .flatten()
+                .find(|&k| (p.x - seams[k]).abs() < spacing)
+                .map(|k| (k as u32, bin(p.y)))
+        })
+        .collect();
+    near.par_sort_unstable();
+    near.dedup();
+    let alone = (0..seams.len() as u32)
+        .flat_map(|k| (1..probes).map(move |b| (k, b)))
+        .filter(|&(k, b)| {
+            let around = (k, b - 1)..=(k, b + 1);
+            let first = near.partition_point(|e| e < around.start());
+            near.get(first).is_none_or(|e| !around.contains(e))
+        })
+        .count();
+    8 * alone <= seams.len() * (probes as usize - 1)
+}
+
+/// The most probes along a seam.
+const MAX_PROBES: u64 = 1 << 16;
 
 /// Seam x coordinates, increasing, splitting the points into about `count` strips of equal
 /// size: each lies strictly between the largest x on its left and the smallest on its right.
@@ -284,20 +360,36 @@ mod tests {
 
     /// The strips' triangulation of `points`, as a mesh, with the number of strips made.
     fn mesh_in_strips(points: &[DVec2], domain: Domain, count: usize) -> (crate::Mesh, usize) {
+        mesh_glued(points, domain, count, Seams::Always)
+    }
+
+    /// As [`mesh_in_strips`], glued at `glue_at`; one strip where the points went in one
+    /// sequence.
+    fn mesh_glued(
+        points: &[DVec2],
+        domain: Domain,
+        count: usize,
+        glue_at: Seams,
+    ) -> (crate::Mesh, usize) {
         let order = match morton_order(points, SortAlgorithm::default()).unwrap() {
             Morton::Narrow(m) => m.order,
             Morton::Wide(m) => m.order,
         };
         let seams = seams(points, domain, count).len();
-        let (t, vertex_input) = triangulate(points, &order, domain, count, 0).unwrap();
+        let (t, vertex_input) = triangulate(points, &order, domain, count, 0, glue_at).unwrap();
         // Every point once, and besides them the seams' ends and the corners no point is on.
         let inputs = vertex_input.iter().filter(|&&i| i != NONE).count();
         assert_eq!(inputs, order.len());
         let others = t.vertices.len() - inputs;
-        assert!((2 * seams..=2 * seams + 4).contains(&others));
+        let strips = if glue_at == Seams::WhereCrowded && others <= 4 && seams > 2 {
+            1
+        } else {
+            assert!((2 * seams..=2 * seams + 4).contains(&others));
+            seams + 1
+        };
         (
             super::super::into_mesh(t, vertex_input, domain, super::super::Boundary::Rectangle),
-            seams + 1,
+            strips,
         )
     }
 
@@ -364,5 +456,51 @@ mod tests {
         let one = on(1);
         assert_delaunay_mesh(&points, &one, "Kuzmin in 9 strips");
         assert!(one == on(2) && one == on(3));
+    }
+
+    /// Points on `rings` circles around the origin, `per_ring` on each, slightly wavy.
+    fn rings(rings: usize, per_ring: usize) -> Vec<DVec2> {
+        (1..=rings)
+            .flat_map(|r| {
+                (0..per_ring).map(move |k| {
+                    let a = std::f64::consts::TAU * k as f64 / per_ring as f64;
+                    let radius = r as f64 * (1.0 + 0.01 * (7.0 * a).sin());
+                    DVec2::new(radius * a.cos(), radius * a.sin())
+                })
+            })
+            .collect()
+    }
+
+    #[test]
+    fn graph_points_crowding_the_seams_are_glued_in_strips() {
+        // Small rings packed in a block, as the sides of many small holes.
+        let mut holes = Vec::new();
+        for i in 0..30 {
+            for j in 0..30 {
+                let centre = DVec2::new(i as f64, j as f64);
+                holes.extend(rings(1, 8).into_iter().map(|p| centre + 0.3 * p));
+            }
+        }
+        let domain = bounding_box(&holes);
+        for count in [2, 5, 16] {
+            let (mesh, strips) = mesh_glued(&holes, domain, count, Seams::WhereCrowded);
+            assert!(strips > 1, "{count} strips: went in one sequence");
+            assert_delaunay_mesh(&holes, &mesh, &format!("holes in {count} strips"));
+        }
+    }
+
+    #[test]
+    fn graph_points_on_far_apart_curves_go_in_one_sequence() {
+        // Rings far apart compared with the points' spacing: most of each seam runs through
+        // empty stretches between them.
+        let points = rings(6, 4000);
+        let domain = bounding_box(&points);
+        let (mesh, strips) = mesh_glued(&points, domain, 6, Seams::WhereCrowded);
+        assert_eq!(strips, 1);
+        assert_delaunay_mesh(&points, &mesh, "rings");
+        // Glued anyway, they are the same triangulation.
+        let (glued, strips) = mesh_in_strips(&points, domain, 6);
+        assert!(strips > 1);
+        assert_delaunay_mesh(&points, &glued, "rings in strips");
     }
 }
