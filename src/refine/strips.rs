@@ -7,7 +7,6 @@
 //! flips from the seams make Delaunay. The ends of each seam stay as vertices on the domain's
 //! bottom and top sides.
 //!
-//!
 //! A strip's side is one edge, so the points next to a seam are fanned to the seam's two ends,
 //! and the flips undo those fans. Where points spread over an area the fans are small; where
 //! curves leave empty stretches beside a seam they hold thousands of points, and the flips grow
@@ -134,14 +133,18 @@ fn crowded(points: &[DVec2], distinct: usize, seams: &[f64]) -> bool {
         .collect();
     near.par_sort_unstable();
     near.dedup();
-    let alone = (0..seams.len() as u32)
-        .flat_map(|k| (1..probes).map(move |b| (k, b)))
-        .filter(|&(k, b)| {
-            let around = (k, b - 1)..=(k, b + 1);
-            let first = near.partition_point(|e| e < around.start());
-            near.get(first).is_none_or(|e| !around.contains(e))
+    let alone: usize = (0..seams.len() as u32)
+        .into_par_iter()
+        .map(|k| {
+            (1..probes)
+                .filter(|&b| {
+                    let around = (k, b - 1)..=(k, b + 1);
+                    let first = near.partition_point(|e| e < around.start());
+                    near.get(first).is_none_or(|e| !around.contains(e))
+                })
+                .count()
         })
-        .count();
+        .sum();
     8 * alone <= seams.len() * (probes as usize - 1)
 }
 
