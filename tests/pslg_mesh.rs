@@ -470,7 +470,7 @@ fn large_graphs_refine_in_tiles_the_same_on_any_thread_count() {
 
 #[test]
 fn a_graph_of_many_points_is_triangulated_in_strips_the_same_on_any_thread_count() {
-    // Over 65 536 points, crowded enough along every seam for the strips glued at seam points.
+    // Over 65 536 points, crowding every seam: the points are triangulated in strips.
     let block = quadmesh::generate::block_with_holes(17_000, 7);
     assert!(block.points.len() > 1 << 16);
     let (mesh, _) = mesh_checked(&block, Options::default().min_angle(20.0), false);

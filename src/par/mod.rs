@@ -32,6 +32,17 @@ pub fn filter_map<T: Sync, U: Send>(
     }
 }
 
+/// Where each run of equal keys starts among `n` items sorted by `key`, and `n` last: the
+/// segment offsets of the runs.
+pub fn run_starts<K: PartialEq>(n: usize, key: impl Fn(usize) -> K + Sync) -> Vec<usize> {
+    use rayon::prelude::*;
+    (0..n)
+        .into_par_iter()
+        .filter(|&i| i == 0 || key(i) != key(i - 1))
+        .chain(rayon::iter::once(n))
+        .collect()
+}
+
 /// Items per task in scans and segment fills: large enough that rayon's task overhead is small.
 pub const GRAIN: usize = 1 << 13;
 

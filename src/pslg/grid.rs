@@ -101,7 +101,7 @@ impl Grid {
         by_piece.par_sort_unstable();
         (grid.point_cells, grid.point_ids) = by_point.into_par_iter().unzip();
         (grid.piece_cells, grid.piece_ids) = by_piece.into_par_iter().unzip();
-        grid.piece_runs = run_starts(&grid.piece_cells);
+        grid.piece_runs = crate::par::run_starts(grid.piece_cells.len(), |i| grid.piece_cells[i]);
         grid
     }
 
@@ -200,16 +200,6 @@ fn key(column: u64, row: u64) -> u64 {
 /// `floor(t)` clamped to `0..cells` (NaN to 0).
 fn index(t: f64, cells: u64) -> u64 {
     (t.floor().max(0.0) as u64).min(cells - 1)
-}
-
-/// The indices where a new value starts in sorted `cells`, and its length last.
-fn run_starts(cells: &[u64]) -> Vec<usize> {
-    let mut starts: Vec<usize> = (0..cells.len())
-        .into_par_iter()
-        .filter(|&i| i == 0 || cells[i] != cells[i - 1])
-        .collect();
-    starts.push(cells.len());
-    starts
 }
 
 #[cfg(test)]

@@ -46,7 +46,6 @@ mod replay;
 mod segments;
 mod sides;
 mod strips;
-use strips::Seams;
 mod tiles;
 
 pub(crate) use local_changes::{local_changes, point_bits};
@@ -55,6 +54,7 @@ pub(crate) use ordered::{Stamp, canonical_delaunay, run_in_order};
 pub(crate) use refiner::Bounds;
 pub(crate) use replay::{Window, replay};
 pub(crate) use sides::{inside_chain, on_a_side, side_changes, side_ends};
+use strips::Seams;
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -330,9 +330,11 @@ fn delaunay_of(
     capacity: usize,
     strips: Option<Seams>,
 ) -> Result<(Triangulation, Vec<u32>), Error> {
-    let strip_count = strips.map_or(1, |_| strips::strip_count(order.len()));
-    if let (Some(glue_at), true) = (strips, strip_count > 1) {
-        return strips::triangulate(points, order, square, strip_count, capacity, glue_at);
+    if let Some(glue_at) = strips {
+        let count = strips::strip_count(order.len());
+        if count > 1 {
+            return strips::triangulate(points, order, square, count, capacity, glue_at);
+        }
     }
     insert_in_one_sequence(points, order, square, capacity)
 }

@@ -1095,11 +1095,7 @@ fn share_out(shared: &Shared, tiling: &Tiling, colour: u8, lists: &mut Lists) ->
         .chain(owned_by_tiles(&edge_owner, edge_base))
         .collect();
     owned.par_sort_unstable();
-    let starts: Vec<usize> = (0..owned.len())
-        .into_par_iter()
-        .filter(|&i| i == 0 || owned[i - 1].0 != owned[i].0)
-        .chain(rayon::iter::once(owned.len()))
-        .collect();
+    let starts = crate::par::run_starts(owned.len(), |i| owned[i].0);
     starts
         .par_windows(2)
         .map(|w| {
