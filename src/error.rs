@@ -141,14 +141,26 @@ pub enum Error {
     },
     /// A graph's separated tree would need more squares than the budget asked for: features
     /// very close together for their size, or two long edges at a very small angle, which must
-    /// be kept apart all along.
+    /// be kept apart all along. Two such features are named, by a point of each, where the
+    /// squares went past the budget.
     #[error(
-        "the graph's quadtree needs more than {limit} split squares: some features lie very \
-         close together, or two long edges meet at a very small angle"
+        "the graph's quadtree needs more than {limit} split squares: the features at point {a} \
+         ({:?}) and point {b} ({:?}) lie very close together for their size, or meet at a very \
+         small angle",
+        pa,
+        pb
     )]
     SquareBudget {
         /// The budget.
         limit: usize,
+        /// Input index of a point of the first feature.
+        a: usize,
+        /// Its coordinates.
+        pa: [f64; 2],
+        /// Input index of a point of the second.
+        b: usize,
+        /// Its coordinates.
+        pb: [f64; 2],
     },
     /// A point lies outside the domain asked for.
     #[error("point {index} ({x}, {y}) lies outside the domain")]
@@ -358,7 +370,9 @@ impl Error {
             | Error::WarpStuck { x, y, .. }
             | Error::OutsideDomain { x, y, .. }
             | Error::NearDomainSide { x, y, .. } => [*x, *y] = image([*x, *y]),
-            Error::Inseparable { pa, pb, .. } => (*pa, *pb) = (image(*pa), image(*pb)),
+            Error::Inseparable { pa, pb, .. } | Error::SquareBudget { pa, pb, .. } => {
+                (*pa, *pb) = (image(*pa), image(*pb));
+            }
             Error::CrossingSegments { at, .. } => *at = image(*at),
             Error::CoordinateRange { lo, hi } => {
                 let (a, b) = (DVec2::from(image(*lo)), DVec2::from(image(*hi)));
@@ -449,6 +463,13 @@ mod tests {
                 y: 2.0,
             },
             Error::Inseparable {
+                a: 1,
+                pa: [1.0, 2.0],
+                b: 2,
+                pb: [3.0, 4.0],
+            },
+            Error::SquareBudget {
+                limit: 10,
                 a: 1,
                 pa: [1.0, 2.0],
                 b: 2,

@@ -4,9 +4,9 @@
 use glam::DVec2;
 
 use crate::balance::{
-    BalancedTree, Band, BandError, DomainSides, GraphFeatures, Separation, TooCrowded, balance,
-    balance_closure, coarsest_band_level, crowded_squares, linked_tree, separate, separate_in,
-    separate_with,
+    BalancedTree, Band, BandError, Conflict, DomainSides, GraphFeatures, Separation, TooCrowded,
+    balance, balance_closure, coarsest_band_level, crowded_squares, linked_tree, separate,
+    separate_in, separate_with,
 };
 use crate::error::Error;
 use crate::framework::{Framework, build_framework};
@@ -536,9 +536,25 @@ fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Er
     refine_pslg(input, &refine, pslg)
 }
 
-/// The most squares the separation of a graph may split in [`mesh`]: about 80 bytes each
-/// through the warp, so a few GiB at most.
+/// The most squares the separation of a graph may split in [`mesh`], whatever its size: about
+/// 80 bytes each through the warp, so a few GiB at most.
 pub const GRAPH_SQUARE_BUDGET: usize = 20_000_000;
+
+/// Split squares [`mesh`] allows a graph per point and segment, past a million, up to
+/// [`GRAPH_SQUARE_BUDGET`]: some seventy times what nested rings and blocks with holes need
+/// (about 15 a segment), so that features too close for their size are refused in about a
+/// second, not after 20 million squares.
+pub const GRAPH_SQUARES_PER_FEATURE: usize = 1_000;
+
+/// The squares the separation of a graph of `points` points and `segments` segments may
+/// split in [`mesh`].
+pub fn graph_square_budget(points: usize, segments: usize) -> usize {
+    points
+        .saturating_add(segments)
+        .saturating_mul(GRAPH_SQUARES_PER_FEATURE)
+        .saturating_add(1_000_000)
+        .min(GRAPH_SQUARE_BUDGET)
+}
 
 /// The clearance, in sides, the warp of a graph separates its features by: one side. The
 /// papers' three sides give four to five times the triangles and no better angles (on
@@ -562,9 +578,15 @@ fn mesh_graph_warp(input: &Input, options: &Options) -> Result<(Mesh, MeshReport
         split_crossings: options.crossings_split(),
     };
     let (clean, cleaning) = times.time("clean", || crate::pslg::clean(input, clean_options))?;
+    // Coordinates whose squares overflow or underflow f64 are refused before the corners are
+    // cut, which measures lengths, as the grid would refuse them.
+    if !clean.points.is_empty() {
+        let (lo, hi) = bounding_box(&clean.points);
+        Grid::around(lo, hi, u64::AXIS_BITS)?;
+    }
     let cut = times.time("cut", || crate::pslg::cut_acute_corners(&clean))?;
     let tree_options = GraphTreeOptions {
-        max_squares: Some(GRAPH_SQUARE_BUDGET),
+        max_squares: Some(graph_square_budget(cut.points.len(), cut.edges.len())),
         clearance: WARP_CLEARANCE,
     };
     let tree = graph_tree(&cut, tree_options, &mut times)?;
@@ -714,7 +736,9 @@ pub fn graph_tree(
         Morton::Narrow(m) => {
             match graph_build(m, (&vertices, &edges, &points), (&features, options), times) {
                 Ok(build) => return Ok(GraphTree::Narrow(build)),
-                Err(TooCrowded::Budget(limit)) => return Err(Error::SquareBudget { limit }),
+                Err(TooCrowded::Budget { limit, conflict }) => {
+                    return Err(square_budget(limit, conflict, (&vertices, &cut.points)));
+                }
                 Err(TooCrowded::Finest { .. }) => {
                     times.time("morton wide", || morton_order_wide(&points, None, sort))?
                 }
@@ -729,10 +753,11 @@ pub fn graph_tree(
         times,
     ) {
         Ok(build) => Ok(GraphTree::Wide(build)),
-        Err(TooCrowded::Budget(limit)) => Err(Error::SquareBudget { limit }),
+        Err(TooCrowded::Budget { limit, conflict }) => {
+            Err(square_budget(limit, conflict, (&vertices, &cut.points)))
+        }
         Err(TooCrowded::Finest { conflict, .. }) => {
-            let [a, b] = [conflict.a, conflict.b].map(|v| vertices[v as usize]);
-            let [pa, pb] = [a, b].map(|v| cut.points[v as usize].to_array());
+            let ((a, pa), (b, pb)) = named_conflict(conflict, (&vertices, &cut.points));
             Err(Error::Inseparable {
                 a: a as usize,
                 pa,
@@ -741,6 +766,31 @@ pub fn graph_tree(
             })
         }
     }
+}
+
+/// [`Error::SquareBudget`] naming the features of `conflict`.
+fn square_budget(limit: usize, conflict: Conflict, names: (&[u32], &[DVec2])) -> Error {
+    let ((a, pa), (b, pb)) = named_conflict(conflict, names);
+    Error::SquareBudget {
+        limit,
+        a: a as usize,
+        pa,
+        b: b as usize,
+        pb,
+    }
+}
+
+/// A point of each of a conflict's two features, as an index into the cut graph's points
+/// (`names.0` maps the tree's vertices there) with its coordinates.
+fn named_conflict(
+    conflict: Conflict,
+    (vertices, points): (&[u32], &[DVec2]),
+) -> ((u32, [f64; 2]), (u32, [f64; 2])) {
+    let named = |v: u32| {
+        let index = vertices[v as usize];
+        (index, points[index as usize].to_array())
+    };
+    (named(conflict.a), named(conflict.b))
 }
 
 /// The crowded squares of `features` on `morton`'s grid, their balanced closure and the edges'

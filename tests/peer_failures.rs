@@ -4,11 +4,14 @@
 
 mod common;
 
+use common::peer_cases;
+
 use std::sync::mpsc;
 use std::time::Duration;
 
 use quadmesh::mesh::{AngleBounds, validate_pslg_with};
-use quadmesh::{DVec2, Error, Input, Mesh, Options, Region, Segment};
+use quadmesh::pslg::CleanOptions;
+use quadmesh::{DVec2, Error, Input, Mesh, Options, Region};
 
 /// How long one case may take, its checks included.
 const LIMIT: Duration = Duration::from_secs(60);
@@ -83,101 +86,31 @@ fn meshes_or_stops_at_the_budget(input: &Input) {
     }
 }
 
-fn polygon(corners: &[(f64, f64)], marker: i32) -> Input {
-    let points: Vec<DVec2> = corners.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
-    let n = points.len() as u32;
-    let segments = (0..n)
-        .map(|k| Segment {
-            ends: [k, (k + 1) % n],
-            marker,
-        })
-        .collect();
-    Input {
-        points,
-        segments,
-        ..Input::default()
-    }
-}
-
-fn push_segment(input: &mut Input, a: DVec2, b: DVec2) {
-    let first = input.points.len() as u32;
-    input.points.extend([a, b]);
-    input.segments.push(Segment {
-        ends: [first, first + 1],
-        marker: 7,
-    });
-}
-
 #[test]
 fn two_segments_2e_13_apart() {
     // Triangle at -pq20 allocates until killed on this: the strip between the segments needs
     // about 1e12 triangles. Here the vertex budget stops it and says where.
-    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], 1);
-    push_segment(&mut input, DVec2::new(0.2, 0.5), DVec2::new(0.8, 0.5));
-    push_segment(
-        &mut input,
-        DVec2::new(0.2, 0.5 + 2e-13),
-        DVec2::new(0.8, 0.5 + 2e-13),
-    );
-    meshes_or_stops_at_the_budget(&input);
+    meshes_or_stops_at_the_budget(&peer_cases::two_segments_2e_13_apart());
 }
 
 #[test]
 fn a_polygon_with_a_spike_of_a_thousandth_of_a_degree() {
-    let spike = 0.001f64.to_radians();
-    let tip = DVec2::new(3.0, 1.0);
-    let back = tip + 2.0 * DVec2::new(-spike.cos(), -spike.sin());
-    let input = polygon(
-        &[
-            (0.0, 0.0),
-            (4.0, 0.0),
-            (4.0, 1.0),
-            (tip.x, tip.y),
-            (back.x, back.y),
-            (0.0, 3.0),
-        ],
-        1,
-    );
-    meshes_and_checks(&input, false);
+    meshes_and_checks(&peer_cases::a_spike_of_a_thousandth_of_a_degree(), false);
 }
 
 #[test]
 fn a_crack_into_the_domain() {
-    let mut input = polygon(&[(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)], 1);
-    // A dangling segment from the boundary into the middle.
-    input.points.push(DVec2::new(1.0, 1.0));
-    input.segments.push(Segment {
-        ends: [0, 4],
-        marker: 9,
-    });
-    meshes_and_checks(&input, false);
+    meshes_and_checks(&peer_cases::a_crack_into_the_domain(), false);
 }
 
 #[test]
 fn six_near_collinear_points_joined_by_segments() {
-    let ys = [0.0, 1e-12, -1e-12, 2e-12, 0.0, -3e-12];
-    let mut input = polygon(&[(-1.0, -1.0), (6.0, -1.0), (6.0, 1.0), (-1.0, 1.0)], 1);
-    for (k, &y) in ys.iter().enumerate() {
-        input.points.push(DVec2::new(k as f64, y));
-    }
-    for k in 0..5u32 {
-        input.segments.push(Segment {
-            ends: [4 + k, 5 + k],
-            marker: 2,
-        });
-    }
-    meshes_and_checks(&input, false);
+    meshes_and_checks(&peer_cases::six_near_collinear_points(), false);
 }
 
 #[test]
 fn a_duplicated_vertex_used_by_segments() {
-    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], 1);
-    input.points.push(DVec2::new(1.0, 1.0));
-    input.points.push(DVec2::new(0.25, 0.5));
-    input.segments.push(Segment {
-        ends: [4, 5],
-        marker: 3,
-    });
+    let input = peer_cases::a_duplicated_vertex_used_by_segments();
     let (mesh, report) = quadmesh::mesh(&input, &Options::default()).unwrap();
     assert_eq!(report.cleaning.unwrap().merged_points, 1);
     assert!(mesh.segments.iter().any(|s| s.segment == 4));
@@ -185,11 +118,8 @@ fn a_duplicated_vertex_used_by_segments() {
 
 #[test]
 fn segments_crossing_where_no_float_lies_and_a_third_through_it() {
-    let mut input = polygon(&[(0.0, 0.0), (3.0, 0.0), (3.0, 3.0), (0.0, 3.0)], 1);
     // Two crossing segments whose intersection has no exact f64, and a third through it.
-    push_segment(&mut input, DVec2::new(0.1, 0.3), DVec2::new(2.9, 2.7));
-    push_segment(&mut input, DVec2::new(0.3, 2.9), DVec2::new(2.7, 0.1));
-    push_segment(&mut input, DVec2::new(1.5, 0.2), DVec2::new(1.5, 2.8));
+    let input = peer_cases::segments_crossing_where_no_float_lies();
     assert!(matches!(
         quadmesh::mesh(&input, &Options::default()),
         Err(Error::CrossingSegments { .. })
@@ -229,10 +159,7 @@ fn segments_crossing_where_no_float_lies_and_a_third_through_it() {
 #[test]
 fn a_polygon_of_side_1e_300_and_one_of_side_1e_minus_300() {
     for side in [1e300, 1e-300] {
-        let input = polygon(
-            &[(0.0, 0.0), (side, 0.0), (side, side / 2.0), (0.0, side)],
-            1,
-        );
+        let input = peer_cases::a_polygon_of_side(side);
         // The exact predicates would overflow or underflow: refused by name, at the door.
         assert!(matches!(
             within_limit(&input, Options::default()),
@@ -243,8 +170,8 @@ fn a_polygon_of_side_1e_300_and_one_of_side_1e_minus_300() {
 
 #[test]
 fn hole_seeds_outside_the_domain_and_on_a_segment() {
-    let mut input = polygon(&[(0.0, 0.0), (2.0, 0.0), (2.0, 2.0), (0.0, 2.0)], 1);
-    input.holes.push(DVec2::new(5.0, 5.0));
+    let mut input = peer_cases::hole_seeds_outside_and_on_a_segment();
+    input.holes = vec![DVec2::new(5.0, 5.0)];
     let mesh = within_limit(&input, Options::default()).unwrap();
     assert!((common::mesh_area(&mesh) - 4.0).abs() < 1e-12);
     // A seed on a segment, or on a segment's end, could name either side: refused by name.
@@ -269,15 +196,14 @@ fn hole_seeds_outside_the_domain_and_on_a_segment() {
 #[test]
 fn a_bow_tie_and_an_open_graph() {
     // The bow tie's sides cross at its waist: refused by name, or split and meshed.
-    let bow = polygon(&[(0.0, 0.0), (2.0, 2.0), (2.0, 0.0), (0.0, 2.0)], 1);
+    let bow = peer_cases::a_bow_tie();
     assert!(matches!(
         quadmesh::mesh(&bow, &Options::default()),
         Err(Error::CrossingSegments { a: 0, b: 2, .. })
     ));
     let mesh = within_limit(&bow, Options::default().split_crossings()).unwrap();
     assert!((common::mesh_area(&mesh) - 2.0).abs() < 1e-12);
-    let mut open = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)], 1);
-    open.segments.pop();
+    let open = peer_cases::an_open_graph();
     assert_eq!(
         quadmesh::mesh(&open, &Options::default()).unwrap_err(),
         Error::NothingEnclosed
@@ -286,8 +212,7 @@ fn a_bow_tie_and_an_open_graph() {
 
 #[test]
 fn all_vertices_collinear_with_segments() {
-    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (2.0, 0.0)], 1);
-    input.segments.pop();
+    let input = peer_cases::all_vertices_collinear();
     assert_eq!(
         quadmesh::mesh(&input, &Options::default()).unwrap_err(),
         Error::NothingEnclosed
@@ -302,37 +227,8 @@ fn all_vertices_collinear_with_segments() {
 fn nested_holes_numbered_from_zero() {
     // Three nested squares in a zero-based .poly: the outer annulus meshed, the middle one a
     // hole, the inner square meshed again.
-    let text = "\
-12 2 0 0
-0 0 0
-1 6 0
-2 6 6
-3 0 6
-4 1 1
-5 5 1
-6 5 5
-7 1 5
-8 2 2
-9 4 2
-10 4 4
-11 2 4
-12 0
-0 0 1
-1 1 2
-2 2 3
-3 3 0
-4 4 5
-5 5 6
-6 6 7
-7 7 4
-8 8 9
-9 9 10
-10 10 11
-11 11 8
-1
-0 1.5 3
-";
-    let input = quadmesh::io::parse_poly_input(text, "nested.poly").unwrap();
+    let input =
+        quadmesh::io::parse_poly_input(peer_cases::NESTED_HOLES_POLY, "nested.poly").unwrap();
     assert_eq!(input.segments[0].ends, [0, 1]);
     meshes_and_checks(&input, false);
     let mesh = within_limit(&input, Options::default()).unwrap();
@@ -715,5 +611,80 @@ fn huge_and_tiny_coordinates_in_one_hull() {
         let points: Vec<DVec2> = coordinates.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
         let options = Options::default().min_angle(angle).max_vertices(20_000);
         meshes_or_stops(&points, options, true);
+    }
+}
+
+/// Every case above in the warp mode (which takes graphs with no angle bound): within the
+/// time limit, a mesh that passes the PSLG check, or a typed error
+/// that names the input's fault; never a panic or a hang.
+#[test]
+fn every_case_in_the_warp_mode_ends_in_a_checked_mesh_or_a_named_error() {
+    let any_angle = AngleBounds {
+        min_deg: 0.0,
+        max_deg: 180.0,
+    };
+    let mut meshed = Vec::new();
+    for case in peer_cases::peer_failure_cases() {
+        let mut options = Options::default().warp();
+        if case.split_crossings {
+            options = options.split_crossings();
+        }
+        match within_limit(&case.input, options) {
+            Ok(mesh) => {
+                // A graph that cleaning changed is checked as cleaned: the mesh's input
+                // indices name the points as given, of which merged ones are no vertices.
+                let clean = CleanOptions {
+                    split_crossings: case.split_crossings,
+                };
+                let (graph, report) = quadmesh::pslg::clean(&case.input, clean).unwrap();
+                let checked = if report.is_clean() {
+                    mesh
+                } else {
+                    let of_cleaned = within_limit(&graph, options).unwrap();
+                    assert_eq!(of_cleaned.triangles.len(), mesh.triangles.len());
+                    of_cleaned
+                };
+                validate_pslg_with(&checked, &graph, any_angle, false)
+                    .unwrap_or_else(|e| panic!("{}: invalid mesh: {e}", case.name));
+                meshed.push(case.name);
+            }
+            // Beyond f64's range for areas, as the Delaunay mode's exact predicates refuse them.
+            Err(Error::CoordinateRange { .. }) => {
+                assert!(case.name.starts_with("side_1e"), "{}", case.name);
+            }
+            // The seed outside the square names nothing; the one on its side is refused.
+            Err(Error::SeedOnSegment { kind, index, .. }) => {
+                assert_eq!(case.name, "hole_seeds_outside_and_on_segment");
+                assert_eq!((kind, index), ("hole", 1));
+            }
+            // The two segments 2e-13 apart need a square as small as their gap all along
+            // them: the budget stops it, naming a point of each.
+            Err(Error::SquareBudget { pa, pb, .. }) => {
+                assert_eq!(case.name, "segments_2e-13_apart");
+                let mut heights = [pa[1], pb[1]];
+                heights.sort_by(f64::total_cmp);
+                assert_eq!(heights, [0.5, 0.5 + 2e-13]);
+            }
+            Err(
+                Error::NothingEnclosed
+                | Error::ZeroLengthSegment { .. }
+                | Error::SegmentIndex { .. }
+                | Error::WarpStuck { .. }
+                | Error::Unresolvable { .. }
+                | Error::TooLarge { .. },
+            ) => {}
+            Err(e) => panic!("{}: {e}", case.name),
+        }
+    }
+    // The plain domains among them are meshed, not refused.
+    for name in [
+        "spike_0.001_degrees",
+        "crack",
+        "six_near_collinear",
+        "duplicated_vertex",
+        "bow_tie",
+        "nested_holes_zero_based",
+    ] {
+        assert!(meshed.contains(&name), "{name} was not meshed: {meshed:?}");
     }
 }

@@ -316,7 +316,7 @@ fn a_tree_past_its_square_budget_is_refused() {
             ..GraphTreeOptions::default()
         };
         match graph_tree(&cut, options, &mut StageTimes::default()) {
-            Err(Error::SquareBudget { limit: l }) => assert!(refused && l == limit),
+            Err(Error::SquareBudget { limit: l, .. }) => assert!(refused && l == limit),
             Ok(_) => assert!(!refused, "{limit} squares allowed, {crowded} needed"),
             Err(e) => panic!("unexpected {e}"),
         }

@@ -159,8 +159,14 @@ pub enum TooCrowded<K: Copy> {
         /// The conflict.
         conflict: Conflict,
     },
-    /// There are more crowded squares than the budget allows.
-    Budget(usize),
+    /// There are more crowded squares than the budget allows; `conflict` crowds the first
+    /// square of the level that went past it.
+    Budget {
+        /// The budget.
+        limit: usize,
+        /// What crowds that square.
+        conflict: Conflict,
+    },
 }
 
 /// The crowded squares of the graph on `grid` with reaches grown by `clearance` sides, in
@@ -197,7 +203,14 @@ pub fn crowded_squares<K: MortonKey>(
             break;
         }
         if split.len() + crowded.len() > budget {
-            return Err(TooCrowded::Budget(budget));
+            let conflict = tested
+                .iter()
+                .find_map(|&(_, c)| c)
+                .expect("a crowded square has a conflict");
+            return Err(TooCrowded::Budget {
+                limit: budget,
+                conflict,
+            });
         }
         frontier = crowded
             .par_iter()

@@ -258,27 +258,31 @@ impl Faces {
                 dropped[face[p] as usize] = true;
             }
         }
-        let seed_piece = |kind: &'static str, index: usize, at: DVec2| {
-            seed_triangle(leaves, walls, at, triangle_at)
-                .map(|t| piece[t as usize])
-                .ok_or(Error::SeedOnSegment {
-                    kind,
-                    index,
-                    x: at.x,
-                    y: at.y,
-                })
+        // A seed beyond every leaf lies outside the domain and names nothing, as in the
+        // Delaunay mode; one on a wall is refused.
+        let seed_piece = |kind: &'static str, index: usize, at: DVec2| match triangle_at(at) {
+            None => Ok(None),
+            Some(t) if on_wall(leaves, walls, t, at) => Err(Error::SeedOnSegment {
+                kind,
+                index,
+                x: at.x,
+                y: at.y,
+            }),
+            Some(t) => Ok(Some(piece[t as usize])),
         };
         for (k, &hole) in input.holes.iter().enumerate() {
             if !hole.is_finite() {
                 continue;
             }
-            let p = seed_piece("hole", k, hole)?;
-            dropped[face[p as usize] as usize] = true;
+            if let Some(p) = seed_piece("hole", k, hole)? {
+                dropped[face[p as usize] as usize] = true;
+            }
         }
         let mut region = vec![NONE; count];
         for (k, r) in input.regions.iter().enumerate() {
-            let p = seed_piece("region", k, r.seed)?;
-            region[face[p as usize] as usize] = k as u32;
+            if let Some(p) = seed_piece("region", k, r.seed)? {
+                region[face[p as usize] as usize] = k as u32;
+            }
         }
         let mut cap_piece = vec![false; count];
         let mut cap_of = Vec::with_capacity(cut.caps.len());
@@ -327,21 +331,14 @@ fn union(parent: &mut [u32], a: u32, b: u32) {
     }
 }
 
-/// The triangle holding a seed, if the seed lies on no wall (a point on an edge between two
-/// triangles of one piece may be given either).
-fn seed_triangle(
-    leaves: &GraphTriangulation,
-    walls: &Walls,
-    at: DVec2,
-    triangle_at: &(impl Fn(DVec2) -> Option<u32> + Sync),
-) -> Option<u32> {
-    let t = triangle_at(at)?;
+/// Whether `at`, in triangle `t`, lies on one of its sides that is a wall (a point on a side
+/// between two triangles of one piece names that piece either way).
+fn on_wall(leaves: &GraphTriangulation, walls: &Walls, t: u32, at: DVec2) -> bool {
     let [a, b, c] = leaves.triangles[t as usize];
-    let on_wall = [(a, b), (b, c), (c, a)].into_iter().any(|(u, w)| {
+    [(a, b), (b, c), (c, a)].into_iter().any(|(u, w)| {
         let (pu, pw) = (leaves.vertices[u as usize], leaves.vertices[w as usize]);
         orientation(pu, pw, at) == Orientation::On && walls.edge(u, w).is_some()
-    });
-    (!on_wall).then_some(t)
+    })
 }
 
 /// The mesh being written: the leaves' vertices (and the apexes of enclosed vertices' caps),

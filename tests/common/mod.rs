@@ -8,6 +8,7 @@ use quadmesh::warp::{ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS};
 use quadmesh::{DVec2, Error, Mesh, MeshReport};
 
 pub mod graphs;
+pub mod peer_cases;
 
 /// Every generated input family.
 pub const FAMILIES: [Distribution2d; 4] = Distribution2d::ALL;
