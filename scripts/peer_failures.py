@@ -91,6 +91,18 @@ def peak_of_one(command, timeout, memory_bytes):
     return json.loads(done.stdout)
 
 
+def repeated(command, args, memory, triangles_of):
+    """(outcome, median seconds, largest peak) over `args.repeats` runs of `command`; differing
+    outcomes are listed with their counts."""
+    results = [peak_of_one(command, args.timeout, memory) for _ in range(args.repeats)]
+    outcomes = [outcome(r, triangles_of) for r in results]
+    counted = {o: outcomes.count(o) for o in outcomes}
+    text = outcomes[0] if len(counted) == 1 else "; ".join(
+        f"{o} ({n} of {len(outcomes)})" for o, n in counted.items())
+    seconds = sorted(r["seconds"] for r in results)[len(results) // 2]
+    return text, {"seconds": seconds, "peak": max(r["peak"] for r in results)}
+
+
 def run_helper(spec):
     spec = json.loads(spec)
     code, out, err, seconds, peak = run(spec["command"], spec["timeout"], spec["memory"])
@@ -128,6 +140,10 @@ def main():
     parser.add_argument("--no-build", action="store_true")
     parser.add_argument("--timeout", type=float, default=60)
     parser.add_argument("--memory-gib", type=float, default=4)
+    parser.add_argument("--repeats", type=int, default=1,
+                        help="runs of each command: the outcomes counted where they differ "
+                             "(Triangle crashes on some inputs now and then), the median time "
+                             "and the largest peak")
     parser.add_argument("--markdown", action="store_true")
     args = parser.parse_args()
     if not args.no_build:
@@ -148,14 +164,12 @@ def main():
                                 ("quadmesh 30°", ["--min-angle", "30"]),
                                 ("quadmesh warp", ["--warp"])]:
                 command = [str(compare_peers.QUADMESH), "mesh", path, "-o", out] + mode + extra
-                result = peak_of_one(command, args.timeout, memory)
-                runs[label] = (outcome(result, quadmesh_triangles), result)
+                runs[label] = repeated(command, args, memory, quadmesh_triangles)
             for angle in (20, 30):
                 command = [sys.executable, str(Path(__file__).resolve()), CHILD_MARK, path,
                            f"pq{angle}Q"]
-                result = peak_of_one(command, args.timeout, memory)
-                runs[f"Triangle pq{angle}"] = (
-                    outcome(result, lambda r: json.loads(r["out"])["triangles"]), result)
+                runs[f"Triangle pq{angle}"] = repeated(
+                    command, args, memory, lambda r: json.loads(r["out"])["triangles"])
             rows.append((name, runs))
             print(name, {k: v[0] for k, v in runs.items()}, file=sys.stderr)
     labels = list(rows[0][1]) if rows else []

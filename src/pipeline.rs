@@ -541,9 +541,9 @@ fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Er
 pub const GRAPH_SQUARE_BUDGET: usize = 20_000_000;
 
 /// Split squares [`mesh`] allows a graph per point and segment, past a million, up to
-/// [`GRAPH_SQUARE_BUDGET`]: some seventy times what nested rings and blocks with holes need
-/// (about 15 a segment), so that features too close for their size are refused in about a
-/// second, not after 20 million squares.
+/// [`GRAPH_SQUARE_BUDGET`]: a hundred times and more what Triangle's examples, nested rings
+/// and blocks with holes need (3 to 9 per point and segment), so that features too close for
+/// their size are refused in about a second, not after 20 million squares.
 pub const GRAPH_SQUARES_PER_FEATURE: usize = 1_000;
 
 /// The squares the separation of a graph of `points` points and `segments` segments may
