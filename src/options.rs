@@ -275,6 +275,19 @@ impl Options {
         self.sort
     }
 
+    /// [`Self::angle_bounds`] for meshes of `input`: none in the warp mode when it is a graph
+    /// (whose warp proves no bound yet; the report gives the angles reached).
+    pub fn angle_bounds_of(&self, input: &Input) -> AngleBounds {
+        if self.mode == Mode::Warp && input.is_graph() {
+            AngleBounds {
+                min_deg: 0.0,
+                max_deg: 180.0,
+            }
+        } else {
+            self.angle_bounds()
+        }
+    }
+
     /// The angles every mesh of these options has, outside input angles smaller than the bound
     /// (the corners of a convex hull): at least the bound and at most 180° minus twice it in the
     /// Delaunay mode, [26°, 120°] in the warp mode, [22.5°, 112.5°] in the block warp mode, at

@@ -215,3 +215,16 @@ fn tree_graph_writes_the_leaves_of_the_separated_tree() {
     );
     assert!(!refused.exists());
 }
+
+#[test]
+fn a_graphs_warp_is_checked_without_the_point_sets_angle_bounds() {
+    // The warp of a graph proves no angle bound; `--check` holds it to the graph's check alone
+    // (it used to apply the point-set warp's [26°, 120°] and fail).
+    let dir = TempDir::new("pslg-warp-check");
+    let input = dir.file("rooms.poly");
+    std::fs::write(&input, TWO_ROOMS).unwrap();
+    let prefix = dir.file("out");
+    let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--warp", "--check"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(!rows(&dir.file("out.ele")).is_empty());
+}

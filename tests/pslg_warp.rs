@@ -152,6 +152,53 @@ fn acute_corners_are_cut_and_put_back() {
 }
 
 #[test]
+fn caps_on_both_sides_of_a_segment_belong_to_their_own_faces() {
+    // Found by the `graph_tree` fuzz target: two triangles meeting at vertex 0, with acute
+    // wedges on both sides of segment 0–2 (56° inside the left triangle, 87° outside both).
+    // Both caps are cut there and the short side between them is left out of the tree, so
+    // they lie in one piece; joined to the faces across their cutting edges, that piece made
+    // the left triangle one face with the outside, and the triangle was dropped.
+    let corners = [
+        (52.984375, 70.5625),
+        (70.5625, -280.015625),
+        (0.0, 280.390625),
+        (-281.234375, 189.09375),
+        (373.703125, 172.515625),
+    ];
+    let mut input = Input::default();
+    input.points = corners.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
+    for ends in [[1, 0], [0, 4], [3, 2], [4, 1], [3, 0], [2, 0]] {
+        input.segments.push(segment(ends));
+    }
+    let (mesh, _) = warped(&input);
+    let area = |[a, b, c]: [usize; 3]| {
+        let [a, b, c] = [a, b, c].map(|i| input.points[i]);
+        (b - a).perp_dot(c - a).abs() / 2.0
+    };
+    let expected = area([0, 1, 4]) + area([0, 3, 2]);
+    assert!((common::mesh_area(&mesh) - expected).abs() < 1e-9 * expected);
+    // A region seed just beside vertex 0 inside the left triangle, so inside its cap, names
+    // the left triangle.
+    let mut regions = input.clone();
+    let [p0, p2, p3] = [0, 2, 3].map(|i| input.points[i]);
+    let inner = p0 + ((p2 - p0).normalize() + (p3 - p0).normalize()).normalize() * 0.01;
+    regions.regions.push(RegionSeed {
+        seed: inner,
+        attribute: 4.0,
+        max_area: None,
+    });
+    let (mesh, _) = warped(&regions);
+    let tagged: f64 = (0..mesh.triangles.len())
+        .filter(|&t| mesh.triangle_attribute(t) == 4.0)
+        .map(|t| {
+            let [a, b, c] = mesh.triangles[t].map(|v| mesh.vertices[v as usize]);
+            (b - a).perp_dot(c - a).abs() / 2.0
+        })
+        .sum();
+    assert!((tagged - area([0, 3, 2])).abs() < 1e-9 * tagged, "{tagged}");
+}
+
+#[test]
 fn the_delaunay_graph_of_random_points_is_warped() {
     let input = delaunay_graph(60, 7);
     let (mesh, _) = warped(&input);

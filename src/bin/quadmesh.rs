@@ -617,7 +617,8 @@ fn mesh(
             with_spinner("checking", || {
                 if input_points.is_graph() {
                     let hull = options.region_choice() == Region::ConvexHull;
-                    validate_pslg_with(&mesh, &input_points, options.angle_bounds(), hull)?;
+                    let bounds = options.angle_bounds_of(&input_points);
+                    validate_pslg_with(&mesh, &input_points, bounds, hull)?;
                 } else if options.mode() == Mode::Nonobtuse {
                     mesh.validate_nonobtuse(&input_points.points)?;
                 } else {

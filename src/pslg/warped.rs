@@ -2,12 +2,15 @@
 //! its regions, its caps put back and its segments' markers carried.
 //!
 //! The triangulated leaves cover the whole root square. The chains of the cut graph's edges
-//! split them into pieces (triangles joined across edges that are no chain's); pieces joined
-//! across cutting edges make up the input's faces, since a cap belongs to the wedge it was cut
-//! from. A face is outside when it reaches the root's side, a hole when it holds a hole seed;
-//! a region seed names its face (the last seed wins, as in Triangle). The pieces inside caps are
-//! dropped, and each cap kept is triangulated again from its apex, its sides and its cutting
-//! edge, divided as the mesh beside them divides them.
+//! split them into pieces (triangles joined across edges that are no chain's). A piece is
+//! outside when it reaches the root's side, a hole when it holds a hole seed; a region seed
+//! names its piece (the last seed wins, as in Triangle). A cap belongs to the wedge it was cut
+//! from: the piece beyond its cutting edge, whose fate and region it takes, and a seed inside
+//! it names that piece. (Two caps on both sides of one segment at a vertex share the piece
+//! inside them, the segment's short side between them being no wall, so the caps are not
+//! joined to faces through it.) The pieces inside caps are dropped, and each cap kept is
+//! triangulated again from its apex, its sides and its cutting edge, divided as the mesh
+//! beside them divides them.
 
 use std::collections::HashMap;
 
@@ -209,18 +212,21 @@ fn pieces(triangles: &[[u32; 3]], neighbours: &[[u32; 3]], walls: &Walls) -> (Ve
     (piece, count as usize)
 }
 
-/// What each piece is: part of which face, kept or not, in which region.
+/// What each piece is: kept or not, in which region, inside caps or not; and the piece each
+/// cap belongs to.
 struct Faces {
-    /// Per piece, its face (a representative piece).
-    face: Vec<u32>,
-    /// Per face representative, whether it is outside the domain (reaches the root's side, or
-    /// holds a hole seed).
+    /// Per piece, whether it is outside the domain (reaches the root's side, or holds a hole
+    /// seed).
     dropped: Vec<bool>,
-    /// Per face representative, its region seed, or [`NONE`].
+    /// Per piece, its region seed, or [`NONE`].
     region: Vec<u32>,
     /// Per piece, whether it lies inside caps.
     cap_piece: Vec<bool>,
-    /// Per cap, its piece.
+    /// Per cap, the piece inside it (two caps at one vertex that share a side not kept share
+    /// one).
+    inside: Vec<u32>,
+    /// Per cap, the piece beyond its cutting edge: the face of the wedge it was cut from,
+    /// whose fate and region it shares.
     cap_of: Vec<u32>,
 }
 
@@ -234,100 +240,147 @@ impl Faces {
         leaves: &GraphTriangulation,
         triangle_at: &(impl Fn(DVec2) -> Option<u32> + Sync),
     ) -> Result<Faces, Error> {
-        let mut parent: Vec<u32> = (0..count as u32).collect();
-        let triangles = &leaves.triangles;
-        let mut outside = vec![false; count];
-        for (t, &[a, b, c]) in triangles.iter().enumerate() {
-            for (i, (u, w)) in [(b, c), (c, a), (a, b)].into_iter().enumerate() {
-                let n = neighbours[t][i];
-                if n == NONE {
-                    outside[piece[t] as usize] = true;
-                    continue;
-                }
-                if let Some(e) = walls.edge(u, w)
-                    && matches!(cut.edges[e as usize].origin, EdgeOrigin::Cut(_))
-                {
-                    union(&mut parent, piece[t], piece[n as usize]);
-                }
-            }
-        }
-        let face: Vec<u32> = (0..count as u32).map(|p| find(&mut parent, p)).collect();
         let mut dropped = vec![false; count];
-        for p in 0..count {
-            if outside[p] {
-                dropped[face[p] as usize] = true;
+        for (t, across) in neighbours.iter().enumerate() {
+            if across.contains(&NONE) {
+                dropped[piece[t] as usize] = true;
             }
         }
-        // A seed beyond every leaf lies outside the domain and names nothing, as in the
-        // Delaunay mode; one on a wall is refused.
-        let seed_piece = |kind: &'static str, index: usize, at: DVec2| match triangle_at(at) {
-            None => Ok(None),
-            Some(t) if on_wall(leaves, walls, t, at) => Err(Error::SeedOnSegment {
-                kind,
-                index,
-                x: at.x,
-                y: at.y,
-            }),
-            Some(t) => Ok(Some(piece[t as usize])),
-        };
-        for (k, &hole) in input.holes.iter().enumerate() {
-            if !hole.is_finite() {
-                continue;
-            }
-            if let Some(p) = seed_piece("hole", k, hole)? {
-                dropped[face[p as usize] as usize] = true;
-            }
-        }
-        let mut region = vec![NONE; count];
-        for (k, r) in input.regions.iter().enumerate() {
-            if let Some(p) = seed_piece("region", k, r.seed)? {
-                region[face[p as usize] as usize] = k as u32;
-            }
-        }
+        let cap_of = beyond_cutting_edges(cut, piece, walls, leaves)?;
         let mut cap_piece = vec![false; count];
-        let mut cap_of = Vec::with_capacity(cut.caps.len());
+        let mut inside = Vec::with_capacity(cut.caps.len());
         for cap in &cut.caps {
             let [a, b, c] = [cap.apex, cap.ends[0], cap.ends[1]].map(|v| cut.points[v as usize]);
-            let centre = (a + b + c) / 3.0;
-            let t = triangle_at(centre).ok_or(Error::WarpStuck {
+            let t = triangle_at((a + b + c) / 3.0).ok_or(Error::WarpStuck {
                 x: a.x,
                 y: a.y,
                 why: "a cap lies outside the warped leaves",
             })?;
             let p = piece[t as usize];
             cap_piece[p as usize] = true;
-            cap_of.push(p);
+            inside.push(p);
         }
-        Ok(Faces {
-            face,
+        let mut faces = Faces {
             dropped,
-            region,
+            region: vec![NONE; count],
             cap_piece,
+            inside,
             cap_of,
-        })
+        };
+        for (k, &hole) in input.holes.iter().enumerate() {
+            if !hole.is_finite() {
+                continue;
+            }
+            if let Some(p) =
+                faces.seed_piece(cut, ("hole", k, hole), (piece, walls, leaves), triangle_at)?
+            {
+                faces.dropped[p as usize] = true;
+            }
+        }
+        for (k, r) in input.regions.iter().enumerate() {
+            let named = faces.seed_piece(
+                cut,
+                ("region", k, r.seed),
+                (piece, walls, leaves),
+                triangle_at,
+            )?;
+            if let Some(p) = named {
+                faces.region[p as usize] = k as u32;
+            }
+        }
+        Ok(faces)
+    }
+
+    /// The piece a seed names: none beyond every leaf (outside the domain, as in the Delaunay
+    /// mode), the face a cap was cut from for a seed inside the cap; refused on a wall or on a
+    /// cap's side.
+    fn seed_piece(
+        &self,
+        cut: &CornerCut,
+        (kind, index, at): (&'static str, usize, DVec2),
+        (piece, walls, leaves): (&[u32], &Walls, &GraphTriangulation),
+        triangle_at: &(impl Fn(DVec2) -> Option<u32> + Sync),
+    ) -> Result<Option<u32>, Error> {
+        let on_segment = Error::SeedOnSegment {
+            kind,
+            index,
+            x: at.x,
+            y: at.y,
+        };
+        let Some(t) = triangle_at(at) else {
+            return Ok(None);
+        };
+        if on_wall(leaves, walls, t, at) {
+            return Err(on_segment);
+        }
+        let p = piece[t as usize];
+        if !self.cap_piece[p as usize] {
+            return Ok(Some(p));
+        }
+        for (c, cap) in cut.caps.iter().enumerate() {
+            if self.inside[c] != p {
+                continue;
+            }
+            let [apex, a, b] = [cap.apex, cap.ends[0], cap.ends[1]].map(|v| cut.points[v as usize]);
+            let sides = [
+                orientation(apex, a, at),
+                orientation(a, b, at),
+                orientation(b, apex, at),
+            ];
+            if sides.contains(&Orientation::Right) {
+                continue;
+            }
+            if sides[0] == Orientation::On || sides[2] == Orientation::On {
+                return Err(on_segment);
+            }
+            return Ok(Some(self.cap_of[c]));
+        }
+        Ok(Some(p))
     }
 
     fn kept(&self, piece: usize) -> bool {
-        !self.dropped[self.face[piece] as usize]
+        !self.dropped[piece]
     }
 
     fn region_of(&self, piece: usize) -> u32 {
-        self.region[self.face[piece] as usize]
+        self.region[piece]
     }
 }
 
-fn find(parent: &mut [u32], mut p: u32) -> u32 {
-    while parent[p as usize] != p {
-        parent[p as usize] = parent[parent[p as usize] as usize];
-        p = parent[p as usize];
+/// Per cap, the piece on the far side of its cutting edge from its apex.
+fn beyond_cutting_edges(
+    cut: &CornerCut,
+    piece: &[u32],
+    walls: &Walls,
+    leaves: &GraphTriangulation,
+) -> Result<Vec<u32>, Error> {
+    let mut beyond = vec![NONE; cut.caps.len()];
+    for (t, &[a, b, c]) in leaves.triangles.iter().enumerate() {
+        // The triangle lies left of each of its sides, taken counterclockwise.
+        for (u, w) in [(a, b), (b, c), (c, a)] {
+            let Some(e) = walls.edge(u, w) else {
+                continue;
+            };
+            let EdgeOrigin::Cut(k) = cut.edges[e as usize].origin else {
+                continue;
+            };
+            let apex = cut.points[cut.caps[k as usize].apex as usize];
+            let (pu, pw) = (leaves.vertices[u as usize], leaves.vertices[w as usize]);
+            if beyond[k as usize] == NONE && orientation(pu, pw, apex) == Orientation::Right {
+                beyond[k as usize] = piece[t];
+            }
+        }
     }
-    p
-}
-
-fn union(parent: &mut [u32], a: u32, b: u32) {
-    let (a, b) = (find(parent, a), find(parent, b));
-    if a != b {
-        parent[a.max(b) as usize] = a.min(b);
+    match beyond.iter().position(|&p| p == NONE) {
+        None => Ok(beyond),
+        Some(k) => {
+            let apex = cut.points[cut.caps[k].apex as usize];
+            Err(Error::WarpStuck {
+                x: apex.x,
+                y: apex.y,
+                why: "a cap's cutting edge has no leaf beyond it",
+            })
+        }
     }
 }
 
