@@ -165,8 +165,12 @@ fn caps_on_both_sides_of_a_segment_belong_to_their_own_faces() {
         (-281.234375, 189.09375),
         (373.703125, 172.515625),
     ];
-    let mut input = Input::default();
-    input.points = corners.iter().map(|&(x, y)| DVec2::new(x, y)).collect();
+    let mut input = Input::points(
+        corners
+            .iter()
+            .map(|&(x, y)| DVec2::new(x, y))
+            .collect::<Vec<_>>(),
+    );
     for ends in [[1, 0], [0, 4], [3, 2], [4, 1], [3, 0], [2, 0]] {
         input.segments.push(segment(ends));
     }
