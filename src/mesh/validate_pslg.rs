@@ -17,6 +17,8 @@ use std::collections::{HashMap, HashSet};
 
 use glam::DVec2;
 use rayon::prelude::*;
+use rstar::RTree;
+use rstar::primitives::{GeomWithData, Rectangle};
 
 use super::validate::{
     ANGLE_SLACK_DEG, AREA_REL_TOL, AngleBounds, InvalidMesh, MeshCheck, Sum, check_counts,
@@ -631,6 +633,15 @@ struct Graph<'a> {
     hull: Vec<u32>,
     /// The edge along each hull side, from corner `k` to corner `k + 1`.
     hull_edges: Vec<u32>,
+    /// Each edge's bounding box, for finding the edges a point may lie on.
+    edge_boxes: RTree<IndexedBox>,
+}
+
+/// A bounding box and what it bounds (an edge, a cycle), by index.
+type IndexedBox = GeomWithData<Rectangle<[f64; 2]>, usize>;
+
+fn indexed_box([lo, hi]: [DVec2; 2], index: usize) -> IndexedBox {
+    GeomWithData::new(Rectangle::from_corners(lo.to_array(), hi.to_array()), index)
 }
 
 impl<'a> Graph<'a> {
@@ -642,9 +653,18 @@ impl<'a> Graph<'a> {
             (Vec::new(), Vec::new())
         };
         let (first, out, slot) = stars(points, &ends);
+        let boxes = ends
+            .iter()
+            .enumerate()
+            .map(|(e, &[i, j])| {
+                let (a, b) = (points[i as usize], points[j as usize]);
+                indexed_box([a.min(b), a.max(b)], e)
+            })
+            .collect();
         Ok(Graph {
             points,
             segments: segments.len(),
+            edge_boxes: RTree::bulk_load(boxes),
             ends,
             first,
             out,
@@ -678,13 +698,17 @@ impl<'a> Graph<'a> {
         star[(s + star.len() - 1) % star.len()]
     }
 
-    /// An edge `p` lies on (its ends included), exactly.
+    /// The first edge `p` lies on (its ends included), exactly: among those whose boxes hold
+    /// it.
     fn edge_through(&self, p: DVec2) -> Option<usize> {
-        self.ends.iter().position(|&[i, j]| {
-            let (a, b) = (self.at(i), self.at(j));
-            let inside = a.min(b).cmple(p).all() && p.cmple(a.max(b)).all();
-            inside && orientation(a, b, p) == Orientation::On
-        })
+        self.edge_boxes
+            .locate_all_at_point(p.to_array())
+            .map(|b| b.data)
+            .filter(|&e| {
+                let [i, j] = self.ends[e];
+                orientation(self.at(i), self.at(j), p) == Orientation::On
+            })
+            .min()
     }
 
     fn edge_name(&self, e: usize) -> String {
@@ -807,8 +831,8 @@ struct Faces {
     cycles: Vec<Vec<u32>>,
     /// Signed area inside each cycle (negative for an outer cycle), compensated.
     area: Vec<f64>,
-    /// Each cycle's bounding box.
-    bbox: Vec<[DVec2; 2]>,
+    /// The inner cycles' bounding boxes.
+    inner_boxes: RTree<IndexedBox>,
     /// The cycle of each half-edge.
     cycle_of: Vec<u32>,
     /// The connected component of each cycle.
@@ -826,8 +850,9 @@ impl Faces {
         let (cycles, cycle_of) = trace_cycles(graph);
         let (component_of, lowest) = components(graph);
         let area: Vec<f64> = cycles.iter().map(|c| cycle_area(graph, c)).collect();
+        let boxes: Vec<[DVec2; 2]> = cycles.iter().map(|c| cycle_box(graph, c)).collect();
         let mut faces = Faces {
-            bbox: cycles.iter().map(|c| cycle_box(graph, c)).collect(),
+            inner_boxes: RTree::new(),
             component: cycles
                 .iter()
                 .map(|c| component_of[graph.origin(c[0]) as usize])
@@ -846,6 +871,12 @@ impl Faces {
         for &c in &outer {
             faces.outer[c] = true;
         }
+        faces.inner_boxes = RTree::bulk_load(
+            (0..boxes.len())
+                .filter(|&c| !faces.outer[c])
+                .map(|c| indexed_box(boxes[c], c))
+                .collect(),
+        );
         faces.around = (0..lowest.len() as u32)
             .map(|k| faces.locate(graph, graph.at(lowest[k as usize]), k))
             .collect();
@@ -870,12 +901,14 @@ impl Faces {
     /// The inner cycle whose face holds `p`, ignoring component `skip`, or `None` for the
     /// unbounded face. `p` must lie on no edge (but those of `skip`).
     fn locate(&self, graph: &Graph, p: DVec2, skip: u32) -> Option<usize> {
-        // The inner cycles around `p` are nested; the innermost is the smallest.
-        (0..self.cycles.len())
-            .filter(|&c| !self.outer[c] && self.component[c] != skip)
-            .filter(|&c| self.bbox[c][0].cmple(p).all() && p.cmple(self.bbox[c][1]).all())
+        // The inner cycles around `p` are nested; the innermost is the smallest (the first of
+        // equal ones).
+        self.inner_boxes
+            .locate_all_at_point(p.to_array())
+            .map(|b| b.data)
+            .filter(|&c| self.component[c] != skip)
             .filter(|&c| winding(graph, &self.cycles[c], p) != 0)
-            .min_by(|&c, &d| self.area[c].total_cmp(&self.area[d]))
+            .min_by(|&c, &d| self.area[c].total_cmp(&self.area[d]).then(c.cmp(&d)))
     }
 }
 
