@@ -30,6 +30,17 @@ pub fn polygon(corners: &[(f64, f64)], marker: i32) -> Input {
     }
 }
 
+/// The unit square (marker 1) with one more segment between points `ends` with `marker`, after
+/// `extra` points are added.
+fn unit_square_with(extra: &[(f64, f64)], ends: [u32; 2], marker: i32) -> Input {
+    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], 1);
+    input
+        .points
+        .extend(extra.iter().map(|&(x, y)| DVec2::new(x, y)));
+    input.segments.push(Segment { ends, marker });
+    input
+}
+
 /// Adds a loose segment from `a` to `b` (two new points) with marker 7.
 pub fn push_segment(input: &mut Input, a: DVec2, b: DVec2) {
     let first = input.points.len() as u32;
@@ -100,14 +111,7 @@ pub fn six_near_collinear_points() -> Input {
 
 /// The unit square with its corner (1, 1) given twice, the copy used by a segment.
 pub fn a_duplicated_vertex_used_by_segments() -> Input {
-    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], 1);
-    input.points.push(DVec2::new(1.0, 1.0));
-    input.points.push(DVec2::new(0.25, 0.5));
-    input.segments.push(Segment {
-        ends: [4, 5],
-        marker: 3,
-    });
-    input
+    unit_square_with(&[(1.0, 1.0), (0.25, 0.5)], [4, 5], 3)
 }
 
 /// A square of side 3 with two segments crossing where no f64 lies, and a third through
@@ -188,22 +192,12 @@ pub const NESTED_HOLES_POLY: &str = "\
 
 /// The unit square with a segment from its corner (1, 1) to itself.
 pub fn a_zero_length_segment() -> Input {
-    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], 1);
-    input.segments.push(Segment {
-        ends: [2, 2],
-        marker: 5,
-    });
-    input
+    unit_square_with(&[], [2, 2], 5)
 }
 
 /// The unit square with a segment to a point that is not there.
 pub fn an_out_of_range_index() -> Input {
-    let mut input = polygon(&[(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)], 1);
-    input.segments.push(Segment {
-        ends: [0, 99],
-        marker: 5,
-    });
-    input
+    unit_square_with(&[], [0, 99], 5)
 }
 
 /// Every case, in the order of the issue that lists them.
