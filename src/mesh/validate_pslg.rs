@@ -831,8 +831,8 @@ struct Faces {
     cycles: Vec<Vec<u32>>,
     /// Signed area inside each cycle (negative for an outer cycle), compensated.
     area: Vec<f64>,
-    /// The inner cycles' bounding boxes.
-    inner_boxes: RTree<IndexedBox>,
+    /// The cycles' bounding boxes.
+    boxes: RTree<IndexedBox>,
     /// The cycle of each half-edge.
     cycle_of: Vec<u32>,
     /// The connected component of each cycle.
@@ -850,9 +850,14 @@ impl Faces {
         let (cycles, cycle_of) = trace_cycles(graph);
         let (component_of, lowest) = components(graph);
         let area: Vec<f64> = cycles.iter().map(|c| cycle_area(graph, c)).collect();
-        let boxes: Vec<[DVec2; 2]> = cycles.iter().map(|c| cycle_box(graph, c)).collect();
         let mut faces = Faces {
-            inner_boxes: RTree::new(),
+            boxes: RTree::bulk_load(
+                cycles
+                    .iter()
+                    .enumerate()
+                    .map(|(c, cycle)| indexed_box(cycle_box(graph, cycle), c))
+                    .collect(),
+            ),
             component: cycles
                 .iter()
                 .map(|c| component_of[graph.origin(c[0]) as usize])
@@ -871,12 +876,6 @@ impl Faces {
         for &c in &outer {
             faces.outer[c] = true;
         }
-        faces.inner_boxes = RTree::bulk_load(
-            (0..boxes.len())
-                .filter(|&c| !faces.outer[c])
-                .map(|c| indexed_box(boxes[c], c))
-                .collect(),
-        );
         faces.around = (0..lowest.len() as u32)
             .map(|k| faces.locate(graph, graph.at(lowest[k as usize]), k))
             .collect();
@@ -903,10 +902,10 @@ impl Faces {
     fn locate(&self, graph: &Graph, p: DVec2, skip: u32) -> Option<usize> {
         // The inner cycles around `p` are nested; the innermost is the smallest (the first of
         // equal ones).
-        self.inner_boxes
+        self.boxes
             .locate_all_at_point(p.to_array())
             .map(|b| b.data)
-            .filter(|&c| self.component[c] != skip)
+            .filter(|&c| !self.outer[c] && self.component[c] != skip)
             .filter(|&c| winding(graph, &self.cycles[c], p) != 0)
             .min_by(|&c, &d| self.area[c].total_cmp(&self.area[d]).then(c.cmp(&d)))
     }

@@ -220,11 +220,9 @@ struct Faces {
     dropped: Vec<bool>,
     /// Per piece, its region seed, or [`NONE`].
     region: Vec<u32>,
-    /// Per piece, whether it lies inside caps.
+    /// Per piece, whether it lies inside caps (two caps at one vertex that share a side not
+    /// kept share one).
     cap_piece: Vec<bool>,
-    /// Per cap, the piece inside it (two caps at one vertex that share a side not kept share
-    /// one).
-    inside: Vec<u32>,
     /// Per cap, the piece beyond its cutting edge: the face of the wedge it was cut from,
     /// whose fate and region it shares.
     cap_of: Vec<u32>,
@@ -248,6 +246,7 @@ impl Faces {
         }
         let cap_of = beyond_cutting_edges(cut, piece, walls, leaves)?;
         let mut cap_piece = vec![false; count];
+        // Per cap, the piece inside it.
         let mut inside = Vec::with_capacity(cut.caps.len());
         for cap in &cut.caps {
             let [a, b, c] = [cap.apex, cap.ends[0], cap.ends[1]].map(|v| cut.points[v as usize]);
@@ -260,82 +259,64 @@ impl Faces {
             cap_piece[p as usize] = true;
             inside.push(p);
         }
-        let mut faces = Faces {
-            dropped,
-            region: vec![NONE; count],
-            cap_piece,
-            inside,
-            cap_of,
+        // The piece a seed names: none beyond every leaf (outside the domain, as in the
+        // Delaunay mode), the face a cap was cut from for a seed inside the cap; refused on a
+        // wall or on a cap's side.
+        let seed_piece = |kind: &'static str, index: usize, at: DVec2| {
+            let on_segment = Error::SeedOnSegment {
+                kind,
+                index,
+                x: at.x,
+                y: at.y,
+            };
+            let Some(t) = triangle_at(at) else {
+                return Ok(None);
+            };
+            if on_wall(leaves, walls, t, at) {
+                return Err(on_segment);
+            }
+            let p = piece[t as usize];
+            if !cap_piece[p as usize] {
+                return Ok(Some(p));
+            }
+            for (c, cap) in cut.caps.iter().enumerate().filter(|&(c, _)| inside[c] == p) {
+                let [apex, a, b] =
+                    [cap.apex, cap.ends[0], cap.ends[1]].map(|v| cut.points[v as usize]);
+                let sides = [
+                    orientation(apex, a, at),
+                    orientation(a, b, at),
+                    orientation(b, apex, at),
+                ];
+                if sides.contains(&Orientation::Right) {
+                    continue;
+                }
+                if sides[0] == Orientation::On || sides[2] == Orientation::On {
+                    return Err(on_segment);
+                }
+                return Ok(Some(cap_of[c]));
+            }
+            Ok(Some(p))
         };
         for (k, &hole) in input.holes.iter().enumerate() {
             if !hole.is_finite() {
                 continue;
             }
-            if let Some(p) =
-                faces.seed_piece(cut, ("hole", k, hole), (piece, walls, leaves), triangle_at)?
-            {
-                faces.dropped[p as usize] = true;
+            if let Some(p) = seed_piece("hole", k, hole)? {
+                dropped[p as usize] = true;
             }
         }
+        let mut region = vec![NONE; count];
         for (k, r) in input.regions.iter().enumerate() {
-            let named = faces.seed_piece(
-                cut,
-                ("region", k, r.seed),
-                (piece, walls, leaves),
-                triangle_at,
-            )?;
-            if let Some(p) = named {
-                faces.region[p as usize] = k as u32;
+            if let Some(p) = seed_piece("region", k, r.seed)? {
+                region[p as usize] = k as u32;
             }
         }
-        Ok(faces)
-    }
-
-    /// The piece a seed names: none beyond every leaf (outside the domain, as in the Delaunay
-    /// mode), the face a cap was cut from for a seed inside the cap; refused on a wall or on a
-    /// cap's side.
-    fn seed_piece(
-        &self,
-        cut: &CornerCut,
-        (kind, index, at): (&'static str, usize, DVec2),
-        (piece, walls, leaves): (&[u32], &Walls, &GraphTriangulation),
-        triangle_at: &(impl Fn(DVec2) -> Option<u32> + Sync),
-    ) -> Result<Option<u32>, Error> {
-        let on_segment = Error::SeedOnSegment {
-            kind,
-            index,
-            x: at.x,
-            y: at.y,
-        };
-        let Some(t) = triangle_at(at) else {
-            return Ok(None);
-        };
-        if on_wall(leaves, walls, t, at) {
-            return Err(on_segment);
-        }
-        let p = piece[t as usize];
-        if !self.cap_piece[p as usize] {
-            return Ok(Some(p));
-        }
-        for (c, cap) in cut.caps.iter().enumerate() {
-            if self.inside[c] != p {
-                continue;
-            }
-            let [apex, a, b] = [cap.apex, cap.ends[0], cap.ends[1]].map(|v| cut.points[v as usize]);
-            let sides = [
-                orientation(apex, a, at),
-                orientation(a, b, at),
-                orientation(b, apex, at),
-            ];
-            if sides.contains(&Orientation::Right) {
-                continue;
-            }
-            if sides[0] == Orientation::On || sides[2] == Orientation::On {
-                return Err(on_segment);
-            }
-            return Ok(Some(self.cap_of[c]));
-        }
-        Ok(Some(p))
+        Ok(Faces {
+            dropped,
+            region,
+            cap_piece,
+            cap_of,
+        })
     }
 
     fn kept(&self, piece: usize) -> bool {
