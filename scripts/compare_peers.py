@@ -875,10 +875,18 @@ def print_pslg_table(rows, markdown):
     sys.stdout.flush()
 
 
+def as_json(value):
+    """An argument as JSON takes it: paths, alone or in a list, as strings."""
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, list):
+        return [as_json(v) for v in value]
+    return value
+
+
 def main_pslg(args):
     """The PSLG comparison: one table, written at the end."""
-    everything = {"machine": machine(), "arguments": {k: (str(v) if isinstance(v, Path) else v)
-                                                      for k, v in vars(args).items()},
+    everything = {"machine": machine(), "arguments": {k: as_json(v) for k, v in vars(args).items()},
                   "pslg": []}
     with tempfile.TemporaryDirectory(prefix="compare-peers-pslg-") as tmp:
         directory = args.pslg_dir or Path(tmp)

@@ -407,7 +407,25 @@ struct PointsArgs {
     seed: u64,
 }
 
+/// Turns transparent huge pages off for this process. mimalloc asks for them on every region
+/// it maps, and the first touch of a 2 MiB page zeroes all of it, used or not, after compacting
+/// memory where another process has fragmented it. On 1e6 points at 30° zeroing pages took
+/// 22 % of the run with them and under 1 % without; the run, and the block of 50 000 holes run
+/// right after Triangle, took 7 % and 27 % less time without them, and no run was slower.
+#[cfg(target_os = "linux")]
+#[allow(unsafe_code)]
+fn decline_transparent_huge_pages() {
+    // SAFETY: PR_SET_THP_DISABLE takes one integer and only sets a flag of this process that
+    // the kernel reads at later page faults; it touches no memory of the program. Failure (an
+    // old kernel) leaves huge pages on, which is harmless.
+    unsafe { libc::prctl(libc::PR_SET_THP_DISABLE, 1, 0, 0, 0) };
+}
+
+#[cfg(not(target_os = "linux"))]
+fn decline_transparent_huge_pages() {}
+
 fn main() -> ExitCode {
+    decline_transparent_huge_pages();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Tree {
