@@ -384,6 +384,20 @@ impl<'a> SharedSlots<'a> {
         }
     }
 
+    /// The value at `i`: as stored before the scatter, or by a store of it.
+    ///
+    /// # Panics
+    /// If `i` is out of range.
+    #[inline]
+    pub fn load(&self, i: usize) -> u32 {
+        assert!(i < self.len, "slot {i} of {}", self.len);
+        // SAFETY: as in `store`: the slot is in the borrowed slice, and every access to it
+        // while it is borrowed here is atomic.
+        #[allow(unsafe_code)]
+        let slot = unsafe { std::sync::atomic::AtomicU32::from_ptr(self.ptr.add(i)) };
+        slot.load(std::sync::atomic::Ordering::Relaxed)
+    }
+
     /// Stores `value` at `i`.
     ///
     /// # Panics

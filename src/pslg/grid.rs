@@ -88,21 +88,33 @@ impl Grid {
             .map(|(i, &p)| (grid.cell(p), i as u32))
             .collect();
         by_point.par_sort_unstable();
-        let mut by_piece: Vec<(u64, u32)> = pieces
-            .par_iter()
-            .enumerate()
-            .flat_map_iter(|(i, piece)| {
-                let [a, b] = piece.ends.map(|e| points[e as usize]);
-                let mut cells = Vec::new();
-                grid.cells_of(a, b, &mut cells);
-                cells.into_iter().map(move |c| (c, i as u32))
-            })
-            .collect();
+        let mut by_piece = grid.piece_entries(points, pieces);
         by_piece.par_sort_unstable();
         (grid.point_cells, grid.point_ids) = by_point.into_par_iter().unzip();
         (grid.piece_cells, grid.piece_ids) = by_piece.into_par_iter().unzip();
         grid.piece_runs = crate::par::run_starts(grid.piece_cells.len(), |i| grid.piece_cells[i]);
         grid
+    }
+
+    /// A (cell, piece) pair for every cell each piece passes, unsorted. Pieces go in chunks,
+    /// each filling one buffer: a buffer per piece would cost an allocation each.
+    fn piece_entries(&self, points: &[DVec2], pieces: &[Piece]) -> Vec<(u64, u32)> {
+        const CHUNK: usize = 4096;
+        let chunks: Vec<Vec<(u64, u32)>> = pieces
+            .par_chunks(CHUNK)
+            .enumerate()
+            .map(|(k, chunk)| {
+                let (mut entries, mut cells) = (Vec::with_capacity(4 * chunk.len()), Vec::new());
+                for (i, piece) in chunk.iter().enumerate() {
+                    let [a, b] = piece.ends.map(|e| points[e as usize]);
+                    self.cells_of(a, b, &mut cells);
+                    let id = (k * CHUNK + i) as u32;
+                    entries.extend(cells.iter().map(|&c| (c, id)));
+                }
+                entries
+            })
+            .collect();
+        crate::par::concat(&chunks)
     }
 
     /// How many cells hold a piece.

@@ -12,13 +12,13 @@ mod grid;
 mod warped;
 
 use std::collections::HashMap;
-use std::collections::hash_map::Entry;
 
 use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::error::Error;
 use crate::options::{Input, Segment};
+use crate::par::SharedSlots;
 use crate::predicates::{Orientation, orient_value, orientation};
 pub use corners::{
     CAP_FRACTION, Cap, CornerCut, EdgeOrigin, GraphEdge, cut_acute_corners, feature_distances,
@@ -187,30 +187,11 @@ pub fn clean(input: &Input, options: CleanOptions) -> Result<(Input, CleanReport
     }
 
     let mut report = CleanReport::default();
-    let mut points = Vec::with_capacity(n);
-    let mut first: HashMap<(u64, u64), u32> = HashMap::with_capacity(n);
-    let mut kept_input = Vec::with_capacity(n);
-    report.point_map.reserve(n);
-    for (i, &p) in input.points.iter().enumerate() {
-        let o = match first.entry(key(p)) {
-            Entry::Occupied(e) => {
-                let o = *e.get();
-                report.merged_points += 1;
-                if report.merged_examples.len() < REPORT_EXAMPLES {
-                    report.merged_examples.push([i, kept_input[o as usize]]);
-                }
-                o
-            }
-            Entry::Vacant(e) => {
-                let o = points.len() as u32;
-                e.insert(o);
-                points.push(p);
-                kept_input.push(i);
-                o
-            }
-        };
-        report.point_map.push(o);
-    }
+    let merged = merge_positions(&input.points);
+    let mut points = merged.points;
+    report.merged_points = n - points.len();
+    report.merged_examples = merged.examples;
+    report.point_map = merged.point_map;
 
     let mut pieces = Vec::with_capacity(input.segments.len());
     for (segment, s) in input.segments.iter().enumerate() {
@@ -225,6 +206,8 @@ pub fn clean(input: &Input, options: CleanOptions) -> Result<(Input, CleanReport
     }
     drop_repeats(&mut pieces, &mut report);
 
+    // Built only when a crossing is split: the point, if any, at each position.
+    let mut first: Option<HashMap<(u64, u64), u32>> = None;
     for round in 0.. {
         let mut grid = Grid::new(&points, &pieces);
         // The pieces are as the grid has them unless split here or at crossings before.
@@ -244,13 +227,12 @@ pub fn clean(input: &Input, options: CleanOptions) -> Result<(Input, CleanReport
                 at: c.at.into(),
             });
         }
-        split_crossings(
-            &mut points,
-            &mut first,
-            &mut pieces,
-            &crossings,
-            &mut report,
-        );
+        let first = first.get_or_insert_with(|| {
+            (points.iter().enumerate())
+                .map(|(i, &p)| (key(p), i as u32))
+                .collect()
+        });
+        split_crossings(&mut points, first, &mut pieces, &crossings, &mut report);
     }
 
     if points.len() >= u32::MAX as usize {
@@ -278,27 +260,93 @@ fn key(p: DVec2) -> (u64, u64) {
     ((p.x + 0.0).to_bits(), (p.y + 0.0).to_bits())
 }
 
-/// Drops the pieces joining the same two points as an earlier piece, keeping the order.
-fn drop_repeats(pieces: &mut Vec<Piece>, report: &mut CleanReport) {
-    let mut seen: HashMap<[u32; 2], u32> = HashMap::with_capacity(pieces.len());
-    pieces.retain(|p| {
-        let [a, b] = p.ends;
-        match seen.entry([a.min(b), a.max(b)]) {
-            Entry::Occupied(e) => {
-                report.repeated_segments += 1;
-                if report.repeated_examples.len() < REPORT_EXAMPLES {
-                    report
-                        .repeated_examples
-                        .push([p.origin as usize, *e.get() as usize]);
-                }
-                false
-            }
-            Entry::Vacant(e) => {
-                e.insert(p.origin);
-                true
-            }
+/// The input's points with those at one position merged into the first.
+struct Merged {
+    /// The distinct points, in first-occurrence order.
+    points: Vec<DVec2>,
+    /// For each input point, its distinct point.
+    point_map: Vec<u32>,
+    /// The first [`REPORT_EXAMPLES`] merged points, each with the input point it was merged
+    /// into.
+    examples: Vec<[usize; 2]>,
+}
+
+/// Merges the points at one position (`0.0` and `-0.0` alike) into the first, by a parallel
+/// sort of the positions: the same result on any thread count.
+fn merge_positions(input: &[DVec2]) -> Merged {
+    let n = input.len();
+    let first_at = first_of_equal_keys(n, |i| key(input[i]));
+    let kept: Vec<u32> = (0..n as u32)
+        .into_par_iter()
+        .filter(|&i| first_at[i as usize] == i)
+        .collect();
+    let examples = (0..n)
+        .filter(|&i| first_at[i] as usize != i)
+        .take(REPORT_EXAMPLES)
+        .map(|i| [i, first_at[i] as usize])
+        .collect();
+    let point_map = if kept.len() == n {
+        first_at
+    } else {
+        let mut rank = vec![0; n];
+        let slots = SharedSlots::new(&mut rank);
+        kept.par_iter()
+            .enumerate()
+            .for_each(|(r, &i)| slots.store(i as usize, r as u32));
+        first_at.par_iter().map(|&f| rank[f as usize]).collect()
+    };
+    Merged {
+        points: kept.par_iter().map(|&i| input[i as usize]).collect(),
+        point_map,
+        examples,
+    }
+}
+
+/// For each of `0..n`, the first index with the same key.
+fn first_of_equal_keys<K>(n: usize, key: impl Fn(usize) -> K + Sync) -> Vec<u32>
+where
+    K: Ord + Copy + Send + Sync,
+{
+    let mut by_key: Vec<(K, u32)> = (0..n).into_par_iter().map(|i| (key(i), i as u32)).collect();
+    by_key.par_sort_unstable();
+    let starts = crate::par::run_starts(n, |j| by_key[j].0);
+    let mut first = vec![0; n];
+    let slots = SharedSlots::new(&mut first);
+    starts.par_windows(2).for_each(|run| {
+        let head = by_key[run[0]].1;
+        for &(_, i) in &by_key[run[0]..run[1]] {
+            slots.store(i as usize, head);
         }
     });
+    first
+}
+
+/// Drops the pieces joining the same two points as an earlier piece, keeping the order.
+fn drop_repeats(pieces: &mut Vec<Piece>, report: &mut CleanReport) {
+    let first = first_of_equal_keys(pieces.len(), |i| {
+        let [a, b] = pieces[i].ends;
+        (a.min(b), a.max(b))
+    });
+    let repeats = (0..pieces.len()).filter(|&i| first[i] as usize != i);
+    for i in repeats
+        .clone()
+        .take(REPORT_EXAMPLES.saturating_sub(report.repeated_examples.len()))
+    {
+        let earlier = pieces[first[i] as usize].origin as usize;
+        report
+            .repeated_examples
+            .push([pieces[i].origin as usize, earlier]);
+    }
+    let dropped = repeats.count();
+    if dropped > 0 {
+        report.repeated_segments += dropped;
+        let mut next = 0;
+        pieces.retain(|_| {
+            let kept = first[next] as usize == next;
+            next += 1;
+            kept
+        });
+    }
 }
 
 /// Lexicographic order of positions: along a line, the order of its points.

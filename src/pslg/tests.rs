@@ -94,6 +94,71 @@ fn duplicate_points_merge_into_the_first_and_segments_follow() {
     assert_eq!(markers, vec![10, 11, 12]);
 }
 
+/// Many points on a few positions (`-0.0` among them) and many repeated pieces, more than a
+/// parallel chunk holds: the merge and the drop agree with a first-come hash map, on one
+/// thread and on four.
+#[test]
+fn merges_and_drops_in_parallel_agree_with_a_first_come_map() {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(12);
+    let coordinate = |rng: &mut Xoshiro256PlusPlus| match rng.random_range(0..40) {
+        0 => -0.0,
+        k => f64::from(k),
+    };
+    let points: Vec<DVec2> = (0..30_000)
+        .map(|_| DVec2::new(coordinate(&mut rng), coordinate(&mut rng)))
+        .collect();
+    let mut first = HashMap::new();
+    let mut expected_map = Vec::new();
+    for (i, &p) in points.iter().enumerate() {
+        let next = first.len() as u32;
+        expected_map.push(*first.entry(key(p)).or_insert_with(|| (i, next)));
+    }
+    let pieces: Vec<Piece> = (0..20_000)
+        .map(|k| Piece {
+            ends: [rng.random_range(0..50), rng.random_range(50..100)],
+            origin: k,
+        })
+        .collect();
+    let mut seen = HashMap::new();
+    let expected_pieces: Vec<Piece> = (pieces.iter())
+        .filter(|p| {
+            seen.insert([p.ends[0].min(p.ends[1]), p.ends[0].max(p.ends[1])], ())
+                .is_none()
+        })
+        .copied()
+        .collect();
+    for threads in [1, 4] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let (merged, kept, report) = pool.install(|| {
+            let mut kept = pieces.clone();
+            let mut report = CleanReport::default();
+            drop_repeats(&mut kept, &mut report);
+            (merge_positions(&points), kept, report)
+        });
+        let map: Vec<u32> = expected_map.iter().map(|&(_, o)| o).collect();
+        assert_eq!(merged.point_map, map, "{threads} threads");
+        assert_eq!(merged.points.len(), first.len());
+        for (i, &(f, o)) in expected_map.iter().enumerate() {
+            assert_eq!(merged.points[o as usize], points[f], "{i}");
+        }
+        let examples: Vec<[usize; 2]> = (expected_map.iter().enumerate())
+            .filter(|&(i, &(f, _))| f != i)
+            .map(|(i, &(f, _))| [i, f])
+            .take(REPORT_EXAMPLES)
+            .collect();
+        assert_eq!(merged.examples, examples);
+        assert_eq!(kept, expected_pieces, "{threads} threads");
+        assert_eq!(
+            report.repeated_segments,
+            pieces.len() - expected_pieces.len()
+        );
+        assert_eq!(report.repeated_examples.len(), REPORT_EXAMPLES);
+    }
+}
+
 #[test]
 fn repeated_segments_are_dropped() {
     let twice = input(

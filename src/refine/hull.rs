@@ -18,6 +18,7 @@ use super::MIN_GAP;
 use super::delaunay::{NEXT, PREV, Triangulation, beyond};
 use crate::error::Error;
 use crate::mesh::NONE;
+use crate::par::{GRAIN, SharedSlots, exclusive_scan_u32_by};
 use crate::predicates::{Orientation, orient_value, orientation};
 
 /// A hull corner narrower than this (degrees) has its boundary edges split on concentric
@@ -472,90 +473,78 @@ pub(super) fn compact_keeping(
     vertex_input: &mut Vec<u32>,
     keep: &[bool],
 ) -> (Renumbering, Renumbering) {
-    let mut used = vec![false; t.vertices.len()];
-    for (c, _) in t.corners.iter().zip(keep).filter(|(_, k)| **k) {
-        for &v in c {
-            used[v as usize] = true;
-        }
-    }
-    let vertices_gone: Vec<u32> = (0..used.len() as u32)
-        .into_par_iter()
-        .filter(|&v| !used[v as usize])
-        .collect();
-    let triangles_gone: Vec<u32> = (0..keep.len() as u32)
-        .into_par_iter()
-        .filter(|&id| !keep[id as usize])
-        .collect();
-    let vertex_map = Renumbering::new(t.vertices.len(), vertices_gone);
-    let triangle_map = Renumbering::new(t.corners.len(), triangles_gone);
-    remove_sorted(&mut t.vertices, &vertex_map.gone);
-    remove_sorted(vertex_input, &vertex_map.gone);
-    remove_sorted(&mut t.corners, &triangle_map.gone);
-    remove_sorted(&mut t.across, &triangle_map.gone);
-    if !t.regions.is_empty() {
-        remove_sorted(&mut t.regions, &triangle_map.gone);
-    }
-    t.corners
-        .par_iter_mut()
-        .for_each(|c| *c = c.map(|v| vertex_map.of(v)));
-    t.across.par_iter_mut().for_each(|n| {
-        *n = n.map(|link| match beyond(link) {
+    let mut used = vec![0u32; t.vertices.len()];
+    let slots = SharedSlots::new(&mut used);
+    (t.corners.par_iter().zip(keep))
+        .filter(|(_, k)| **k)
+        .for_each(|(c, _)| c.iter().for_each(|&v| slots.store(v as usize, 1)));
+    let vertex_map = Renumbering::keeping(used.len(), |v| used[v] != 0);
+    let triangle_map = Renumbering::keeping(keep.len(), |id| keep[id]);
+    vertex_map.keep_in(&mut t.vertices, |&p| p);
+    vertex_map.keep_in(vertex_input, |&i| i);
+    triangle_map.keep_in(&mut t.corners, |c| c.map(|v| vertex_map.of(v)));
+    triangle_map.keep_in(&mut t.across, |n| {
+        n.map(|link| match beyond(link) {
             NONE => NONE,
             u => match triangle_map.of(u) {
                 NONE => NONE,
                 m => m | (link & super::delaunay::SEGMENT),
             },
-        });
+        })
     });
+    if !t.regions.is_empty() {
+        triangle_map.keep_in(&mut t.regions, |&r| r);
+    }
     (vertex_map, triangle_map)
 }
 
-/// The new numbers of items once a few of them (`gone`, sorted) are removed: each kept number
-/// moves down by the count of removed ones before it, found from a per-block count (blocks of
-/// 2^[`Renumbering::BLOCK_BITS`] numbers), with a binary search only in a block that lost some.
+/// The new numbers of items once some of them are removed, keeping the order of the rest: the
+/// count of kept items before each, computed in parallel.
 pub(super) struct Renumbering {
-    gone: Vec<u32>,
-    /// The count of removed numbers below each block's first.
-    before_block: Vec<u32>,
+    /// The count of kept items before each item, and the count of all kept last.
+    before: Vec<u32>,
 }
 
 impl Renumbering {
-    const BLOCK_BITS: u32 = 12;
-
-    fn new(len: usize, gone: Vec<u32>) -> Self {
-        let blocks = (len >> Self::BLOCK_BITS) + 2;
-        let before_block = (0..blocks)
-            .map(|b| gone.partition_point(|&g| (g as usize) < b << Self::BLOCK_BITS) as u32)
-            .collect();
-        Renumbering { gone, before_block }
+    /// The numbering of the items of `0..len` that `kept` takes.
+    fn keeping(len: usize, kept: impl Fn(usize) -> bool + Sync) -> Self {
+        let before = exclusive_scan_u32_by(len, |i| usize::from(kept(i)))
+            .expect("fewer items than 32-bit indices");
+        Renumbering { before }
     }
 
     /// The new number of `i`, or [`NONE`] if it was removed.
     #[inline]
     pub fn of(&self, i: u32) -> u32 {
-        let b = (i >> Self::BLOCK_BITS) as usize;
-        let (lo, hi) = (self.before_block[b], self.before_block[b + 1]);
-        if lo == hi {
-            return i - lo;
-        }
-        match self.gone[lo as usize..hi as usize].binary_search(&i) {
-            Ok(_) => NONE,
-            Err(k) => i - lo - k as u32,
-        }
+        let (at, next) = (self.before[i as usize], self.before[i as usize + 1]);
+        if next > at { at } else { NONE }
     }
-}
 
-/// Removes the items at the sorted positions `gone`, keeping the order of the rest.
-fn remove_sorted<T: Copy>(items: &mut Vec<T>, gone: &[u32]) {
-    let mut next = 0;
-    let mut write = 0;
-    for &g in gone.iter().chain(std::iter::once(&(items.len() as u32))) {
-        let g = g as usize;
-        items.copy_within(next..g, write);
-        write += g - next;
-        next = g + 1;
+    /// Keeps the kept ones of `items` (one per number), in order, each as `renew` maps it, in
+    /// place: each chunk packs its own in parallel, then the chunks move down one after
+    /// another. No fresh memory is touched, and the vector keeps its capacity, which refinement
+    /// fills later.
+    fn keep_in<T: Copy + Send + Sync>(&self, items: &mut Vec<T>, renew: impl Fn(&T) -> T + Sync) {
+        let len = items.len();
+        items
+            .par_chunks_mut(GRAIN)
+            .enumerate()
+            .for_each(|(c, chunk)| {
+                let mut write = 0;
+                for k in 0..chunk.len() {
+                    if self.of((c * GRAIN + k) as u32) != NONE {
+                        chunk[write] = renew(&chunk[k]);
+                        write += 1;
+                    }
+                }
+            });
+        for start in (0..len).step_by(GRAIN) {
+            let end = (start + GRAIN).min(len);
+            let (to, count) = (self.before[start], self.before[end] - self.before[start]);
+            items.copy_within(start..start + count as usize, to as usize);
+        }
+        items.truncate(self.before[len] as usize);
     }
-    items.truncate(write);
 }
 
 #[cfg(test)]
@@ -564,9 +553,9 @@ mod tests {
 
     #[test]
     fn renumbering_skips_the_removed_numbers() {
-        let len = 3 * (1 << Renumbering::BLOCK_BITS) + 17;
+        let len = 3 * crate::par::GRAIN + 17;
         let gone: Vec<u32> = vec![0, 1, 5, 4095, 4096, 9000, len as u32 - 1];
-        let map = Renumbering::new(len, gone.clone());
+        let map = Renumbering::keeping(len, |i| !gone.contains(&(i as u32)));
         let mut next = 0;
         for i in 0..len as u32 {
             if gone.contains(&i) {
@@ -577,7 +566,7 @@ mod tests {
             }
         }
         let mut items: Vec<u32> = (0..len as u32).collect();
-        remove_sorted(&mut items, &gone);
+        map.keep_in(&mut items, |&i| i);
         assert_eq!(items.len(), len - gone.len());
         assert!(
             items

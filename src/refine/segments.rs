@@ -27,6 +27,7 @@ use crate::error::Error;
 use crate::mesh::{BoundaryEdge, NONE};
 use crate::morton::interleave::box_key;
 use crate::options::Input;
+use crate::par::SharedSlots;
 use crate::predicates::{Orientation, orientation};
 
 /// The marker Triangle gives boundary edges and vertices that carry none of their own.
@@ -46,6 +47,10 @@ struct NarrowCorner {
 pub(crate) struct Walls {
     /// Input segments by their end vertices, the smaller first, sorted.
     by_ends: Vec<((u32, u32), u32)>,
+    /// Where the segments whose smaller end is each vertex start in `by_ends`, for the
+    /// vertices before refinement, and the end last: a lookup reads one short run instead of
+    /// binary-searching them all.
+    starts: Vec<u32>,
     /// Per vertex of the triangulation before refinement, whether a corner between walls
     /// there is narrower than [`ACUTE_CORNER_DEG`].
     acute: Vec<bool>,
@@ -75,10 +80,30 @@ impl Walls {
 
     /// The input segment joining vertices `a` and `b`, or [`NONE`].
     pub fn segment_between(&self, a: u32, b: u32) -> u32 {
-        let ends = (a.min(b), a.max(b));
-        self.by_ends
-            .binary_search_by_key(&ends, |&(e, _)| e)
-            .map_or(NONE, |k| self.by_ends[k].1)
+        let (lo, hi) = (a.min(b) as usize, a.max(b));
+        let Some(run) = self.starts.get(lo..lo + 2) else {
+            return NONE;
+        };
+        let run = &self.by_ends[run[0] as usize..run[1] as usize];
+        run.binary_search_by_key(&hi, |&((_, e), _)| e)
+            .map_or(NONE, |k| run[k].1)
+    }
+
+    /// Walls of the segments `by_ends` (sorted) between the first `vertices` vertices.
+    fn new(by_ends: Vec<((u32, u32), u32)>, vertices: usize) -> Self {
+        let mut starts = Vec::with_capacity(vertices + 1);
+        let mut k = 0;
+        for v in 0..=vertices as u32 {
+            while k < by_ends.len() && by_ends[k].0.0 < v {
+                k += 1;
+            }
+            starts.push(k as u32);
+        }
+        Walls {
+            by_ends,
+            starts,
+            ..Walls::default()
+        }
     }
 
     /// Whether the corner of a triangle at vertex `v` (at `at`, the triangle's other corners
@@ -162,18 +187,25 @@ pub(super) fn constrain(
         let [u, v] = ends(k);
         recover_edge(t, &mut stars, (u, v), &mut touched)?;
     }
-    // The flips of a recovery may move edges found before to other triangles: find them again.
-    let found: Vec<(u32, usize)> = if missing.is_empty() {
-        located.into_iter().flatten().collect()
-    } else {
-        (0..input.segments.len())
-            .into_par_iter()
-            .map(|k| edge_of(t, &stars, k).expect("a recovered segment is an edge"))
-            .collect()
+    // The flips of a recovery may move edges found before to other triangles: those no longer
+    // where they were found, and the recovered ones, are found again.
+    let still_there = |k: usize, (id, i): (u32, usize)| {
+        let c = t.corners[id as usize];
+        let mut ends = ends(k);
+        ends.sort_unstable();
+        let mut seen = [c[NEXT[i]], c[PREV[i]]];
+        seen.sort_unstable();
+        ends == seen
     };
-    for (id, i) in found {
-        mark_wall(t, id, i);
-    }
+    let found: Vec<(u32, usize)> = located
+        .into_par_iter()
+        .enumerate()
+        .map(|(k, place)| match place {
+            Some(place) if missing.is_empty() || still_there(k, place) => place,
+            _ => edge_of(t, &stars, k).expect("a recovered segment is an edge"),
+        })
+        .collect();
+    mark_walls(t, &found);
     let edges = touched
         .iter()
         .flat_map(|&id| (0..3).map(move |i| (id, i)))
@@ -214,24 +246,29 @@ pub(super) fn constrain(
         .collect();
     // Cleaning left one segment per pair of ends.
     by_ends.par_sort_unstable();
-    let mut walls = Walls {
-        by_ends,
-        ..Walls::default()
-    };
+    let mut walls = Walls::new(by_ends, t.vertices.len());
     find_corners(t, &mut walls, min_angle_deg);
     Ok(Constrained { walls, regions })
 }
 
-/// Marks the edge opposite corner `i` of triangle `id` as a segment, on both its sides.
-fn mark_wall(t: &mut Triangulation, id: u32, i: usize) {
-    let other = t.across[id as usize][i];
-    if other == NONE {
-        return;
-    }
-    let other = beyond(other);
-    let j = t.corner_facing(other, id);
-    t.across[id as usize][i] |= SEGMENT;
-    t.across[other as usize][j] |= SEGMENT;
+/// Marks the edges opposite corner `i` of triangle `id`, for each `(id, i)` of `edges`
+/// (distinct edges), as segments on both their sides, in parallel: each link is one side of
+/// one edge, so has one writer, and the links read to find the far side only gain the mark.
+fn mark_walls(t: &mut Triangulation, edges: &[(u32, usize)]) {
+    let links = SharedSlots::new(t.across.as_flattened_mut());
+    let slot = |id: u32, i: usize| 3 * id as usize + i;
+    edges.par_iter().for_each(|&(id, i)| {
+        let other = beyond(links.load(slot(id, i)));
+        if other == NONE {
+            return;
+        }
+        let j = (0..3)
+            .find(|&j| beyond(links.load(slot(other, j))) == id)
+            .expect("neighbours link each other");
+        for s in [slot(id, i), slot(other, j)] {
+            links.store(s, links.load(s) | SEGMENT);
+        }
+    });
 }
 
 /// The triangles outside the domain: those reached without crossing a wall from a triangle
@@ -314,8 +351,8 @@ fn check_seeds(
 }
 
 /// Where each of `points` lies (`Foreign` for a point that is not finite). The walks go in
-/// Morton order of the points, each from where the one before ended: seeds spread over a large
-/// mesh then cost a short walk each, not one from the first triangle.
+/// Morton order of the points, in parallel chunks, each from where the one before ended: seeds
+/// spread over a large mesh then cost a short walk each, not one from the first triangle.
 fn locate_all(t: &Triangulation, points: &[DVec2]) -> Vec<Location> {
     let mut places = vec![Location::Foreign; points.len()];
     if t.len() == 0 {
@@ -329,14 +366,26 @@ fn locate_all(t: &Triangulation, points: &[DVec2]) -> Vec<Location> {
         |(lo, hi), &k| (lo.min(points[k]), hi.max(points[k])),
     );
     let mut order = finite;
-    order.sort_by_key(|&k| (box_key(points[k], lo, hi - lo), k));
-    let mut start = 0;
-    for k in order {
-        let place = locate_across_segments(t, points[k], start);
-        start = match place {
-            Location::Inside(id) | Location::Outside { triangle: id, .. } => id,
-            Location::Vertex(_) | Location::Foreign => start,
-        };
+    order.par_sort_unstable_by_key(|&k| (box_key(points[k], lo, hi - lo), k));
+    // Fixed chunks, each walking from the first triangle and then from where it last ended:
+    // the same walks on any thread count.
+    const CHUNK: usize = 1024;
+    let found: Vec<Vec<Location>> = order
+        .par_chunks(CHUNK)
+        .map(|chunk| {
+            let mut start = 0;
+            (chunk.iter())
+                .map(|&k| {
+                    let place = locate_across_segments(t, points[k], start);
+                    if let Location::Inside(id) | Location::Outside { triangle: id, .. } = place {
+                        start = id;
+                    }
+                    place
+                })
+                .collect()
+        })
+        .collect();
+    for (&k, place) in order.iter().zip(found.into_iter().flatten()) {
         places[k] = place;
     }
     places
