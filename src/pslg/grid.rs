@@ -48,6 +48,8 @@ pub(super) struct Grid {
     piece_ids: Vec<u32>,
     /// Where each run of one cell starts in `piece_cells`, and its end last.
     piece_runs: Vec<usize>,
+    /// For each cell that holds a piece, where its points start and end in `point_cells`.
+    point_runs: Vec<[u32; 2]>,
 }
 
 impl Grid {
@@ -81,6 +83,7 @@ impl Grid {
             piece_cells: Vec::new(),
             piece_ids: Vec::new(),
             piece_runs: Vec::new(),
+            point_runs: Vec::new(),
         };
         let mut by_point: Vec<(u64, u32)> = points
             .par_iter()
@@ -93,6 +96,7 @@ impl Grid {
         (grid.point_cells, grid.point_ids) = by_point.into_par_iter().unzip();
         (grid.piece_cells, grid.piece_ids) = by_piece.into_par_iter().unzip();
         grid.piece_runs = crate::par::run_starts(grid.piece_cells.len(), |i| grid.piece_cells[i]);
+        grid.point_runs = grid.point_runs_of_piece_cells();
         grid
     }
 
@@ -129,10 +133,36 @@ impl Grid {
 
     /// The points in the `k`-th cell that holds a piece, in index order.
     pub fn points_in_cell_of(&self, k: usize) -> &[u32] {
-        let cell = self.piece_cells[self.piece_runs[k]];
-        let start = self.point_cells.partition_point(|&c| c < cell);
-        let end = start + self.point_cells[start..].partition_point(|&c| c == cell);
-        &self.point_ids[start..end]
+        let [start, end] = self.point_runs[k];
+        &self.point_ids[start as usize..end as usize]
+    }
+
+    /// Where the points of each cell that holds a piece lie in `point_cells`: both lists are
+    /// sorted, so each chunk of cells searches for its first and then walks.
+    fn point_runs_of_piece_cells(&self) -> Vec<[u32; 2]> {
+        const CHUNK: usize = 1024;
+        let cells = self.piece_cell_count();
+        let cell = |k: usize| self.piece_cells[self.piece_runs[k]];
+        let chunks: Vec<Vec<[u32; 2]>> = (0..cells.div_ceil(CHUNK))
+            .into_par_iter()
+            .map(|c| {
+                let ks = c * CHUNK..((c + 1) * CHUNK).min(cells);
+                let mut at = self.point_cells.partition_point(|&p| p < cell(ks.start));
+                ks.map(|k| {
+                    let cell = cell(k);
+                    while at < self.point_cells.len() && self.point_cells[at] < cell {
+                        at += 1;
+                    }
+                    let start = at;
+                    while at < self.point_cells.len() && self.point_cells[at] == cell {
+                        at += 1;
+                    }
+                    [start as u32, at as u32]
+                })
+                .collect()
+            })
+            .collect();
+        crate::par::concat(&chunks)
     }
 
     fn column(&self, x: f64) -> u64 {

@@ -397,10 +397,19 @@ fn split_at_points(
             let (here, near) = (grid.pieces_in(k), grid.points_in_cell_of(k));
             let mut out = Vec::new();
             for &i in here {
-                let [a, b] = pieces[i as usize].ends.map(|e| points[e as usize]);
+                let ends = pieces[i as usize].ends;
+                let [a, b] = ends.map(|e| points[e as usize]);
+                let (lo, hi) = (a.min(b), a.max(b));
                 for &q in near {
                     let p = points[q as usize];
-                    if orientation(a, b, p) == Orientation::On && strictly_between(a, b, p) {
+                    // Outside the piece's box, or one of its ends: not inside it, and cheaper
+                    // to tell than by orientation.
+                    let in_box = p.cmpge(lo).all() && p.cmple(hi).all();
+                    if in_box
+                        && !ends.contains(&q)
+                        && orientation(a, b, p) == Orientation::On
+                        && strictly_between(a, b, p)
+                    {
                         out.push((i, q));
                     }
                 }
