@@ -191,11 +191,8 @@ pub(super) fn constrain(
     // where they were found, and the recovered ones, are found again.
     let still_there = |k: usize, (id, i): (u32, usize)| {
         let c = t.corners[id as usize];
-        let mut ends = ends(k);
-        ends.sort_unstable();
-        let mut seen = [c[NEXT[i]], c[PREV[i]]];
-        seen.sort_unstable();
-        ends == seen
+        let ([u, v], seen) = (ends(k), [c[NEXT[i]], c[PREV[i]]]);
+        seen == [u, v] || seen == [v, u]
     };
     let found: Vec<(u32, usize)> = located
         .into_par_iter()
