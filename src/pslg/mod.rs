@@ -174,6 +174,23 @@ struct Crossing {
 /// same point or at the same position, and [`Error::CrossingSegments`] naming the first pair (in
 /// input segment order) of segments whose interiors meet, unless they are split.
 pub fn clean(input: &Input, options: CleanOptions) -> Result<(Input, CleanReport), Error> {
+    clean_segments(input, merge_points(input)?, options)
+}
+
+/// The first half of [`clean`]: the input checked, its points merged and its segments
+/// remapped, repeats dropped. Its points are the cleaned points unless crossings are split,
+/// so a triangulation of them may start while [`clean_segments`] finishes.
+pub(crate) struct MergedInput {
+    pub points: Vec<DVec2>,
+    pieces: Vec<Piece>,
+    report: CleanReport,
+}
+
+/// The first half of [`clean`], with the errors it finds.
+///
+/// # Errors
+/// As [`clean`], but for crossing segments.
+pub(crate) fn merge_points(input: &Input) -> Result<MergedInput, Error> {
     let n = input.points.len();
     if n >= u32::MAX as usize {
         return Err(Error::TooManyPoints(n));
@@ -188,7 +205,7 @@ pub fn clean(input: &Input, options: CleanOptions) -> Result<(Input, CleanReport
 
     let mut report = CleanReport::default();
     let merged = merge_positions(&input.points);
-    let mut points = merged.points;
+    let points = merged.points;
     report.merged_points = n - points.len();
     report.merged_examples = merged.examples;
     report.point_map = merged.point_map;
@@ -205,7 +222,28 @@ pub fn clean(input: &Input, options: CleanOptions) -> Result<(Input, CleanReport
         });
     }
     drop_repeats(&mut pieces, &mut report);
+    Ok(MergedInput {
+        points,
+        pieces,
+        report,
+    })
+}
 
+/// The second half of [`clean`]: segments split at the points on them, crossings refused or
+/// split.
+///
+/// # Errors
+/// [`Error::CrossingSegments`], as [`clean`].
+pub(crate) fn clean_segments(
+    input: &Input,
+    merged: MergedInput,
+    options: CleanOptions,
+) -> Result<(Input, CleanReport), Error> {
+    let MergedInput {
+        mut points,
+        mut pieces,
+        mut report,
+    } = merged;
     // Built only when a crossing is split: the point, if any, at each position.
     let mut first: Option<HashMap<(u64, u64), u32>> = None;
     for round in 0.. {

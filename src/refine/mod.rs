@@ -56,6 +56,8 @@ pub(crate) use replay::{Window, replay};
 pub(crate) use sides::{inside_chain, on_a_side, side_changes, side_ends};
 use strips::Seams;
 
+use std::time::{Duration, Instant};
+
 use glam::DVec2;
 use rayon::prelude::*;
 
@@ -221,7 +223,9 @@ pub struct PslgOptions {
 /// rayon pool, with its report.
 ///
 /// The input is cleaned first ([`crate::pslg::clean`]): duplicates merged, segments split at
-/// points on them (and at crossings, if asked). The mesh's `vertex_input` and its segment
+/// points on them (and at crossings, if asked); the segments' part runs alongside the Delaunay
+/// triangulation of the merged points, whose time the report counts it in (the `clean` stage
+/// is the merge). The mesh's `vertex_input` and its segment
 /// pieces' `segment` refer to the input as given. Corners between segments narrower than the
 /// angle bound keep their angle (see the module's notes). From 65 536 points that crowd the
 /// strips' seams the points are triangulated in strips; from 16 384 points refinement runs by
@@ -241,23 +245,34 @@ pub fn refine_pslg(
     let clean_options = crate::pslg::CleanOptions {
         split_crossings: pslg.split_crossings,
     };
-    let (clean, cleaning) = times.time("clean", || crate::pslg::clean(input, clean_options))?;
+    let merged = times.time("clean", || crate::pslg::merge_points(input))?;
+    // The segments are cleaned alongside the Delaunay triangulation of the points, which
+    // cleaning changes only where it splits crossings (then the triangulation is made again):
+    // the triangulation of points on curves runs in one sequence and leaves threads free.
+    let early_points = merged.points.clone();
+    let start = Instant::now();
+    let (cleaned, early) = rayon::join(
+        || crate::pslg::clean_segments(input, merged, clean_options),
+        || graph_delaunay(&early_points, options),
+    );
+    let (clean, cleaning) = cleaned?;
     let points = &clean.points[..];
-    let morton = times.time("morton", || float_morton_order(points))?;
-    check_scale(points)?;
-    check_gaps(points, &morton.order)?;
-    let square = square_around(points);
-    let distinct = morton.order.len();
-    let capacity = 2 * options.expected_vertices(distinct);
-    let (mut t, mut vertex_input) = times.time("delaunay", || {
-        delaunay_of(
-            points,
-            &morton.order,
-            square,
-            capacity,
-            Some(Seams::WhereCrowded),
-        )
-    })?;
+    let GraphDelaunay {
+        mut t,
+        mut vertex_input,
+        distinct,
+        morton_time,
+    } = if points.len() == early_points.len() {
+        early?
+    } else {
+        drop(early);
+        graph_delaunay(points, options)?
+    };
+    drop(early_points);
+    times.0.push(("morton", morton_time));
+    times
+        .0
+        .push(("delaunay", start.elapsed().saturating_sub(morton_time)));
     if pslg.convex_hull {
         times.time("hull", || hull::cut_to_hull(&mut t, &mut vertex_input))?;
     }
@@ -308,6 +323,44 @@ pub fn refine_pslg(
     let mut report = report_of(&mesh, distinct, cleaning.merged_points, &quality, times);
     report.cleaning = Some(cleaning);
     within_budget(mesh, report, unmet, budget)
+}
+
+/// The Delaunay triangulation of a graph's cleaned points, with the input index of each vertex,
+/// the number of distinct points and the time their Morton order took.
+struct GraphDelaunay {
+    t: Triangulation,
+    vertex_input: Vec<u32>,
+    distinct: usize,
+    morton_time: Duration,
+}
+
+/// The Delaunay triangulation of a graph's cleaned points and a square around them, with room
+/// for the vertices refinement is expected to add.
+///
+/// # Errors
+/// As [`check_scale`] and [`check_gaps`], and as the insertions.
+fn graph_delaunay(points: &[DVec2], options: &RefineOptions) -> Result<GraphDelaunay, Error> {
+    let start = Instant::now();
+    let morton = float_morton_order(points)?;
+    let morton_time = start.elapsed();
+    check_scale(points)?;
+    check_gaps(points, &morton.order)?;
+    let square = square_around(points);
+    let distinct = morton.order.len();
+    let capacity = 2 * options.expected_vertices(distinct);
+    let (t, vertex_input) = delaunay_of(
+        points,
+        &morton.order,
+        square,
+        capacity,
+        Some(Seams::WhereCrowded),
+    )?;
+    Ok(GraphDelaunay {
+        t,
+        vertex_input,
+        distinct,
+        morton_time,
+    })
 }
 
 /// For each cleaned point, the first input point at its position ([`NONE`] for a point the

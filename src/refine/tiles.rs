@@ -6,7 +6,10 @@
 //! a corner where tiles of another colour meet. Tiles of one colour are half-open squares that
 //! do not overlap, and a tile works only on triangles with every corner inside it: work that
 //! would reach further (a walk, a cavity) is set aside for the next colour, which has the spot
-//! well inside one of its tiles. What no colour can take ends in the sequential loop.
+//! well inside one of its tiles. What no colour of any grid can take (triangles wider than the
+//! coarsest grid's tiles, such as the slivers across the gap between two curves of a graph)
+//! gets a few rounds on a grid twice as coarse, and what that leaves ends in the sequential
+//! loop.
 //!
 //! Grids go from fine to coarse; each takes the bad triangles of two octaves of shortest-edge
 //! lengths, so that small triangles are still fixed before large ones, and dense clusters get
@@ -942,6 +945,36 @@ pub(super) fn refine_tiles(
                     &mut lists,
                 )?;
                 levels.file(&shared, larger, &mut lists.later);
+                inserted += n;
+            }
+            if lists.is_empty() || inserted == 0 {
+                break;
+            }
+        }
+    }
+    if shared.vertex_end as usize <= budget {
+        // What no grid's tiles took, often triangles wider than a tile of the coarsest: a few
+        // rounds on tiles twice as wide, all size classes at once, before the sequential loop.
+        for batch in lists.later.iter_mut().flat_map(std::mem::take) {
+            lists.bad.extend(batch);
+        }
+        let tiling = Tiling::at_level(origin, side, COARSEST - 1);
+        for _ in 0..MAX_ROUNDS {
+            let mut inserted = 0;
+            for colour in 0..4 {
+                if shared.vertex_end as usize > budget {
+                    break;
+                }
+                let (n, larger) = pass(
+                    &mut shared,
+                    &tiling,
+                    bounds,
+                    colour,
+                    usize::MAX,
+                    budget,
+                    &mut lists,
+                )?;
+                debug_assert!(larger.is_empty());
                 inserted += n;
             }
             if lists.is_empty() || inserted == 0 {
