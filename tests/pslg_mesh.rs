@@ -448,6 +448,46 @@ fn a_vertex_budget_returns_the_mesh_reached() {
 }
 
 #[test]
+fn crossings_split_while_the_points_are_triangulated_give_the_cleaned_graphs_mesh() {
+    // A square crossed by a lattice of chords: cleaning adds a point at each of the 15 x 15
+    // crossings, so the triangulation of the merged points, made alongside, is made again.
+    let mut input = Input::default();
+    closed_loop(
+        &mut input.points,
+        &mut input.segments,
+        &square(DVec2::ZERO, 16.0),
+        1,
+    );
+    for k in 1..16 {
+        let at = k as f64 + 0.25 * (k % 3) as f64;
+        for (a, b) in [
+            (DVec2::new(at, 0.5), DVec2::new(at, 15.5)),
+            (DVec2::new(0.5, at), DVec2::new(15.5, at)),
+        ] {
+            let first = input.points.len() as u32;
+            input.points.extend([a, b]);
+            input.segments.push(Segment {
+                ends: [first, first + 1],
+                marker: 2,
+            });
+        }
+    }
+    let options = Options::default().min_angle(25.0);
+    let (split, report) = quadmesh::mesh(&input, &options.clone().split_crossings()).unwrap();
+    assert_eq!(report.cleaning.unwrap().crossing_splits, 15 * 15);
+    validate_pslg_with(&split, &input, options.angle_bounds(), false)
+        .unwrap_or_else(|e| panic!("invalid mesh: {e}"));
+    let clean_options = quadmesh::pslg::CleanOptions {
+        split_crossings: true,
+    };
+    let (cleaned, _) = quadmesh::pslg::clean(&input, clean_options).unwrap();
+    assert_eq!(cleaned.points.len(), input.points.len() + 15 * 15);
+    let (mesh, _) = mesh_checked(&cleaned, options, false);
+    assert_eq!(split.vertices, mesh.vertices);
+    assert_eq!(split.triangles, mesh.triangles);
+}
+
+#[test]
 fn large_graphs_refine_in_tiles_the_same_on_any_thread_count() {
     // Enough points for the parallel tiles: nested rings with holes and regions, and a block
     // with rectangular holes.
