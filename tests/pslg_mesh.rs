@@ -473,7 +473,7 @@ fn crossings_split_while_the_points_are_triangulated_give_the_cleaned_graphs_mes
         }
     }
     let options = Options::default().min_angle(25.0);
-    let (split, report) = quadmesh::mesh(&input, &options.clone().split_crossings()).unwrap();
+    let (split, report) = quadmesh::mesh(&input, &options.split_crossings()).unwrap();
     assert_eq!(report.cleaning.unwrap().crossing_splits, 15 * 15);
     validate_pslg_with(&split, &input, options.angle_bounds(), false)
         .unwrap_or_else(|e| panic!("invalid mesh: {e}"));
