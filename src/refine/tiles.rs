@@ -921,7 +921,7 @@ pub(super) fn refine_tiles(
     };
     levels.file(&shared, bad, &mut lists.later);
     let used: Vec<usize> = levels.used().collect();
-    'levels: for level in used {
+    for level in used {
         let waiting = std::mem::take(&mut lists.later[level]);
         lists.bad.reserve(waiting.iter().map(Vec::len).sum());
         for batch in waiting {
@@ -929,27 +929,18 @@ pub(super) fn refine_tiles(
         }
         let tiling = Tiling::at_level(origin, side, level);
         let limit = levels.limits[level];
-        for _ in 0..MAX_ROUNDS {
-            let mut inserted = 0;
-            for colour in 0..4 {
-                if shared.vertex_end as usize > budget {
-                    break 'levels;
-                }
-                let (n, larger) = pass(
-                    &mut shared,
-                    &tiling,
-                    bounds,
-                    colour,
-                    limit,
-                    budget,
-                    &mut lists,
-                )?;
-                levels.file(&shared, larger, &mut lists.later);
-                inserted += n;
-            }
-            if lists.is_empty() || inserted == 0 {
-                break;
-            }
+        let file = |shared: &Shared, larger, lists: &mut Lists| {
+            levels.file(shared, larger, &mut lists.later);
+        };
+        if !rounds(
+            &mut shared,
+            (&tiling, limit),
+            bounds,
+            budget,
+            &mut lists,
+            file,
+        )? {
+            break;
         }
     }
     if shared.vertex_end as usize <= budget {
@@ -959,28 +950,17 @@ pub(super) fn refine_tiles(
             lists.bad.extend(batch);
         }
         let tiling = Tiling::at_level(origin, side, COARSEST - 1);
-        for _ in 0..MAX_ROUNDS {
-            let mut inserted = 0;
-            for colour in 0..4 {
-                if shared.vertex_end as usize > budget {
-                    break;
-                }
-                let (n, larger) = pass(
-                    &mut shared,
-                    &tiling,
-                    bounds,
-                    colour,
-                    usize::MAX,
-                    budget,
-                    &mut lists,
-                )?;
-                debug_assert!(larger.is_empty());
-                inserted += n;
-            }
-            if lists.is_empty() || inserted == 0 {
-                break;
-            }
-        }
+        let none_larger = |_: &Shared, larger: Vec<Pending>, _: &mut Lists| {
+            debug_assert!(larger.is_empty());
+        };
+        rounds(
+            &mut shared,
+            (&tiling, usize::MAX),
+            bounds,
+            budget,
+            &mut lists,
+            none_larger,
+        )?;
     }
     shared.settle(&mut lists);
     let mut bad = lists.bad;
@@ -988,6 +968,35 @@ pub(super) fn refine_tiles(
         bad.extend(batch);
     }
     Ok((bad, lists.edges))
+}
+
+/// Rounds of the four colours of `tiling`, each tile taking the bad triangles up to size
+/// class `limit`, while they make progress and at most [`MAX_ROUNDS`]; after each pass,
+/// `set_aside` takes the bad triangles above the limit. Returns false where the vertex budget
+/// stopped them.
+fn rounds(
+    shared: &mut Shared,
+    (tiling, limit): (&Tiling, usize),
+    bounds: &Bounds,
+    budget: usize,
+    lists: &mut Lists,
+    mut set_aside: impl FnMut(&Shared, Vec<Pending>, &mut Lists),
+) -> Result<bool, Error> {
+    for _ in 0..MAX_ROUNDS {
+        let mut inserted = 0;
+        for colour in 0..4 {
+            if shared.vertex_end as usize > budget {
+                return Ok(false);
+            }
+            let (n, larger) = pass(shared, tiling, bounds, colour, limit, budget, lists)?;
+            set_aside(shared, larger, lists);
+            inserted += n;
+        }
+        if lists.is_empty() || inserted == 0 {
+            break;
+        }
+    }
+    Ok(true)
 }
 
 /// One pass: the tiles of `colour` refined in parallel, each working through the entries it
