@@ -943,25 +943,24 @@ pub(super) fn refine_tiles(
             break;
         }
     }
-    if shared.vertex_end as usize <= budget {
-        // What no grid's tiles took, often triangles wider than a tile of the coarsest: a few
-        // rounds on tiles twice as wide, all size classes at once, before the sequential loop.
-        for batch in lists.later.iter_mut().flat_map(std::mem::take) {
-            lists.bad.extend(batch);
-        }
-        let tiling = Tiling::at_level(origin, side, COARSEST - 1);
-        let none_larger = |_: &Shared, larger: Vec<Pending>, _: &mut Lists| {
-            debug_assert!(larger.is_empty());
-        };
-        rounds(
-            &mut shared,
-            (&tiling, usize::MAX),
-            bounds,
-            budget,
-            &mut lists,
-            none_larger,
-        )?;
+    // What no grid's tiles took, often triangles wider than a tile of the coarsest: a few
+    // rounds on tiles twice as wide, all size classes at once, before the sequential loop
+    // (none past the vertex budget: `rounds` checks it first).
+    for batch in lists.later.iter_mut().flat_map(std::mem::take) {
+        lists.bad.extend(batch);
     }
+    let tiling = Tiling::at_level(origin, side, COARSEST - 1);
+    let none_larger = |_: &Shared, larger: Vec<Pending>, _: &mut Lists| {
+        debug_assert!(larger.is_empty());
+    };
+    rounds(
+        &mut shared,
+        (&tiling, usize::MAX),
+        bounds,
+        budget,
+        &mut lists,
+        none_larger,
+    )?;
     shared.settle(&mut lists);
     let mut bad = lists.bad;
     for batch in lists.later.into_iter().flatten() {
