@@ -24,7 +24,7 @@ pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{
     EdgePieces, GraphLeaves, edge_pieces, finest_resolved_level, leaves_in_domain,
-    point_finer_than_grid, split, triangulate_graph, unresolvable, warp,
+    point_finer_than_grid, smooth_steiner_vertices, split, triangulate_graph, unresolvable, warp,
 };
 
 /// The trees of one input on one grid width.
@@ -618,8 +618,9 @@ fn mesh_graph_warp(input: &Input, options: &Options) -> Result<(Mesh, MeshReport
 }
 
 /// The warp of a graph's separated tree and the domain cut out of it: the mesh of the cleaned
-/// graph `clean` from the tree `build` of its cut `cut`. Stage times go to `times`: "warp",
-/// "carve".
+/// graph `clean` from the tree `build` of its cut `cut`, its free vertices then moved to widen
+/// its narrowest angles ([`smooth_steiner_vertices`]). Stage times go to `times`: "warp",
+/// "carve", "smooth".
 ///
 /// # Errors
 /// What [`triangulate_graph`] and [`carve_warped`] refuse.
@@ -642,10 +643,19 @@ pub fn warped_graph<K: MortonKey>(
         pieces: &build.pieces,
     };
     let triangulated = times.time("warp", || triangulate_graph(&leaves))?;
-    times.time("carve", || {
+    let mut mesh = times.time("carve", || {
         let triangle_at = |p| triangulated.triangle_at(&build.tree, &build.morton.grid, p);
         carve_warped(clean, cut, &build.vertices, &triangulated, triangle_at)
-    })
+    })?;
+    times.time("smooth", || {
+        let segment_ends: Vec<[DVec2; 2]> = clean
+            .segments
+            .iter()
+            .map(|s| s.ends.map(|p| clean.points[p as usize]))
+            .collect();
+        smooth_steiner_vertices(&mut mesh, &segment_ends)
+    });
+    Ok(mesh)
 }
 
 /// A graph's features separated in a balanced quadtree: Bern, Eppstein and Teng's T_B* (§5),

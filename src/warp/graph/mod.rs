@@ -17,6 +17,7 @@
 //! leaf in Morton order: the same triangulation on any thread count.
 
 mod polygon;
+mod smooth;
 
 use std::sync::OnceLock;
 
@@ -25,6 +26,7 @@ use rayon::prelude::*;
 
 pub use polygon::Angles;
 pub(crate) use polygon::best_triangulation;
+pub use smooth::{SMOOTH_ABOVE_DEG, SMOOTH_BELOW_DEG, Smoothed, smooth_steiner_vertices};
 
 use crate::balance::{BalancedTree, Links, across};
 use crate::error::Error;
