@@ -85,8 +85,10 @@ pub enum Mode {
     /// rectangle: a given one ([`Region::Rectangle`], [`Region::BoundingBox`]) is cut into
     /// cells within [`crate::morton::CELL_ANISOTROPY`] of square.
     /// A planar straight-line graph is meshed over what its segments enclose from a quadtree
-    /// bent onto it (see [`crate::warp::triangulate_graph`]), with no angle bound proven yet:
-    /// [`Options::angle_bounds`] does not apply to it, and the report gives the angles reached.
+    /// bent onto it (see [`crate::warp::triangulate_graph`]), its poor triangles' Steiner
+    /// corners then moved (see [`crate::warp::smooth_steiner_vertices`]), with no angle bound
+    /// proven yet: [`Options::angle_bounds`] does not apply to it, and the report gives the
+    /// angles reached.
     Warp,
     /// The block warp: every angle in [22.5°, 112.5°], about 104 triangles per point (each
     /// point's leaf centred in a 5×5 block of empty leaves); the tree the dynamic mesh keeps.

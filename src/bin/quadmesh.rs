@@ -232,8 +232,8 @@ struct QualityArgs {
     /// The warped quadtree mesh instead: every angle in [26°, 120°], about 35 triangles per
     /// point, on the points' bounding box centred in a square twice its larger side, or on a
     /// `--domain` rectangle (`bbox` or given). For a `.poly` graph: what its segments enclose, from a
-    /// quadtree bent onto the graph, with no angle bound proven yet (the report gives the
-    /// angles reached).
+    /// quadtree bent onto the graph and its thin triangles' Steiner corners moved, with no
+    /// angle bound proven yet (the report gives the angles reached).
     #[arg(long, conflicts_with_all = ["min_angle", "max_area", "max_vertices"])]
     warp: bool,
     /// The block warp instead: every angle in [22.5°, 112.5°], about 104 triangles per point,
