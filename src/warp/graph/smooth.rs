@@ -10,9 +10,11 @@
 //! smallest, by a pattern search in shrinking steps; a place is taken only when it is better and
 //! every triangle of the ring stays counter-clockwise by the exact test.
 //!
-//! Vertices move in rounds: in each, a vertex moves only when no neighbour that also wants to
-//! move has a poorer ring (ties to the smaller index), so the vertices moving together share no
-//! triangle and the result is the same on any thread count.
+//! Vertices move in rounds: in each, a vertex moves only when it goes before every neighbour
+//! that also wants to move (a smaller smallest angle in whole degrees, then a higher lot drawn
+//! by hashing its index with the round), so the vertices moving together share no triangle,
+//! the poorest rings go first without long chains of neighbours waiting on one another, and the
+//! result is the same on any thread count. A move must gain at least [`MIN_GAIN_DEG`].
 
 use glam::DVec2;
 use rayon::prelude::*;
@@ -26,8 +28,11 @@ pub const SMOOTH_BELOW_DEG: f64 = 26.0;
 /// A triangle with an angle above this many degrees has its Steiner corners moved.
 pub const SMOOTH_ABOVE_DEG: f64 = 120.0;
 
+/// The least gain in degrees, on a ring's smallest angle or its largest, that moves a vertex.
+const MIN_GAIN_DEG: f64 = 0.05;
+
 /// The most rounds of moves.
-const MAX_ROUNDS: usize = 100;
+const MAX_ROUNDS: usize = 32;
 
 /// The pattern search's steps, as fractions of the distance from the vertex to its nearest
 /// neighbour.
@@ -52,7 +57,7 @@ pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> 
     let motions = motions(mesh, segment_ends);
     let mut wanting = corners_of_poor_triangles(mesh, &motions);
     let mut smoothed = Smoothed::default();
-    // Per vertex, its ring's quality while it wants to move, for its neighbours to compare.
+    // Per vertex, its order in this round while it wants to move, for its neighbours to see.
     let mut want = vec![None; mesh.vertices.len()];
     while !wanting.is_empty() && smoothed.rounds < MAX_ROUNDS {
         smoothed.rounds += 1;
@@ -61,11 +66,11 @@ pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> 
             .filter_map(|&(v, t)| Ring::around(mesh, v, t))
             .collect();
         for ring in &rings {
-            want[ring.centre as usize] = Some(ring.quality);
+            want[ring.centre as usize] = Some(ring.order(smoothed.rounds));
         }
         let turns: Vec<Turn> = rings
             .par_iter()
-            .map(|ring| match ring.goes_first(&want) {
+            .map(|ring| match ring.goes_first(&want, smoothed.rounds) {
                 false => Turn::Waits,
                 true => match best_place(&mesh.vertices, ring, motions[ring.centre as usize]) {
                     Some(at) => Turn::Moves(at),
@@ -183,6 +188,15 @@ impl Quality {
     fn beats(self, other: Quality) -> bool {
         self.narrowest < other.narrowest
             || (self.narrowest == other.narrowest && self.widest > other.widest)
+    }
+
+    /// Whether `self` beats `other` by at least [`MIN_GAIN_DEG`] on the smallest angle, or on
+    /// the largest with the same smallest: smaller gains are not worth another round.
+    fn gains_on(self, other: Quality) -> bool {
+        let gain = |a: f64, b: f64| a.clamp(-1.0, 1.0).acos() - b.clamp(-1.0, 1.0).acos();
+        let min_gain = MIN_GAIN_DEG.to_radians();
+        gain(self.narrowest, other.narrowest) >= min_gain
+            || (self.narrowest <= other.narrowest && gain(other.widest, self.widest) >= min_gain)
     }
 
     /// Whether a triangle of this quality is to be improved.
@@ -347,19 +361,32 @@ impl Ring {
         Some(quality)
     }
 
-    /// Whether no neighbour wanting to move has a poorer ring (ties: the smaller index goes
-    /// first).
-    fn goes_first(&self, want: &[Option<Quality>]) -> bool {
-        let key = |q: Quality| (q.narrowest, -q.widest);
-        self.neighbours.iter().all(|&w| match want[w as usize] {
-            None => true,
-            Some(other) => match key(self.quality).partial_cmp(&key(other)) {
-                Some(std::cmp::Ordering::Greater) => true,
-                Some(std::cmp::Ordering::Equal) => self.centre < w,
-                _ => false,
-            },
-        })
+    /// Whether the ring's centre goes before every neighbour that also wants to move: its
+    /// smallest angle in whole degrees is smaller, or the same and its lot in `round` higher.
+    fn goes_first(&self, want: &[Option<u64>], round: usize) -> bool {
+        let own = self.order(round);
+        self.neighbours
+            .iter()
+            .all(|&w| want[w as usize].is_none_or(|other| other < own))
     }
+
+    /// The ring's place in the order of `round` (higher goes first): the whole degrees of its
+    /// smallest angle below 90, then the centre's lot.
+    fn order(&self, round: usize) -> u64 {
+        let degrees = self.quality.narrowest.clamp(-1.0, 1.0).acos().to_degrees();
+        let poorness = 90 - (degrees.min(90.0) as u64);
+        poorness << 56 | lot(self.centre, round) >> 8
+    }
+}
+
+/// Vertex `v`'s lot in round `round`: a hash, so that no chain of neighbours waits on one
+/// another for long, and the same on any thread count.
+fn lot(v: u32, round: usize) -> u64 {
+    // SplitMix64's finaliser.
+    let mut z = (u64::from(v) | (round as u64) << 32).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
 }
 
 /// The place for the ring's centre that makes its triangles best, if better than they are: a
@@ -409,7 +436,7 @@ fn best_place(vertices: &[DVec2], ring: &Ring, motion: Motion) -> Option<DVec2> 
             }
         }
     }
-    (best.1 != at).then_some(best.1)
+    best.0.gains_on(ring.quality).then_some(best.1)
 }
 
 #[cfg(test)]
@@ -536,14 +563,20 @@ mod tests {
         ];
         let mut mesh = mesh_of(vertices, &[0, 1, 2, 3], triangles);
         let rings = [(4, 0), (5, 1)].map(|(v, t)| Ring::around(&mesh, v, t).unwrap());
-        let mut want = vec![None; 6];
-        for ring in &rings {
-            assert!(ring.closed);
-            want[ring.centre as usize] = Some(ring.quality);
+        let degrees = rings
+            .each_ref()
+            .map(|ring| ring.quality.narrowest.acos().to_degrees().floor());
+        assert_ne!(degrees[0], degrees[1]);
+        let poorer = usize::from(degrees[1] < degrees[0]);
+        for round in 1..20 {
+            let mut want = vec![None; 6];
+            for ring in &rings {
+                assert!(ring.closed);
+                want[ring.centre as usize] = Some(ring.order(round));
+            }
+            let first = rings.each_ref().map(|ring| ring.goes_first(&want, round));
+            assert_eq!(first, [poorer == 0, poorer == 1], "round {round}");
         }
-        let first = rings.each_ref().map(|ring| ring.goes_first(&want));
-        let poorer = usize::from(rings[0].quality.narrowest <= rings[1].quality.narrowest);
-        assert_eq!(first, [poorer == 0, poorer == 1]);
         let before = smallest_angle(&mesh);
         let smoothed = smooth_steiner_vertices(&mut mesh, &[]);
         assert!(smoothed.rounds >= 2, "{smoothed:?}");
