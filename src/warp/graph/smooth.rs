@@ -39,7 +39,7 @@ const MAX_ROUNDS: usize = 32;
 const STEPS: [f64; 5] = [0.3, 0.15, 0.07, 0.03, 0.012];
 
 /// How many directions the pattern search tries at each step off a segment.
-const DIRECTIONS: usize = 16;
+const DIRECTIONS: usize = 8;
 
 /// What the smoothing did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
