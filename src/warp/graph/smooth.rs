@@ -500,7 +500,7 @@ mod tests {
         let smoothed = smooth_steiner_vertices(&mut mesh, &[]);
         assert!(smoothed.moves > 0);
         assert!(
-            before < 10.0 && smallest_angle(&mesh) > 40.0,
+            before < 10.0 && smallest_angle(&mesh) >= SMOOTH_BELOW_DEG,
             "{before} → {mesh:?}"
         );
         assert_eq!(mesh.vertices[..4], vertices[..4]);
@@ -525,7 +525,7 @@ mod tests {
         let slid = mesh.vertices[3];
         assert_eq!(slid.y, 0.0, "off its segment: {slid}");
         assert!(slid.x > 1.5 && slid.x < 2.5, "{slid}");
-        assert!(before < 20.0 && smallest_angle(&mesh) > 40.0);
+        assert!(before < 20.0 && smallest_angle(&mesh) >= SMOOTH_BELOW_DEG);
         assert_eq!(mesh.vertices[..3], vertices[..3]);
     }
 
