@@ -54,11 +54,12 @@ pub struct Smoothed {
 /// triangles, segments, boundary and regions stay as they are. `segment_ends[s]`: the ends of
 /// the segment that the mesh's pieces numbered `s` lie on.
 pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> Smoothed {
-    let motions = motions(mesh, segment_ends);
+    let motions = motions(mesh);
     let mut wanting = corners_of_poor_triangles(mesh, &motions);
     let mut smoothed = Smoothed::default();
-    // Per vertex, its order in this round while it wants to move, for its neighbours to see.
-    let mut want = vec![None; mesh.vertices.len()];
+    // Per vertex, its order in this round while it wants to move (never 0), else 0, for its
+    // neighbours to see.
+    let mut want = vec![0; mesh.vertices.len()];
     while !wanting.is_empty() && smoothed.rounds < MAX_ROUNDS {
         smoothed.rounds += 1;
         let rings: Vec<Ring> = wanting
@@ -66,20 +67,25 @@ pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> 
             .filter_map(|&(v, t)| Ring::around(mesh, v, t))
             .collect();
         for ring in &rings {
-            want[ring.centre as usize] = Some(ring.order(smoothed.rounds));
+            want[ring.centre as usize] = ring.order(smoothed.rounds);
         }
         let turns: Vec<Turn> = rings
             .par_iter()
             .map(|ring| match ring.goes_first(&want, smoothed.rounds) {
                 false => Turn::Waits,
-                true => match best_place(&mesh.vertices, ring, motions[ring.centre as usize]) {
+                true => match best_place(
+                    &mesh.vertices,
+                    ring,
+                    motions[ring.centre as usize],
+                    segment_ends,
+                ) {
                     Some(at) => Turn::Moves(at),
                     None => Turn::Stays,
                 },
             })
             .collect();
         for ring in &rings {
-            want[ring.centre as usize] = None;
+            want[ring.centre as usize] = 0;
         }
         let mut moves = 0;
         for (ring, turn) in rings.iter().zip(&turns) {
@@ -105,12 +111,12 @@ enum Motion {
     Fixed,
     /// Anywhere inside its ring: a grid vertex on no segment.
     Free,
-    /// Along the segment from `from` to `to`, which it splits.
-    Slides { from: DVec2, to: DVec2 },
+    /// Along the segment it splits (an index into the segments' ends).
+    Slides(u32),
 }
 
 /// How each vertex of `mesh` may move.
-fn motions(mesh: &Mesh, segment_ends: &[[DVec2; 2]]) -> Vec<Motion> {
+fn motions(mesh: &Mesh) -> Vec<Motion> {
     let mut motions: Vec<Motion> = mesh
         .vertex_input
         .par_iter()
@@ -134,10 +140,7 @@ fn motions(mesh: &Mesh, segment_ends: &[[DVec2; 2]]) -> Vec<Motion> {
     for (v, &(count, segment)) in ends.iter().enumerate() {
         motions[v] = match (motions[v], count) {
             (_, 0) | (Motion::Fixed, _) => motions[v],
-            (_, 2) => {
-                let [from, to] = segment_ends[segment as usize];
-                Motion::Slides { from, to }
-            }
+            (_, 2) => Motion::Slides(segment),
             _ => Motion::Fixed,
         };
     }
@@ -363,15 +366,14 @@ impl Ring {
 
     /// Whether the ring's centre goes before every neighbour that also wants to move: its
     /// smallest angle in whole degrees is smaller, or the same and its lot in `round` higher.
-    fn goes_first(&self, want: &[Option<u64>], round: usize) -> bool {
+    fn goes_first(&self, want: &[u64], round: usize) -> bool {
         let own = self.order(round);
-        self.neighbours
-            .iter()
-            .all(|&w| want[w as usize].is_none_or(|other| other < own))
+        self.neighbours.iter().all(|&w| want[w as usize] < own)
     }
 
-    /// The ring's place in the order of `round` (higher goes first): the whole degrees of its
-    /// smallest angle below 90, then the centre's lot.
+    /// The ring's place in the order of `round` (higher goes first; never 0, as no triangle's
+    /// smallest angle exceeds 60°): the whole degrees of its smallest angle below 90, then the
+    /// centre's lot.
     fn order(&self, round: usize) -> u64 {
         let degrees = self.quality.narrowest.clamp(-1.0, 1.0).acos().to_degrees();
         let poorness = 90 - (degrees.min(90.0) as u64);
@@ -392,7 +394,12 @@ fn lot(v: u32, round: usize) -> u64 {
 /// The place for the ring's centre that makes its triangles best, if better than they are: a
 /// pattern search around it, in steps shrinking from 0.3 of its nearest neighbour's distance,
 /// in the plane for a free vertex and along its segment for one splitting a segment.
-fn best_place(vertices: &[DVec2], ring: &Ring, motion: Motion) -> Option<DVec2> {
+fn best_place(
+    vertices: &[DVec2],
+    ring: &Ring,
+    motion: Motion,
+    segment_ends: &[[DVec2; 2]],
+) -> Option<DVec2> {
     let at = vertices[ring.centre as usize];
     if motion == Motion::Fixed || (motion == Motion::Free && !ring.closed) {
         return None;
@@ -408,7 +415,8 @@ fn best_place(vertices: &[DVec2], ring: &Ring, motion: Motion) -> Option<DVec2> 
             .filter(|quality| quality.beats(best))
     };
     match motion {
-        Motion::Slides { from, to } => {
+        Motion::Slides(segment) => {
+            let [from, to] = segment_ends[segment as usize];
             let length = from.distance(to);
             let mut along = (at - from).dot(to - from) / (length * length);
             for step in STEPS {
@@ -569,10 +577,10 @@ mod tests {
         assert_ne!(degrees[0], degrees[1]);
         let poorer = usize::from(degrees[1] < degrees[0]);
         for round in 1..20 {
-            let mut want = vec![None; 6];
+            let mut want = vec![0; 6];
             for ring in &rings {
                 assert!(ring.closed);
-                want[ring.centre as usize] = Some(ring.order(round));
+                want[ring.centre as usize] = ring.order(round);
             }
             let first = rings.each_ref().map(|ring| ring.goes_first(&want, round));
             assert_eq!(first, [poorer == 0, poorer == 1], "round {round}");
