@@ -618,13 +618,35 @@ fn mesh_graph_warp(input: &Input, options: &Options) -> Result<(Mesh, MeshReport
 }
 
 /// The warp of a graph's separated tree and the domain cut out of it: the mesh of the cleaned
-/// graph `clean` from the tree `build` of its cut `cut`, its free vertices then moved to widen
-/// its narrowest angles ([`smooth_steiner_vertices`]). Stage times go to `times`: "warp",
-/// "carve", "smooth".
+/// graph `clean` from the tree `build` of its cut `cut`, its poor triangles' Steiner corners
+/// then moved ([`smooth_steiner_vertices`]). Stage times go to `times`: "warp", "carve",
+/// "smooth".
 ///
 /// # Errors
 /// What [`triangulate_graph`] and [`carve_warped`] refuse.
 pub fn warped_graph<K: MortonKey>(
+    build: &GraphTreeBuild<K>,
+    (clean, cut): (&Input, &CornerCut),
+    times: &mut StageTimes,
+) -> Result<Mesh, Error> {
+    let mut mesh = carved_graph(build, (clean, cut), times)?;
+    times.time("smooth", || {
+        let segment_ends: Vec<[DVec2; 2]> = clean
+            .segments
+            .iter()
+            .map(|s| s.ends.map(|p| clean.points[p as usize]))
+            .collect();
+        smooth_steiner_vertices(&mut mesh, &segment_ends)
+    });
+    Ok(mesh)
+}
+
+/// [`warped_graph`] before its Steiner vertices move: the tree bent onto the graph and
+/// triangulated, the domain cut out. Stage times go to `times`: "warp", "carve".
+///
+/// # Errors
+/// What [`triangulate_graph`] and [`carve_warped`] refuse.
+pub fn carved_graph<K: MortonKey>(
     build: &GraphTreeBuild<K>,
     (clean, cut): (&Input, &CornerCut),
     times: &mut StageTimes,
@@ -643,19 +665,10 @@ pub fn warped_graph<K: MortonKey>(
         pieces: &build.pieces,
     };
     let triangulated = times.time("warp", || triangulate_graph(&leaves))?;
-    let mut mesh = times.time("carve", || {
+    times.time("carve", || {
         let triangle_at = |p| triangulated.triangle_at(&build.tree, &build.morton.grid, p);
         carve_warped(clean, cut, &build.vertices, &triangulated, triangle_at)
-    })?;
-    times.time("smooth", || {
-        let segment_ends: Vec<[DVec2; 2]> = clean
-            .segments
-            .iter()
-            .map(|s| s.ends.map(|p| clean.points[p as usize]))
-            .collect();
-        smooth_steiner_vertices(&mut mesh, &segment_ends)
-    });
-    Ok(mesh)
+    })
 }
 
 /// A graph's features separated in a balanced quadtree: Bern, Eppstein and Teng's T_B* (§5),

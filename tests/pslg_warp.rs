@@ -334,42 +334,21 @@ proptest! {
 /// the public stages the front door chains.
 fn unsmoothed(input: &Input) -> Mesh {
     use quadmesh::pipeline::{
-        GraphTree, GraphTreeBuild, GraphTreeOptions, StageTimes, WARP_CLEARANCE, graph_tree,
+        GraphTree, GraphTreeOptions, StageTimes, WARP_CLEARANCE, carved_graph, graph_tree,
     };
-    use quadmesh::pslg::{CleanOptions, carve_warped, clean, cut_acute_corners};
-    use quadmesh::warp::{GraphLeaves, triangulate_graph};
-    fn carve<K: quadmesh::morton::MortonKey>(
-        build: &GraphTreeBuild<K>,
-        clean: &Input,
-        cut: &quadmesh::pslg::CornerCut,
-    ) -> Mesh {
-        let points: Vec<DVec2> = build
-            .vertices
-            .iter()
-            .map(|&v| cut.points[v as usize])
-            .collect();
-        let leaves = GraphLeaves {
-            tree: &build.tree,
-            grid: &build.morton.grid,
-            order: &build.morton.order,
-            points: &points,
-            edges: &build.edges,
-            pieces: &build.pieces,
-        };
-        let triangulated = triangulate_graph(&leaves).unwrap();
-        let triangle_at = |p| triangulated.triangle_at(&build.tree, &build.morton.grid, p);
-        carve_warped(clean, cut, &build.vertices, &triangulated, triangle_at).unwrap()
-    }
+    use quadmesh::pslg::{CleanOptions, clean, cut_acute_corners};
     let (clean, _) = clean(input, CleanOptions::default()).unwrap();
     let cut = cut_acute_corners(&clean).unwrap();
     let options = GraphTreeOptions {
         clearance: WARP_CLEARANCE,
         max_squares: None,
     };
-    match graph_tree(&cut, options, &mut StageTimes::default()).unwrap() {
-        GraphTree::Narrow(build) => carve(&build, &clean, &cut),
-        GraphTree::Wide(build) => carve(&build, &clean, &cut),
+    let times = &mut StageTimes::default();
+    match graph_tree(&cut, options, times).unwrap() {
+        GraphTree::Narrow(build) => carved_graph(&build, (&clean, &cut), times),
+        GraphTree::Wide(build) => carved_graph(&build, (&clean, &cut), times),
     }
+    .unwrap()
 }
 
 fn smallest_angle(mesh: &Mesh) -> f64 {
