@@ -264,7 +264,7 @@ fn next_wanting(
 /// What a vertex that wants to move does in a round.
 #[derive(Clone, Copy, Debug)]
 enum Turn {
-    /// A neighbour with a poorer ring goes first.
+    /// A neighbour that also wants to move goes first.
     Waits,
     /// It found no better place.
     Stays,
