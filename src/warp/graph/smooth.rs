@@ -55,7 +55,8 @@ pub struct Smoothed {
 /// the segment that the mesh's pieces numbered `s` lie on.
 pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> Smoothed {
     let motions = motions(mesh);
-    let mut wanting = corners_of_poor_triangles(mesh, &motions);
+    let poor = Quality::poor();
+    let mut wanting = corners_of_poor_triangles(mesh, &motions, poor);
     let mut smoothed = Smoothed::default();
     // Per vertex, its order in this round while it wants to move (never 0), else 0, for its
     // neighbours to see.
@@ -71,7 +72,7 @@ pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> 
         }
         let turns: Vec<Turn> = rings
             .par_iter()
-            .map(|ring| match ring.goes_first(&want, smoothed.rounds) {
+            .map(|ring| match ring.goes_first(&want) {
                 false => Turn::Waits,
                 true => match best_place(
                     &mesh.vertices,
@@ -98,7 +99,7 @@ pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> 
             break;
         }
         smoothed.moves += moves;
-        wanting = next_wanting(mesh, &motions, &rings, &turns);
+        wanting = next_wanting(mesh, (&motions, poor), &rings, &turns);
     }
     smoothed
 }
@@ -202,25 +203,29 @@ impl Quality {
             || (self.narrowest <= other.narrowest && gain(other.widest, self.widest) >= min_gain)
     }
 
-    /// Whether a triangle of this quality is to be improved.
-    fn is_poor(self) -> bool {
-        self.narrowest > SMOOTH_BELOW_DEG.to_radians().cos()
-            || self.widest < SMOOTH_ABOVE_DEG.to_radians().cos()
+    /// The quality of a triangle whose angles are exactly [`SMOOTH_BELOW_DEG`] and
+    /// [`SMOOTH_ABOVE_DEG`]: one worse is poor.
+    fn poor() -> Quality {
+        Quality {
+            narrowest: SMOOTH_BELOW_DEG.to_radians().cos(),
+            widest: SMOOTH_ABOVE_DEG.to_radians().cos(),
+        }
     }
 }
 
-/// Whether the triangle with corners `corners` is poor.
-fn is_poor(mesh: &Mesh, corners: [u32; 3]) -> bool {
+/// Whether the triangle with corners `corners` has an angle narrower or wider than `poor`'s.
+fn is_poor(mesh: &Mesh, corners: [u32; 3], poor: Quality) -> bool {
     let [a, b, c] = corners.map(|v| mesh.vertices[v as usize]);
-    Quality::of_triangle(a, b, c).is_poor()
+    let quality = Quality::of_triangle(a, b, c);
+    quality.narrowest > poor.narrowest || quality.widest < poor.widest
 }
 
 /// The movable corners of the poor triangles, each once in index order with one of its
 /// triangles.
-fn corners_of_poor_triangles(mesh: &Mesh, motions: &[Motion]) -> Vec<(u32, u32)> {
+fn corners_of_poor_triangles(mesh: &Mesh, motions: &[Motion], poor: Quality) -> Vec<(u32, u32)> {
     let mut corners: Vec<(u32, u32)> = (0..mesh.triangles.len())
         .into_par_iter()
-        .filter(|&t| is_poor(mesh, mesh.triangles[t]))
+        .filter(|&t| is_poor(mesh, mesh.triangles[t], poor))
         .flat_map_iter(|t| mesh.triangles[t].map(|v| (v, t as u32)))
         .filter(|&(v, _)| motions[v as usize] != Motion::Fixed)
         .collect();
@@ -233,7 +238,7 @@ fn corners_of_poor_triangles(mesh: &Mesh, motions: &[Motion]) -> Vec<(u32, u32)>
 /// poor triangles around the vertices that moved (themselves included).
 fn next_wanting(
     mesh: &Mesh,
-    motions: &[Motion],
+    (motions, poor): (&[Motion], Quality),
     rings: &[Ring],
     turns: &[Turn],
 ) -> Vec<(u32, u32)> {
@@ -246,7 +251,7 @@ fn next_wanting(
             Turn::Moves(_) => {
                 for &t in &ring.triangles {
                     let corners = mesh.triangles[t as usize];
-                    if is_poor(mesh, corners) {
+                    if is_poor(mesh, corners, poor) {
                         let movable = corners
                             .into_iter()
                             .filter(|&x| motions[x as usize] != Motion::Fixed);
@@ -365,9 +370,9 @@ impl Ring {
     }
 
     /// Whether the ring's centre goes before every neighbour that also wants to move: its
-    /// smallest angle in whole degrees is smaller, or the same and its lot in `round` higher.
-    fn goes_first(&self, want: &[u64], round: usize) -> bool {
-        let own = self.order(round);
+    /// order this round (`want`, see [`Ring::order`]) is higher.
+    fn goes_first(&self, want: &[u64]) -> bool {
+        let own = want[self.centre as usize];
         self.neighbours.iter().all(|&w| want[w as usize] < own)
     }
 
@@ -450,9 +455,9 @@ fn best_place(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::domain::{BoundaryEdge, Domain, SubSegment};
+    use crate::domain::{BoundaryEdge, SubSegment};
     use crate::mesh::angles_deg;
-    use crate::mesh::fixtures::neighbours_of;
+    use crate::mesh::fixtures::{bounding_box, neighbours_of};
 
     fn mesh_of(vertices: Vec<DVec2>, inputs: &[u32], triangles: Vec<[u32; 3]>) -> Mesh {
         let mut vertex_input = vec![NONE; vertices.len()];
@@ -472,19 +477,14 @@ mod tests {
                 }
             }
         }
-        let (lo, hi) = crate::morton::bounding_box(&vertices);
         Mesh {
+            domain: bounding_box(&vertices),
             vertices,
             vertex_input,
             triangles,
             neighbours,
             boundary,
-            domain: Domain { lo, hi },
-            outline: None,
-            segments: Vec::new(),
-            triangle_regions: Vec::new(),
-            region_attributes: Vec::new(),
-            holes: Vec::new(),
+            ..Mesh::default()
         }
     }
 
@@ -582,7 +582,7 @@ mod tests {
                 assert!(ring.closed);
                 want[ring.centre as usize] = ring.order(round);
             }
-            let first = rings.each_ref().map(|ring| ring.goes_first(&want, round));
+            let first = rings.each_ref().map(|ring| ring.goes_first(&want));
             assert_eq!(first, [poorer == 0, poorer == 1], "round {round}");
         }
         let before = smallest_angle(&mesh);
