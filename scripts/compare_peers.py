@@ -7,7 +7,7 @@ Usage (from the repository root):
     pip install triangle numpy          # once; the script installs nothing itself
     python3 scripts/compare_peers.py [--sizes 100000,1000000] [--dists uniform,cluster,kuzmin]
         [--threads 1,2] [--repeats 3] [--angles 20,30] [--domain hull|square]
-        [--tools triangle,spade,quadmesh,quadmesh-block,quadmesh-nonobtuse,quadmesh-refine]
+        [--tools triangle,spade,quadmesh,quadmesh-compact,quadmesh-block,quadmesh-nonobtuse,quadmesh-refine]
         [--quadmesh-args='--some-flag value'] [--timeout 600] [--out results.json] [--markdown]
     python3 scripts/compare_peers.py [--pslg FILE.poly ...] [--pslg-examples]
         [--pslg-generated [--pslg-segments 200000] [--pslg-holes 2000] [--pslg-dir DIR]]
@@ -58,9 +58,9 @@ What it does:
   memory and prints one JSON object as its last line of output; its time is that object's
   ``total_s``. If the subcommand is missing or fails, quadmesh rows say so and the other tools
   still run;
-* quadmesh's block warp (tool ``quadmesh-block``) and nonobtuse mesh (tool
-  ``quadmesh-nonobtuse``): the same command with ``--block-warp`` or ``--nonobtuse`` in place
-  of ``--warp``;
+* quadmesh's compact warp before coarsening (tool ``quadmesh-compact``), block warp (tool
+  ``quadmesh-block``) and nonobtuse mesh (tool ``quadmesh-nonobtuse``): the same command with
+  ``--compact-warp``, ``--block-warp`` or ``--nonobtuse`` in place of ``--warp``;
 * quadmesh's quality Delaunay mesh (tool ``quadmesh-refine``, the CLI's default mode): the same
   command without ``--warp``, with ``--domain hull`` or ``--domain square`` (as ``--domain``
   says) and ``--min-angle A`` for every angle A of ``--angles`` and every thread count of
@@ -151,10 +151,10 @@ SPADE = TARGET / "release" / "examples" / "spade_mesh"
 CHILD_MARK = "__triangle_child__"
 
 # The --tools names.
-TOOLS = ("triangle", "spade", "quadmesh", "quadmesh-block", "quadmesh-nonobtuse",
-         "quadmesh-refine")
-QUADTREE_MODES = {"quadmesh": "warp", "quadmesh-block": "block-warp",
-                  "quadmesh-nonobtuse": "nonobtuse"}
+TOOLS = ("triangle", "spade", "quadmesh", "quadmesh-compact", "quadmesh-block",
+         "quadmesh-nonobtuse", "quadmesh-refine")
+QUADTREE_MODES = {"quadmesh": "warp", "quadmesh-compact": "compact-warp",
+                  "quadmesh-block": "block-warp", "quadmesh-nonobtuse": "nonobtuse"}
 
 # The --domain choices: the points' convex hull, or the square the warped mesh covers.
 DOMAINS = ("hull", "square")
@@ -275,7 +275,8 @@ def parse_args():
                              "the warped mesh's rows always use the square")
     parser.add_argument("--tools", type=str_list, default=list(TOOLS),
                         help=f"which tools to run (default {','.join(TOOLS)}; quadmesh is the "
-                             f"warped mesh, quadmesh-block the block warp, quadmesh-nonobtuse "
+                             f"warped mesh, quadmesh-compact it before coarsening, "
+                             f"quadmesh-block the block warp, quadmesh-nonobtuse "
                              f"the nonobtuse quadtree mesh, "
                              f"quadmesh-refine the Delaunay refinement)")
     parser.add_argument("--quadmesh-args", default="",
@@ -991,6 +992,7 @@ def main():
                             result["error"] = note
                         elif unknown:
                             what = {"quadmesh": "warped mesh",
+                                    "quadmesh-compact": "compact warp",
                                     "quadmesh-block": "block warp",
                                     "quadmesh-nonobtuse": "nonobtuse mesh"}.get(
                                         config.selector, "refinement")

@@ -30,7 +30,7 @@
 //! let warped = Options::default().warp();
 //! let (w, report) = mesh(&Input::points(points.clone()), &warped)?;
 //! w.validate(&points, warped.angle_bounds()).expect("a valid mesh");
-//! assert!(report.min_angle >= 22.5 - 1e-9 && report.max_angle <= 112.5 + 1e-9);
+//! assert!(report.min_angle >= 20.0 - 1e-9 && report.max_angle <= 120.0 + 1e-9);
 //! # Ok::<(), quadmesh::Error>(())
 //! ```
 //!

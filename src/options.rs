@@ -6,7 +6,7 @@ use crate::error::Error;
 use crate::mesh::{AngleBounds, Domain};
 use crate::morton::SortAlgorithm;
 use crate::refine::{GUARANTEED_MIN_ANGLE_DEG, MAX_MIN_ANGLE_DEG};
-use crate::warp::{ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS, NONOBTUSE_MAX_DEG};
+use crate::warp::{ANGLE_BOUNDS, COARSE_ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS, NONOBTUSE_MAX_DEG};
 
 /// The geometry to mesh: a point set, or a planar straight-line graph (points, segments, holes
 /// and regions, as in Triangle's `.poly` files).
@@ -80,16 +80,22 @@ pub enum Mode {
     /// (default [`DEFAULT_MIN_ANGLE_DEG`]) and every area at most the area bound, if given.
     #[default]
     Delaunay,
-    /// The warped quadtree mesh: every angle in [26°, 120°], about 36 triangles per point
-    /// (points separated by the blocks around their leaves' nearest corners), on any
-    /// rectangle: a given one ([`Region::Rectangle`], [`Region::BoundingBox`]) is cut into
-    /// cells within [`crate::morton::CELL_ANISOTROPY`] of square.
+    /// The warped quadtree mesh, coarsened: the compact warp ([`Mode::CompactWarp`]) with
+    /// every vertex that is no input point collapsed where the triangles it leaves keep every
+    /// angle in [20°, 120°] ([`crate::warp::coarsen`]), about 6–7 triangles per point, on any
+    /// rectangle as the compact warp.
     /// A planar straight-line graph is meshed over what its segments enclose from a quadtree
     /// bent onto it (see [`crate::warp::triangulate_graph`]), its poor triangles' Steiner
     /// corners then moved (see [`crate::warp::smooth_steiner_vertices`]), with no angle bound
     /// proven yet: [`Options::angle_bounds`] does not apply to it, and the report gives the
     /// angles reached.
     Warp,
+    /// The compact warp, not coarsened: every angle in [26°, 120°], about 36 triangles per
+    /// point (points separated by the blocks around their leaves' nearest corners), on any
+    /// rectangle: a given one ([`Region::Rectangle`], [`Region::BoundingBox`]) is cut into
+    /// cells within [`crate::morton::CELL_ANISOTROPY`] of square. The mesh the dynamic mesh
+    /// keeps by default. For a planar straight-line graph, the warp without coarsening.
+    CompactWarp,
     /// The block warp: every angle in [22.5°, 112.5°], about 104 triangles per point (each
     /// point's leaf centred in a 5×5 block of empty leaves); the tree the dynamic mesh keeps.
     BlockWarp,
@@ -102,7 +108,10 @@ impl Mode {
     /// Whether the mode meshes the well-separated quadtree (warp or nonobtuse), which takes
     /// rectangles and no area bound or vertex budget.
     pub fn is_quadtree(self) -> bool {
-        matches!(self, Mode::Warp | Mode::BlockWarp | Mode::Nonobtuse)
+        matches!(
+            self,
+            Mode::Warp | Mode::CompactWarp | Mode::BlockWarp | Mode::Nonobtuse
+        )
     }
 }
 
@@ -178,6 +187,11 @@ impl Options {
     /// The warp mode.
     pub fn warp(self) -> Self {
         self.with_mode(Mode::Warp)
+    }
+
+    /// The compact warp mode (the warp not coarsened).
+    pub fn compact_warp(self) -> Self {
+        self.with_mode(Mode::CompactWarp)
     }
 
     /// The block warp mode.
@@ -292,11 +306,16 @@ impl Options {
 
     /// The angles every mesh of these options has, outside input angles smaller than the bound
     /// (the corners of a convex hull): at least the bound and at most 180° minus twice it in the
-    /// Delaunay mode, [26°, 120°] in the warp mode, [22.5°, 112.5°] in the block warp mode, at
+    /// Delaunay mode, [20°, 120°] in the warp mode, [26°, 120°] in the compact warp mode,
+    /// [22.5°, 112.5°] in the block warp mode, at
     /// most 90° in the nonobtuse mode.
     pub fn angle_bounds(&self) -> AngleBounds {
         match self.mode {
             Mode::Warp => AngleBounds {
+                min_deg: COARSE_ANGLE_BOUNDS.0,
+                max_deg: COARSE_ANGLE_BOUNDS.1,
+            },
+            Mode::CompactWarp => AngleBounds {
                 min_deg: COMPACT_ANGLE_BOUNDS.0,
                 max_deg: COMPACT_ANGLE_BOUNDS.1,
             },

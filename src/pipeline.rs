@@ -23,8 +23,9 @@ use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, ref
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{
-    EdgePieces, GraphLeaves, edge_pieces, finest_resolved_level, leaves_in_domain,
-    point_finer_than_grid, smooth_steiner_vertices, split, triangulate_graph, unresolvable, warp,
+    COARSE_ANGLE_BOUNDS, EdgePieces, GraphLeaves, coarsen, edge_pieces, finest_resolved_level,
+    leaves_in_domain, point_finer_than_grid, smooth_steiner_vertices, split, triangulate_graph,
+    unresolvable, warp,
 };
 
 /// The trees of one input on one grid width.
@@ -169,6 +170,9 @@ pub struct MeshOptions {
     /// the block warp ([`crate::warp::ANGLE_BOUNDS`]). The nonobtuse split uses the block rule
     /// whatever this says.
     pub separation: Separation,
+    /// Coarsen the warp's mesh to every angle in [`crate::warp::COARSE_ANGLE_BOUNDS`] (see
+    /// [`crate::warp::coarsen`]); not for the nonobtuse split.
+    pub coarsen: bool,
 }
 
 impl MeshOptions {
@@ -384,10 +388,16 @@ pub fn mesh_points(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, Mes
 fn mesh_on(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport), Error> {
     let (tree, mut times) = separated_tree(points, options)?;
     let separation = (!options.nonobtuse).then(|| options.effective_separation());
-    let (mesh, quality, duplicates) = match tree {
+    let (mut mesh, mut quality, duplicates) = match tree {
         Tree::Narrow(build) => warp_build(build, points, separation, &mut times)?,
         Tree::Wide(build) => warp_build(build, points, separation, &mut times)?,
     };
+    if options.coarsen && !options.nonobtuse {
+        times.time("coarsen", || coarsen(&mut mesh, COARSE_ANGLE_BOUNDS));
+        quality = times.time("angles", || {
+            crate::refine::angle_quality(&mesh.vertices, &mesh.triangles)
+        });
+    }
     let report = report_of(
         &mesh,
         points.len() - duplicates,
@@ -470,16 +480,16 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
         Region::Auto | Region::ConvexHull | Region::Square => None,
     };
     match options.mode() {
-        Mode::Warp | Mode::BlockWarp | Mode::Nonobtuse => {
+        Mode::Warp | Mode::CompactWarp | Mode::BlockWarp | Mode::Nonobtuse => {
             let warp = MeshOptions {
                 sort: options.sort_algorithm(),
                 domain: rectangle,
                 nonobtuse: options.mode() == Mode::Nonobtuse,
-                separation: if options.mode() == Mode::Warp {
-                    Separation::Corner
-                } else {
-                    Separation::Block
+                separation: match options.mode() {
+                    Mode::Warp | Mode::CompactWarp => Separation::Corner,
+                    _ => Separation::Block,
                 },
+                coarsen: options.mode() == Mode::Warp,
             };
             mesh_points(points, &warp)
         }
@@ -505,7 +515,7 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
 /// or over its convex hull.
 fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
     match options.mode() {
-        Mode::Warp => return mesh_graph_warp(input, options),
+        Mode::Warp | Mode::CompactWarp => return mesh_graph_warp(input, options),
         Mode::BlockWarp | Mode::Nonobtuse => input.check_supported()?,
         Mode::Delaunay => {}
     }

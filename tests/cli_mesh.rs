@@ -7,7 +7,7 @@ use cli_support::{
     TempDir, bench_json, generate, json_number, quadmesh, read_triangle_files, s, stderr,
 };
 use quadmesh::mesh::AngleBounds;
-use quadmesh::warp::{ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS};
+use quadmesh::warp::{ANGLE_BOUNDS, COARSE_ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS};
 
 /// The block warp's bounds, which `--warp` keeps on a given domain.
 const WARP: AngleBounds = AngleBounds {
@@ -15,10 +15,16 @@ const WARP: AngleBounds = AngleBounds {
     max_deg: ANGLE_BOUNDS.1,
 };
 
-/// The compact warp's bounds, `--warp` on the square around the points.
+/// The compact warp's bounds, `--compact-warp`.
 const COMPACT: AngleBounds = AngleBounds {
     min_deg: COMPACT_ANGLE_BOUNDS.0,
     max_deg: COMPACT_ANGLE_BOUNDS.1,
+};
+
+/// The coarsened warp's bounds, `--warp`.
+const COARSE: AngleBounds = AngleBounds {
+    min_deg: COARSE_ANGLE_BOUNDS.0,
+    max_deg: COARSE_ANGLE_BOUNDS.1,
 };
 
 #[test]
@@ -29,10 +35,32 @@ fn mesh_files_read_back_as_a_valid_mesh() {
     let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--check", "--warp"]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(stderr(&out).contains("check                   passed"));
-    let mesh = read_triangle_files(&prefix);
-    if let Err(fault) = mesh.validate(&points, COMPACT) {
+    let coarse = read_triangle_files(&prefix);
+    if let Err(fault) = coarse.validate(&points, COARSE) {
         panic!("mesh read back from files is invalid: {fault}");
     }
+    // The compact warp before coarsening keeps the narrower range, with several times the
+    // triangles.
+    let compact = dir.file("compact");
+    let out = quadmesh(&[
+        "mesh",
+        s(&input),
+        "-o",
+        s(&compact),
+        "--check",
+        "--compact-warp",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let mesh = read_triangle_files(&compact);
+    if let Err(fault) = mesh.validate(&points, COMPACT) {
+        panic!("compact-warped mesh read back from files is invalid: {fault}");
+    }
+    assert!(
+        mesh.triangles.len() > 3 * coarse.triangles.len(),
+        "{} compact-warped triangles, {} coarsened",
+        mesh.triangles.len(),
+        coarse.triangles.len()
+    );
     // The block warp keeps the narrower range, with about three times the triangles.
     let block = dir.file("block");
     let out = quadmesh(&["mesh", s(&input), "-o", s(&block), "--block-warp"]);
@@ -57,8 +85,8 @@ fn a_given_domain_is_meshed_exactly() {
     let (lo, hi) = quadmesh::morton::bounding_box(&points);
     let wider = format!("{},{},{},{}", lo.x - 0.5, lo.y, hi.x, hi.y + 2.0);
     for (domain, bounds) in [
-        ("bbox", COMPACT),
-        (wider.as_str(), COMPACT),
+        ("bbox", COARSE),
+        (wider.as_str(), COARSE),
         (
             "bbox",
             AngleBounds {
@@ -181,8 +209,8 @@ fn bench_prints_one_json_object_last() {
         assert!(last.contains(key), "{key} missing from {last}");
     }
     let field = |key: &str| json_number(&last, key);
-    assert!(field("min_angle") >= COMPACT_ANGLE_BOUNDS.0 - 1e-9);
-    assert!(field("max_angle") <= COMPACT_ANGLE_BOUNDS.1 + 1e-9);
+    assert!(field("min_angle") >= COARSE_ANGLE_BOUNDS.0 - 1e-9);
+    assert!(field("max_angle") <= COARSE_ANGLE_BOUNDS.1 + 1e-9);
     assert!(field("triangles") > 3000.0);
 }
 

@@ -1,5 +1,5 @@
 //! `quadmesh replay`: the final files equal, byte for byte, what `quadmesh mesh --warp` (or
-//! `--block-warp`, `--nonobtuse`) writes for the live points in id order on the same domain; bad edits are one-line errors that
+//! `--compact-warp`, `--block-warp`, `--nonobtuse`) writes for the live points in id order on the same domain; bad edits are one-line errors that
 //! name the edit and write nothing.
 
 mod cli_support;
@@ -29,12 +29,14 @@ fn output(prefix: &Path, extension: &str) -> Vec<u8> {
 
 #[test]
 fn replayed_files_equal_those_of_a_mesh_of_the_live_points() {
-    // The compact warp (the default) and the block warp on a square, the compact warp on a
-    // rectangle.
+    // The warp (the compact warp coarsened), the compact warp (the default) and the block
+    // warp on a square, the warp and the compact warp on a rectangle.
     for (warp, domain) in [
         ("--warp", "0,0,1,1"),
+        ("--compact-warp", "0,0,1,1"),
         ("--block-warp", "0,0,1,1"),
         ("--warp", "0,0,1,1.3"),
+        ("--compact-warp", "0,0,1,1.3"),
     ] {
         replayed_files_equal_a_mesh(warp, domain);
     }
@@ -219,7 +221,7 @@ fn the_triangles_each_edit_changes_add_up_to_the_final_mesh() {
         s(&points),
         "-o",
         s(&first),
-        "--warp",
+        "--compact-warp",
         "--domain",
         "0,0,1,1",
     ]);

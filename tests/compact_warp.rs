@@ -1,4 +1,4 @@
-//! The compact warp (`Mode::Warp`, on the square around the points or a given rectangle): the corner-separated tree
+//! The compact warp (`Mode::CompactWarp`, on the square around the points or a given rectangle): the corner-separated tree
 //! warped by the swept templates. Every mesh passes `Mesh::validate` with the mode's bounds
 //! ([26°, 120°]), is the same on 1 and 2 threads, and has about a third of the block warp's
 //! triangles.
@@ -21,7 +21,7 @@ const COMPACT: AngleBounds = AngleBounds {
 /// mesh, and the same bytes on 1 and 2 threads.
 fn compact(points: &[DVec2]) -> (Mesh, MeshReport) {
     let input = Input::points(points.to_vec());
-    let options = Options::default().warp();
+    let options = Options::default().compact_warp();
     assert_eq!(options.angle_bounds(), COMPACT);
     let (one, report) = on_threads(1, || mesh(&input, &options)).expect("meshed");
     let (two, _) = on_threads(2, || mesh(&input, &options)).expect("meshed");
@@ -100,7 +100,9 @@ fn grid_aligned_collinear_and_centred_points() {
 /// The compact warp of `points` on the rectangle `domain`, checked as [`compact`] checks.
 fn compact_on(points: &[DVec2], domain: Domain) -> (Mesh, MeshReport) {
     let input = Input::points(points.to_vec());
-    let options = Options::default().warp().region(Region::Rectangle(domain));
+    let options = Options::default()
+        .compact_warp()
+        .region(Region::Rectangle(domain));
     assert_eq!(options.angle_bounds(), COMPACT);
     let (one, report) = on_threads(1, || mesh(&input, &options)).expect("meshed");
     let (two, _) = on_threads(2, || mesh(&input, &options)).expect("meshed");
@@ -208,7 +210,9 @@ fn on_a_given_rectangle_the_cells_are_nearly_square_and_the_bounds_hold() {
         .into_iter()
         .map(|p| p * DVec2::new(2.0, 0.7))
         .collect::<Vec<_>>();
-    let options = Options::default().warp().region(Region::BoundingBox);
+    let options = Options::default()
+        .compact_warp()
+        .region(Region::BoundingBox);
     assert_eq!(options.angle_bounds(), COMPACT);
     let (m, _) = mesh(&Input::points(pts.clone()), &options).unwrap();
     m.validate(&pts, COMPACT).unwrap();
@@ -286,7 +290,7 @@ proptest! {
 
     #[test]
     fn mixed_inputs_mesh_or_are_refused_by_name(pts in mixed_point_sets()) {
-        match mesh(&Input::points(pts.clone()), &Options::default().warp()) {
+        match mesh(&Input::points(pts.clone()), &Options::default().compact_warp()) {
             Ok((m, _)) => {
                 prop_assert!(m.validate(&pts, COMPACT).is_ok());
             }

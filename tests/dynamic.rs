@@ -1,5 +1,6 @@
 //! Dynamic warped meshes: after any sequence of edits, the same mesh as a build from scratch of
-//! the live points in id order, warped or nonobtuse; bad edits change nothing.
+//! the live points in id order, warped (coarsened too, on the corner tree) or nonobtuse; bad
+//! edits change nothing.
 
 use glam::DVec2;
 use quadmesh::balance::Separation;
@@ -33,7 +34,7 @@ const SEPARATIONS: [Separation; 2] = [Separation::Corner, Separation::Block];
 /// The warp mode of a dynamic mesh's tree.
 fn warp_mode(dynamic: &DynamicMesh) -> Mode {
     match dynamic.separation() {
-        Separation::Corner => Mode::Warp,
+        Separation::Corner => Mode::CompactWarp,
         Separation::Block => Mode::BlockWarp,
     }
 }
@@ -63,8 +64,21 @@ fn check(dynamic: &DynamicMesh, what: &str) {
             matches!(dynamic.mesh_nonobtuse(), Err(Error::InvalidOption { .. })),
             "{what}: a corner tree split nonobtuse"
         );
+        let coarse = dynamic.coarsened_mesh().expect("the dynamic mesh coarsens");
+        assert!(
+            coarse == rebuilt_in(dynamic, Mode::Warp),
+            "{what}: the dynamic coarsened mesh differs from a rebuild"
+        );
+        let warp = Options::default().warp();
+        coarse
+            .validate(&points, warp.angle_bounds())
+            .unwrap_or_else(|e| panic!("{what}: coarsened: {e}"));
         return;
     }
+    assert!(
+        matches!(dynamic.coarsened_mesh(), Err(Error::InvalidOption { .. })),
+        "{what}: a block tree coarsened"
+    );
     let split = dynamic.mesh_nonobtuse().expect("the dynamic mesh splits");
     assert!(
         split == rebuilt_in(dynamic, Mode::Nonobtuse),

@@ -228,9 +228,12 @@ fn options_out_of_range_and_unsupported_input_are_typed_errors() {
 #[test]
 fn the_warp_mode_is_one_option_away() {
     let points = generated(Distribution2d::Uniform, 500, 1);
-    let (m, report) = checked(&points, &Options::default().warp());
+    let (coarse, report) = checked(&points, &Options::default().warp());
+    assert!(report.min_angle >= 20.0 - 1e-9 && report.max_angle <= 120.0 + 1e-9);
+    assert!(coarse.outline.is_none());
+    let (m, report) = checked(&points, &Options::default().compact_warp());
     assert!(report.min_angle >= 26.0 - 1e-9 && report.max_angle <= 120.0 + 1e-9);
-    assert!(m.outline.is_none());
+    assert!(m.triangles.len() > 3 * coarse.triangles.len());
     let (block, report) = checked(&points, &Options::default().block_warp());
     assert!(report.min_angle >= 22.5 - 1e-9 && report.max_angle <= 112.5 + 1e-9);
     assert!(block.triangles.len() > 2 * m.triangles.len());

@@ -324,11 +324,12 @@ fn _mesh<'py>(
     let mode = match mode {
         "delaunay" => Mode::Delaunay,
         "warp" => Mode::Warp,
+        "compact_warp" => Mode::CompactWarp,
         "block_warp" => Mode::BlockWarp,
         "nonobtuse" => Mode::Nonobtuse,
         other => {
             return Err(QuadmeshError::new_err(format!(
-                "mode must be \"delaunay\", \"warp\", \"block_warp\" or \"nonobtuse\", not {other:?}"
+                "mode must be \"delaunay\", \"warp\", \"compact_warp\", \"block_warp\" or \"nonobtuse\", not {other:?}"
             )));
         }
     };

@@ -104,10 +104,14 @@ def test_point_sets_and_keyword_interface():
     e = quadmesh.mesh(points[:300], edges=True)
     assert len(e.edges) == len(e.vertices) + len(e.triangles) - 1
     assert len(e.edge_markers) == len(e.edges)
-    warped = quadmesh.mesh(points[:200], mode="warp")
+    coarse = quadmesh.mesh(points[:200], mode="warp")
+    assert min_angles(coarse.vertices, coarse.triangles).min() >= 20 - 1e-6
+    assert max_angles(coarse.vertices, coarse.triangles).max() <= 120 + 1e-6
+    warped = quadmesh.mesh(points[:200], mode="compact_warp")
     smallest = min_angles(warped.vertices, warped.triangles)
     assert smallest.min() >= 26 - 1e-6
     assert max_angles(warped.vertices, warped.triangles).max() <= 120 + 1e-6
+    assert len(warped.triangles) > 3 * len(coarse.triangles)
     block = quadmesh.mesh(points[:200], mode="block_warp")
     assert min_angles(block.vertices, block.triangles).min() >= 22.5 - 1e-6
     assert len(block.triangles) > 2 * len(warped.triangles)

@@ -161,21 +161,27 @@ enum Command {
         /// `--block-warp` and `--nonobtuse`).
         #[arg(long, value_name = "X0,Y0,X1,Y1", value_parser = parse_box, allow_hyphen_values = true)]
         domain: Domain,
-        /// The compact warped mesh (the default; accepted for clarity).
+        /// Write the final mesh coarsened, as `mesh --warp` would (the dynamic mesh keeps the
+        /// compact warp, written by default as `mesh --compact-warp` would; `--changes` reports
+        /// its triangles).
         #[arg(long)]
         warp: bool,
-        /// Keep the block warp's tree and write its mesh instead, as `mesh --block-warp` would.
+        /// Write the compact warp, as `mesh --compact-warp` would (the default; accepted for
+        /// clarity).
         #[arg(long, conflicts_with = "warp")]
+        compact_warp: bool,
+        /// Keep the block warp's tree and write its mesh instead, as `mesh --block-warp` would.
+        #[arg(long, conflicts_with_all = ["warp", "compact_warp"])]
         block_warp: bool,
         /// Keep the block warp's tree and write its nonobtuse mesh instead, as `mesh
         /// --nonobtuse` would.
-        #[arg(long, conflicts_with_all = ["warp", "block_warp"])]
+        #[arg(long, conflicts_with_all = ["warp", "compact_warp", "block_warp"])]
         nonobtuse: bool,
         /// Keep a quality Delaunay mesh with every angle at least DEG instead
         /// (`DynamicDelaunay`): the final mesh is refinement in order of the live points
         /// (`--verify` compares it with one), and the JSON lines carry `windows`,
         /// `steiner_removed` and `steiner_added` instead of `cells`.
-        #[arg(long, value_name = "DEG", conflicts_with_all = ["warp", "block_warp", "nonobtuse"])]
+        #[arg(long, value_name = "DEG", conflicts_with_all = ["warp", "compact_warp", "block_warp", "nonobtuse"])]
         min_angle: Option<f64>,
         /// Output formats, comma-separated, as for `mesh`.
         #[arg(long, value_delimiter = ',', default_value = "node")]
@@ -229,21 +235,26 @@ enum Command {
 /// Which mesh: a quality Delaunay mesh (the default) or the warped quadtree mesh.
 #[derive(clap::Args, Clone)]
 struct QualityArgs {
-    /// The warped quadtree mesh instead: every angle in [26°, 120°], about 35 triangles per
-    /// point, on the points' bounding box centred in a square twice its larger side, or on a
-    /// `--domain` rectangle (`bbox` or given). For a `.poly` graph: what its segments enclose, from a
+    /// The warped quadtree mesh instead: the compact warp coarsened, every angle in [20°, 120°],
+    /// about 7 triangles per point, on the points' bounding box centred in a square twice its
+    /// larger side, or on a `--domain` rectangle (`bbox` or given). For a `.poly` graph: what its segments enclose, from a
     /// quadtree bent onto the graph and its thin triangles' Steiner corners moved, with no
     /// angle bound proven yet (the report gives the angles reached).
     #[arg(long, conflicts_with_all = ["min_angle", "max_area", "max_vertices"])]
     warp: bool,
+    /// The compact warp, not coarsened: every angle in [26°, 120°], about 36 triangles per
+    /// point, on a rectangle as for `--warp`; several times faster than `--warp`. For a `.poly`
+    /// graph, the warp before coarsening.
+    #[arg(long, conflicts_with_all = ["warp", "min_angle", "max_area", "max_vertices"])]
+    compact_warp: bool,
     /// The block warp instead: every angle in [22.5°, 112.5°], about 104 triangles per point,
     /// on a rectangle as for `--warp`.
-    #[arg(long, conflicts_with_all = ["warp", "min_angle", "max_area", "max_vertices"])]
+    #[arg(long, conflicts_with_all = ["warp", "compact_warp", "min_angle", "max_area", "max_vertices"])]
     block_warp: bool,
     /// The quadtree mesh split into right triangles at the points instead: every angle at most
     /// 90° (none bounded below; a point near a grid line of its leaf makes thin triangles), on
     /// a rectangle as for `--warp`, with a few more triangles.
-    #[arg(long, conflicts_with_all = ["warp", "block_warp", "min_angle", "max_area", "max_vertices"])]
+    #[arg(long, conflicts_with_all = ["warp", "compact_warp", "block_warp", "min_angle", "max_area", "max_vertices"])]
     nonobtuse: bool,
     /// Every angle at least A degrees (0 to 45) [default: 20, below the 20.7° up to which
     /// termination is proven]. Above 20.7° refinement usually finishes up to about 34° and
@@ -321,6 +332,9 @@ impl QualityArgs {
         if self.warp {
             options = options.warp();
         }
+        if self.compact_warp {
+            options = options.compact_warp();
+        }
         if self.block_warp {
             options = options.block_warp();
         }
@@ -384,7 +398,7 @@ fn cli_terms(e: &quadmesh::Error) -> String {
                 "min_angle" => "--min-angle",
                 "max_area" => "--max-area",
                 "region" | "domain" => "--domain",
-                "mode" => "--warp/--block-warp/--nonobtuse",
+                "mode" => "--warp/--compact-warp/--block-warp/--nonobtuse",
                 other => other,
             };
             format!("{flag}: {message}")
@@ -518,7 +532,8 @@ fn main() -> ExitCode {
             edits,
             output,
             domain,
-            warp: _,
+            warp,
+            compact_warp: _,
             block_warp,
             nonobtuse,
             min_angle: None,
@@ -535,10 +550,11 @@ fn main() -> ExitCode {
             &format,
             threads,
             (json, verify, changes, batch.get()),
-            match (block_warp, nonobtuse) {
-                (_, true) => Mode::Nonobtuse,
-                (true, _) => Mode::BlockWarp,
-                _ => Mode::Warp,
+            match (warp, block_warp, nonobtuse) {
+                (_, _, true) => Mode::Nonobtuse,
+                (_, true, _) => Mode::BlockWarp,
+                (true, _, _) => Mode::Warp,
+                _ => Mode::CompactWarp,
             },
         ),
         Command::Generate {
@@ -688,7 +704,7 @@ fn replay(
     let (points, edits) = replay_inputs((points_path, edits_path), prefix)?;
     pool(threads)?.install(|| {
         let separation = match mode {
-            Mode::Warp => Separation::Corner,
+            Mode::Warp | Mode::CompactWarp => Separation::Corner,
             _ => Separation::Block,
         };
         let (built, build_time) =
@@ -698,6 +714,7 @@ fn replay(
         let mut seconds = Vec::with_capacity(edits.len());
         let mesh_of = |dynamic: &DynamicMesh| match mode {
             Mode::Nonobtuse => dynamic.mesh_nonobtuse(),
+            Mode::Warp => dynamic.coarsened_mesh(),
             _ => dynamic.mesh(),
         };
         dynamic.track_changes(changes);

@@ -121,8 +121,8 @@ impl DynamicMesh {
     }
 
     /// [`Self::new`] with the tree separated by `separation`: [`Separation::Corner`] for the
-    /// compact warp (what [`crate::mesh()`] gives in [`crate::Mode::Warp`] on the rectangle, every
-    /// angle in [`crate::warp::COMPACT_ANGLE_BOUNDS`]), [`Separation::Block`] for the block
+    /// compact warp (what [`crate::mesh()`] gives in [`crate::Mode::CompactWarp`] on the
+    /// rectangle, every angle in [`crate::warp::COMPACT_ANGLE_BOUNDS`]), [`Separation::Block`] for the block
     /// warp ([`crate::Mode::BlockWarp`], [`crate::warp::ANGLE_BOUNDS`]) and the nonobtuse
     /// split ([`Self::mesh_nonobtuse`]).
     ///
@@ -548,13 +548,34 @@ impl DynamicMesh {
     }
 
     /// The warped mesh of the live points: what [`crate::mesh()`] gives for them in id order on
-    /// this domain, its `vertex_input` numbering them in that order.
+    /// this domain in the compact warp mode ([`crate::Mode::CompactWarp`], or the block warp
+    /// mode for a tree [`Separation::Block`]), its `vertex_input` numbering them in that order.
     ///
     /// # Errors
     /// [`Error::Empty`] with no live point, and what the warp refuses ([`Error::Unresolvable`]
     /// where f64 cannot place the vertices around a point apart).
     pub fn mesh(&self) -> Result<Mesh, Error> {
         self.mesh_of(false)
+    }
+
+    /// [`Self::mesh`] coarsened ([`crate::warp::coarsen`]): what [`crate::mesh()`] gives in the
+    /// warp mode ([`crate::Mode::Warp`]) for a corner tree. It is made from the whole mesh each
+    /// time (the collapses go in rounds over all of it), in time linear in its size.
+    ///
+    /// # Errors
+    /// As [`Self::mesh`]; [`Error::InvalidOption`] for a block tree.
+    pub fn coarsened_mesh(&self) -> Result<Mesh, Error> {
+        if self.separation() != Separation::Corner {
+            return Err(Error::InvalidOption {
+                option: "warp",
+                message: "the coarsened warp needs a dynamic mesh separated by corners \
+                          (Separation::Corner)"
+                    .into(),
+            });
+        }
+        let mut mesh = self.mesh()?;
+        crate::warp::coarsen(&mut mesh, crate::warp::COARSE_ANGLE_BOUNDS);
+        Ok(mesh)
     }
 
     /// The nonobtuse mesh of the live points, from the same tree: what [`crate::mesh()`] gives

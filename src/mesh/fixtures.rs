@@ -125,3 +125,33 @@ pub(crate) fn pslg_square() -> Mesh {
         ..four_triangles()
     }
 }
+
+/// The mesh of `triangles` on `vertices`, the `k`-th of `inputs` being input point `k`, its
+/// boundary edges (marker 1) and neighbours found from the triangles, on the vertices' box.
+pub(crate) fn mesh_of(vertices: Vec<DVec2>, inputs: &[u32], triangles: Vec<[u32; 3]>) -> Mesh {
+    let mut vertex_input = vec![NONE; vertices.len()];
+    for (i, &v) in inputs.iter().enumerate() {
+        vertex_input[v as usize] = i as u32;
+    }
+    let neighbours = neighbours_of(&triangles);
+    let mut boundary = Vec::new();
+    for (&corners, across) in triangles.iter().zip(&neighbours) {
+        for (i, &t) in across.iter().enumerate() {
+            if t == NONE {
+                boundary.push(BoundaryEdge {
+                    vertices: opposite_edge(corners, i),
+                    marker: 1,
+                });
+            }
+        }
+    }
+    Mesh {
+        domain: bounding_box(&vertices),
+        vertices,
+        vertex_input,
+        triangles,
+        neighbours,
+        boundary,
+        ..Mesh::default()
+    }
+}

@@ -6,6 +6,7 @@ mod delaunay_check;
 #[cfg(test)]
 pub(crate) mod fixtures;
 mod report;
+mod star;
 mod topology;
 mod validate;
 mod validate_pslg;
@@ -23,6 +24,7 @@ pub(crate) use report::AngleTally;
 
 pub(crate) use report::report_of;
 pub use report::{AngleQuality, MeshReport, StageTimes};
+pub(crate) use star::Star;
 pub use topology::Edge;
 pub(crate) use topology::{EdgeLister, edges_listed_with, opposite_edge};
 pub use validate::{

@@ -11,6 +11,7 @@
 //! links only, and numbers vertices and triangles by prefix sums over the leaves in Morton
 //! order, so the mesh does not depend on the thread count.
 
+mod coarsen;
 mod cut;
 mod edges;
 mod graph;
@@ -19,6 +20,7 @@ mod split;
 mod templates;
 mod vertices;
 
+pub use coarsen::{COARSE_ANGLE_BOUNDS, Coarsened, coarsen};
 pub use cut::{leaves_below, leaves_in_domain};
 pub use edges::{EdgePiece, EdgePieces, edge_pieces, leaf_at, square_box};
 pub(crate) use graph::best_triangulation;

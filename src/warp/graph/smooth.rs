@@ -19,7 +19,7 @@
 use glam::DVec2;
 use rayon::prelude::*;
 
-use crate::mesh::{Mesh, NONE, corner_cosines};
+use crate::mesh::{Mesh, NONE, Star, corner_cosines};
 use crate::predicates::{Orientation, orientation};
 
 /// A triangle with an angle below this many degrees has its Steiner corners moved.
@@ -68,7 +68,7 @@ pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> 
             .filter_map(|&(v, t)| Ring::around(mesh, v, t))
             .collect();
         for ring in &rings {
-            want[ring.centre as usize] = ring.order(smoothed.rounds);
+            want[ring.star.centre as usize] = ring.order(smoothed.rounds);
         }
         let turns: Vec<Turn> = rings
             .par_iter()
@@ -77,7 +77,7 @@ pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> 
                 true => match best_place(
                     &mesh.vertices,
                     ring,
-                    motions[ring.centre as usize],
+                    motions[ring.star.centre as usize],
                     segment_ends,
                 ) {
                     Some(at) => Turn::Moves(at),
@@ -86,12 +86,12 @@ pub fn smooth_steiner_vertices(mesh: &mut Mesh, segment_ends: &[[DVec2; 2]]) -> 
             })
             .collect();
         for ring in &rings {
-            want[ring.centre as usize] = 0;
+            want[ring.star.centre as usize] = 0;
         }
         let mut moves = 0;
         for (ring, turn) in rings.iter().zip(&turns) {
             if let Turn::Moves(at) = *turn {
-                mesh.vertices[ring.centre as usize] = at;
+                mesh.vertices[ring.star.centre as usize] = at;
                 moves += 1;
             }
         }
@@ -245,11 +245,11 @@ fn next_wanting(
     let mut next: Vec<(u32, u32)> = Vec::new();
     for (ring, turn) in rings.iter().zip(turns) {
         match turn {
-            Turn::Waits => next.push((ring.centre, ring.triangles[0])),
+            Turn::Waits => next.push((ring.star.centre, ring.star.triangles[0])),
             // Its neighbours stood still while it searched: none of them went first.
             Turn::Stays => {}
             Turn::Moves(_) => {
-                for &t in &ring.triangles {
+                for &t in &ring.star.triangles {
                     let corners = mesh.triangles[t as usize];
                     if is_poor(mesh, corners, poor) {
                         let movable = corners
@@ -277,71 +277,19 @@ enum Turn {
     Moves(DVec2),
 }
 
-/// A vertex, its neighbours counter-clockwise around it, its triangles (it and each two
-/// consecutive neighbours, and the last and the first when the ring is closed), and their
-/// quality.
+/// A vertex's star with the quality of its triangles.
 #[derive(Clone, Debug)]
 struct Ring {
-    centre: u32,
-    neighbours: Vec<u32>,
-    triangles: Vec<u32>,
-    closed: bool,
+    star: Star,
     quality: Quality,
 }
 
 impl Ring {
     /// The ring around `v`, one of whose triangles is `start`.
     fn around(mesh: &Mesh, v: u32, start: u32) -> Option<Ring> {
-        let corner = |t: u32| {
-            let corners = mesh.triangles[t as usize];
-            let i = corners.iter().position(|&c| c == v)?;
-            Some((corners, i))
-        };
-        // Counter-clockwise from `start`: across the edge from `v` to its triangle's last corner.
-        let mut triangles = vec![start];
-        let mut closed = false;
-        loop {
-            let (_, i) = corner(*triangles.last()?)?;
-            let next = mesh.neighbours[*triangles.last()? as usize][(i + 1) % 3];
-            if next == start {
-                closed = true;
-                break;
-            }
-            if next == NONE || triangles.len() > mesh.triangles.len() {
-                break;
-            }
-            triangles.push(next);
-        }
-        if !closed {
-            // Clockwise from `start`, to the boundary.
-            let mut before = Vec::new();
-            let mut t = start;
-            loop {
-                let (_, i) = corner(t)?;
-                t = mesh.neighbours[t as usize][(i + 2) % 3];
-                if t == NONE || before.len() > mesh.triangles.len() {
-                    break;
-                }
-                before.push(t);
-            }
-            before.reverse();
-            before.extend(triangles);
-            triangles = before;
-        }
-        let mut neighbours = Vec::with_capacity(triangles.len() + 1);
-        for &t in &triangles {
-            let (corners, i) = corner(t)?;
-            neighbours.push(corners[(i + 1) % 3]);
-        }
-        if !closed {
-            let (corners, i) = corner(*triangles.last()?)?;
-            neighbours.push(corners[(i + 2) % 3]);
-        }
+        let star = Star::around(mesh, v, start)?;
         let mut ring = Ring {
-            centre: v,
-            neighbours,
-            triangles,
-            closed,
+            star,
             quality: Quality::WORST,
         };
         ring.quality = ring
@@ -353,13 +301,8 @@ impl Ring {
     /// The quality of the ring's triangles with its centre at `at`, or `None` when one of
     /// them is not counter-clockwise.
     fn quality_at(&self, vertices: &[DVec2], at: DVec2) -> Option<Quality> {
-        let pairs = self.neighbours.windows(2).map(|w| (w[0], w[1]));
-        let wrap = self.closed.then(|| {
-            let n = &self.neighbours;
-            (n[n.len() - 1], n[0])
-        });
         let mut quality = Quality::BEST;
-        for (w, u) in pairs.chain(wrap) {
+        for (w, u) in self.star.edges() {
             let [b, c] = [w, u].map(|x| vertices[x as usize]);
             if orientation(at, b, c) != Orientation::Left {
                 return None;
@@ -372,8 +315,8 @@ impl Ring {
     /// Whether the ring's centre goes before every neighbour that also wants to move: its
     /// order this round (`want`, see [`Ring::order`]) is higher.
     fn goes_first(&self, want: &[u64]) -> bool {
-        let own = want[self.centre as usize];
-        self.neighbours.iter().all(|&w| want[w as usize] < own)
+        let own = want[self.star.centre as usize];
+        self.star.neighbours.iter().all(|&w| want[w as usize] < own)
     }
 
     /// The ring's place in the order of `round` (higher goes first; never 0, as no triangle's
@@ -382,7 +325,7 @@ impl Ring {
     fn order(&self, round: usize) -> u64 {
         let degrees = self.quality.narrowest.clamp(-1.0, 1.0).acos().to_degrees();
         let poorness = 90 - (degrees.min(90.0) as u64);
-        poorness << 56 | lot(self.centre, round) >> 8
+        poorness << 56 | lot(self.star.centre, round) >> 8
     }
 }
 
@@ -405,11 +348,12 @@ fn best_place(
     motion: Motion,
     segment_ends: &[[DVec2; 2]],
 ) -> Option<DVec2> {
-    let at = vertices[ring.centre as usize];
-    if motion == Motion::Fixed || (motion == Motion::Free && !ring.closed) {
+    let at = vertices[ring.star.centre as usize];
+    if motion == Motion::Fixed || (motion == Motion::Free && !ring.star.closed) {
         return None;
     }
     let reach = ring
+        .star
         .neighbours
         .iter()
         .map(|&w| vertices[w as usize].distance(at))
@@ -455,38 +399,9 @@ fn best_place(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::domain::{BoundaryEdge, SubSegment};
+    use crate::domain::SubSegment;
     use crate::mesh::angles_deg;
-    use crate::mesh::fixtures::{bounding_box, neighbours_of};
-
-    fn mesh_of(vertices: Vec<DVec2>, inputs: &[u32], triangles: Vec<[u32; 3]>) -> Mesh {
-        let mut vertex_input = vec![NONE; vertices.len()];
-        for (i, &v) in inputs.iter().enumerate() {
-            vertex_input[v as usize] = i as u32;
-        }
-        let neighbours = neighbours_of(&triangles);
-        let mut boundary = Vec::new();
-        for (t, corners) in triangles.iter().enumerate() {
-            for i in 0..3 {
-                if neighbours[t][i] == NONE {
-                    let vertices = [corners[(i + 1) % 3], corners[(i + 2) % 3]];
-                    boundary.push(BoundaryEdge {
-                        vertices,
-                        marker: 1,
-                    });
-                }
-            }
-        }
-        Mesh {
-            domain: bounding_box(&vertices),
-            vertices,
-            vertex_input,
-            triangles,
-            neighbours,
-            boundary,
-            ..Mesh::default()
-        }
-    }
+    use crate::mesh::fixtures::mesh_of;
 
     fn smallest_angle(mesh: &Mesh) -> f64 {
         mesh.triangles
@@ -579,8 +494,8 @@ mod tests {
         for round in 1..20 {
             let mut want = vec![0; 6];
             for ring in &rings {
-                assert!(ring.closed);
-                want[ring.centre as usize] = ring.order(round);
+                assert!(ring.star.closed);
+                want[ring.star.centre as usize] = ring.order(round);
             }
             let first = rings.each_ref().map(|ring| ring.goes_first(&want));
             assert_eq!(first, [poorer == 0, poorer == 1], "round {round}");

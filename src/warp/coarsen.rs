@@ -1,0 +1,655 @@
+//! A mesh coarsened by collapsing edges while every new triangle keeps the angle bounds.
+//!
+//! The warp puts a leaf's worth of triangles wherever the tree has a leaf, and 2:1 balance fills
+//! the space between the points with leaves two levels finer than their spacing asks; the
+//! templates' angles leave room to spare. A vertex that is no input point, on no segment and
+//! not at a bend of the boundary may go: each of its edges is a candidate, the shortest first,
+//! and the vertex collapses onto the other end of the first edge whose collapse leaves every
+//! new triangle counter-clockwise (the exact test) with every angle within the bounds. Its star
+//! is then a fan from that end, the same polygon: triangles keep their region, segments and the
+//! boundary's shape stay. A vertex on the boundary collapses only along it, onto a neighbour on
+//! the same straight line.
+//!
+//! Collapses go in rounds: every vertex that may go finds its edge and claims the triangles the
+//! collapse changes (its star, and the two beyond the triangles it removes); it goes when its
+//! lot is the highest on every triangle it claims, so that the collapses of one round change
+//! disjoint triangles and each finds its star as it planned. Lots are hashes of the vertex and the round: the result is
+//! the same on any thread count. The triangles that survive keep their order, and so do the
+//! vertices.
+
+use std::sync::atomic::{AtomicU32, Ordering};
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use crate::domain::BoundaryEdge;
+use crate::mesh::{Mesh, NONE, Star, corner_cosines};
+use crate::predicates::{Orientation, orientation};
+
+/// The angle bounds the default warp coarsens to, in degrees.
+pub const COARSE_ANGLE_BOUNDS: (f64, f64) = (20.0, 120.0);
+
+/// The most rounds of collapses.
+const MAX_ROUNDS: usize = 96;
+
+/// How far inside the bounds, in cosine, a new angle must be: more than f64's error in a
+/// cosine, so that the angles measured afterwards keep the bounds.
+const COSINE_MARGIN: f64 = 1e-12;
+
+/// What the coarsening did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Coarsened {
+    /// Vertices collapsed.
+    pub collapses: usize,
+    /// Rounds run.
+    pub rounds: usize,
+}
+
+/// Coarsens `mesh` (see the module's description): every triangle made has its angles within
+/// `bounds` (degrees, smallest and largest); the triangles that stay are not measured. Input
+/// points, the vertices of segment pieces and the boundary's bends stay, with the mesh's
+/// domain, outline, segments and regions.
+pub fn coarsen(mesh: &mut Mesh, bounds: (f64, f64)) -> Coarsened {
+    let limits = Limits::of(bounds);
+    let fixed = fixed_vertices(mesh);
+    let mut corner = corners_of(mesh);
+    let mut touched: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
+    let mut waiting: Vec<Plan> = Vec::new();
+    // Per triangle, the highest lot of the round's collapses that touch it (0: none).
+    let claims: Vec<AtomicU32> = (0..mesh.triangles.len())
+        .map(|_| AtomicU32::new(0))
+        .collect();
+    // Per vertex, the round in which a collapse last changed its star.
+    let mut changed = vec![0usize; mesh.vertices.len()];
+    let mut coarsened = Coarsened::default();
+    while coarsened.rounds < MAX_ROUNDS {
+        coarsened.rounds += 1;
+        let round = coarsened.rounds;
+        // The waiting plans stand while their stars stand; the changed stars plan afresh.
+        let fresh: Vec<Plan> = touched
+            .par_iter()
+            .filter(|&&v| !fixed[v as usize] && corner[v as usize] != NONE)
+            .map_init(Scratch::default, |scratch, &v| {
+                Plan::of(mesh, v, corner[v as usize], limits, scratch)
+            })
+            .flatten_iter()
+            .collect();
+        waiting.retain(|plan| changed[plan.centre as usize] + 1 != round);
+        let mut plans = merge_by_centre(waiting, fresh);
+        if plans.is_empty() {
+            break;
+        }
+        plans
+            .par_iter_mut()
+            .for_each(|plan| plan.lot = lot(plan.centre, round));
+        let goes = independent(&plans, &claims);
+        touched = Vec::new();
+        waiting = Vec::with_capacity(plans.len());
+        for (plan, go) in plans.into_iter().zip(goes) {
+            if !go {
+                waiting.push(plan);
+                continue;
+            }
+            plan.collapse(mesh, &mut corner);
+            coarsened.collapses += 1;
+            // Every vertex whose star changed: those of the triangles it changed.
+            for &t in &plan.claims {
+                touched.extend(mesh.triangles[t as usize]);
+            }
+        }
+        touched.retain(|&v| v != NONE);
+        for &v in &touched {
+            changed[v as usize] = round;
+        }
+        touched.par_sort_unstable();
+        touched.dedup();
+        if touched.is_empty() && waiting.is_empty() {
+            break;
+        }
+    }
+    compact(mesh, &corner);
+    coarsened
+}
+
+/// Marks a triangle a collapse of the round has taken.
+const TAKEN: u32 = u32::MAX;
+
+/// Which plans go this round: a maximal set of plans claiming disjoint triangles, found in
+/// steps. In each, every plan still open claims its triangles with its lot; those holding all
+/// of them go and take them; the plans that claim a taken triangle close. `claims` is all 0
+/// before and after.
+fn independent(plans: &[Plan], claims: &[AtomicU32]) -> Vec<bool> {
+    let mut goes = vec![false; plans.len()];
+    let mut open: Vec<usize> = (0..plans.len()).collect();
+    let claim = |i: usize, value: u32| {
+        for &t in &plans[i].claims {
+            claims[t as usize].store(value, Ordering::Relaxed);
+        }
+    };
+    while !open.is_empty() {
+        open.par_iter().for_each(|&i| {
+            for &t in &plans[i].claims {
+                claims[t as usize].fetch_max(plans[i].lot, Ordering::Relaxed);
+            }
+        });
+        let won: Vec<usize> = open
+            .par_iter()
+            .copied()
+            .filter(|&i| {
+                let plan = &plans[i];
+                (plan.claims.iter())
+                    .all(|&t| claims[t as usize].load(Ordering::Relaxed) == plan.lot)
+            })
+            .collect();
+        open.par_iter().for_each(|&i| claim(i, 0));
+        won.par_iter().for_each(|&i| claim(i, TAKEN));
+        for &i in &won {
+            goes[i] = true;
+        }
+        open.retain(|&i| !goes[i]);
+        open = open
+            .into_par_iter()
+            .filter(|&i| {
+                let free = |&t: &u32| claims[t as usize].load(Ordering::Relaxed) != TAKEN;
+                plans[i].claims.iter().all(free)
+            })
+            .collect();
+    }
+    (0..plans.len())
+        .into_par_iter()
+        .filter(|&i| goes[i])
+        .for_each(|i| claim(i, 0));
+    goes
+}
+
+/// The plans of `a` and `b` in one list by centre (each sorted by centre, none in both).
+fn merge_by_centre(a: Vec<Plan>, b: Vec<Plan>) -> Vec<Plan> {
+    let mut merged = Vec::with_capacity(a.len() + b.len());
+    let (mut a, mut b) = (a.into_iter().peekable(), b.into_iter().peekable());
+    loop {
+        let take_a = match (a.peek(), b.peek()) {
+            (Some(x), Some(y)) => x.centre < y.centre,
+            (Some(_), None) => true,
+            (None, Some(_)) => false,
+            (None, None) => return merged,
+        };
+        merged.extend(if take_a { a.next() } else { b.next() });
+    }
+}
+
+/// The cosines a new angle must lie between.
+#[derive(Clone, Copy, Debug)]
+struct Limits {
+    narrowest: f64,
+    widest: f64,
+}
+
+impl Limits {
+    fn of((smallest, largest): (f64, f64)) -> Limits {
+        Limits {
+            narrowest: smallest.to_radians().cos() - COSINE_MARGIN,
+            widest: largest.to_radians().cos() + COSINE_MARGIN,
+        }
+    }
+
+    /// Whether the triangle `a, b, c` is counter-clockwise with every angle within the limits.
+    fn admit(self, a: DVec2, b: DVec2, c: DVec2) -> bool {
+        // The cosines first: they refuse most candidates, and a NaN refuses.
+        corner_cosines(a, b, c)
+            .iter()
+            .all(|&cos| cos <= self.narrowest && cos >= self.widest)
+            && orientation(a, b, c) == Orientation::Left
+    }
+}
+
+/// Per vertex, whether it must stay: an input point, an end of a segment's piece, or a vertex
+/// where the boundary meets itself (its triangles are two fans, and a star walks one).
+fn fixed_vertices(mesh: &Mesh) -> Vec<bool> {
+    let mut fixed: Vec<bool> = mesh.vertex_input.par_iter().map(|&i| i != NONE).collect();
+    for piece in &mesh.segments {
+        for v in piece.vertices {
+            fixed[v as usize] = true;
+        }
+    }
+    let mut boundary_edges = vec![0u8; mesh.vertices.len()];
+    for edge in &mesh.boundary {
+        for v in edge.vertices {
+            let count = &mut boundary_edges[v as usize];
+            *count = count.saturating_add(1);
+            if *count > 2 {
+                fixed[v as usize] = true;
+            }
+        }
+    }
+    fixed
+}
+
+/// Per vertex, a triangle it is a corner of, or [`NONE`].
+fn corners_of(mesh: &Mesh) -> Vec<u32> {
+    let mut corner = vec![NONE; mesh.vertices.len()];
+    for (t, corners) in mesh.triangles.iter().enumerate() {
+        for &v in corners {
+            corner[v as usize] = t as u32;
+        }
+    }
+    corner
+}
+
+/// Vertex `v`'s lot in round `round` (never 0, which marks "unclaimed").
+fn lot(v: u32, round: usize) -> u32 {
+    // SplitMix64's finaliser.
+    let mut z = (u64::from(v) | (round as u64) << 32).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    // Below TAKEN, and never 0.
+    ((z ^ (z >> 31)) >> 33) as u32 | 1
+}
+
+/// A collapse a vertex wants: the vertex, the neighbour it goes onto, the triangles it
+/// changes (its star's, then those beyond the ones it removes), how many of them are its star's,
+/// and its lot in the round.
+#[derive(Clone, Debug)]
+struct Plan {
+    centre: u32,
+    target: u32,
+    claims: Vec<u32>,
+    star: u32,
+    lot: u32,
+}
+
+/// Buffers a thread reuses while planning.
+#[derive(Default)]
+struct Scratch {
+    star: Star,
+    candidates: Vec<(f64, u32)>,
+}
+
+impl Plan {
+    /// The collapse of `v` (a corner of triangle `start`), if one keeps `limits`: onto its
+    /// nearest neighbour that does (ties to the lower index), along the boundary if `v` is on
+    /// it.
+    fn of(mesh: &Mesh, v: u32, start: u32, limits: Limits, scratch: &mut Scratch) -> Option<Plan> {
+        let Scratch { star, candidates } = scratch;
+        star.refill(mesh, v, start)?;
+        let at = mesh.vertices[v as usize];
+        let distance = |w: u32| (mesh.vertices[w as usize].distance_squared(at), w);
+        candidates.clear();
+        if star.closed {
+            candidates.extend(star.neighbours.iter().map(|&w| distance(w)));
+        } else {
+            let (first, last) = (star.neighbours[0], *star.neighbours.last()?);
+            let [a, b] = [first, last].map(|w| mesh.vertices[w as usize]);
+            if star.triangles.len() < 2 || orientation(a, at, b) != Orientation::On {
+                return None;
+            }
+            candidates.extend([distance(first), distance(last)]);
+        }
+        candidates.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let target = candidates
+            .iter()
+            .map(|&(_, w)| w)
+            .find(|&u| star.collapses_onto(&mesh.vertices, u, limits))?;
+        let mut claims = star.triangles.clone();
+        for &t in &star.triangles {
+            let corners = mesh.triangles[t as usize];
+            if corners.contains(&target) {
+                let i = corners.iter().position(|&c| c == v)?;
+                let outer = mesh.neighbours[t as usize][i];
+                if outer != NONE {
+                    claims.push(outer);
+                }
+            }
+        }
+        Some(Plan {
+            centre: v,
+            target,
+            claims,
+            star: star.triangles.len() as u32,
+            lot: 0,
+        })
+    }
+
+    /// The triangles of the vertex's star.
+    fn star(&self) -> &[u32] {
+        &self.claims[..self.star as usize]
+    }
+
+    /// Collapses the vertex onto its target: the triangles with both go, the others take the
+    /// target for the vertex, and the links and `corner` follow.
+    fn collapse(&self, mesh: &mut Mesh, corner: &mut [u32]) {
+        let (v, u) = (self.centre, self.target);
+        let dying: Vec<u32> = self
+            .star()
+            .iter()
+            .copied()
+            .filter(|&t| mesh.triangles[t as usize].contains(&u))
+            .collect();
+        for &d in &dying {
+            let corners = mesh.triangles[d as usize];
+            let i = corners
+                .iter()
+                .position(|&c| c == v)
+                .expect("a star's triangle");
+            let outer = mesh.neighbours[d as usize][i];
+            // The triangle sharing the dying one's other edge at `v`, which takes its place
+            // beside `outer`.
+            let (kept, beside) = match corners[(i + 1) % 3] == u {
+                true => (
+                    corners[(i + 2) % 3],
+                    mesh.neighbours[d as usize][(i + 1) % 3],
+                ),
+                false => (
+                    corners[(i + 1) % 3],
+                    mesh.neighbours[d as usize][(i + 2) % 3],
+                ),
+            };
+            relink(mesh, beside, d, outer);
+            relink(mesh, outer, d, beside);
+            if beside != NONE {
+                corner[kept as usize] = beside;
+                corner[u as usize] = beside;
+            }
+        }
+        for &t in self.star() {
+            if dying.contains(&t) {
+                mesh.triangles[t as usize] = [NONE; 3];
+                mesh.neighbours[t as usize] = [NONE; 3];
+            } else {
+                for c in &mut mesh.triangles[t as usize] {
+                    if *c == v {
+                        *c = u;
+                    }
+                }
+            }
+        }
+        corner[v as usize] = NONE;
+    }
+}
+
+/// Points triangle `t`'s link to `from` at `to` instead (nothing for `t` [`NONE`]).
+fn relink(mesh: &mut Mesh, t: u32, from: u32, to: u32) {
+    if t == NONE {
+        return;
+    }
+    for link in &mut mesh.neighbours[t as usize] {
+        if *link == from {
+            *link = to;
+        }
+    }
+}
+
+impl Star {
+    /// Whether moving the centre onto neighbour `u` leaves every triangle not at `u`
+    /// admitted by `limits`.
+    fn collapses_onto(&self, vertices: &[DVec2], u: u32, limits: Limits) -> bool {
+        let at = vertices[u as usize];
+        self.edges()
+            .filter(|&(a, b)| a != u && b != u)
+            .all(|(a, b)| limits.admit(at, vertices[a as usize], vertices[b as usize]))
+    }
+}
+
+/// Drops the collapsed vertices (`corner` [`NONE`]) and dead triangles, keeping the order of
+/// the rest, and joins the boundary edges at the collapsed vertices.
+fn compact(mesh: &mut Mesh, corner: &[u32]) {
+    let vertex_map = survivors_map(corner.iter().map(|&c| c != NONE));
+    let triangle_map = survivors_map(mesh.triangles.iter().map(|t| t[0] != NONE));
+    let renumber = |map: &[u32], x: u32| if x == NONE { NONE } else { map[x as usize] };
+    mesh.boundary = joined_boundary(&mesh.boundary, corner);
+    for edge in &mut mesh.boundary {
+        edge.vertices = edge.vertices.map(|v| renumber(&vertex_map, v));
+    }
+    for piece in &mut mesh.segments {
+        piece.vertices = piece.vertices.map(|v| renumber(&vertex_map, v));
+    }
+    let alive = |t: usize| triangle_map[t] != NONE;
+    if !mesh.triangle_regions.is_empty() {
+        mesh.triangle_regions = keep(&mesh.triangle_regions, alive);
+    }
+    mesh.triangles = keep(&mesh.triangles, alive);
+    mesh.neighbours = keep(&mesh.neighbours, alive);
+    mesh.triangles
+        .par_iter_mut()
+        .for_each(|t| *t = t.map(|v| renumber(&vertex_map, v)));
+    mesh.neighbours
+        .par_iter_mut()
+        .for_each(|n| *n = n.map(|t| renumber(&triangle_map, t)));
+    let kept = |v: usize| vertex_map[v] != NONE;
+    mesh.vertices = keep(&mesh.vertices, kept);
+    mesh.vertex_input = keep(&mesh.vertex_input, kept);
+}
+
+/// The new index of each element whose flag is set, [`NONE`] for the others.
+fn survivors_map(alive: impl Iterator<Item = bool>) -> Vec<u32> {
+    let mut next = 0u32;
+    alive
+        .map(|a| match a {
+            true => {
+                next += 1;
+                next - 1
+            }
+            false => NONE,
+        })
+        .collect()
+}
+
+/// The elements of `items` whose index `keep` admits, in order.
+fn keep<T: Copy + Send + Sync>(items: &[T], wanted: impl Fn(usize) -> bool + Sync) -> Vec<T> {
+    items
+        .par_iter()
+        .enumerate()
+        .filter(|&(i, _)| wanted(i))
+        .map(|(_, &x)| x)
+        .collect()
+}
+
+/// The boundary edges with those at collapsed vertices joined: an edge from a vertex that
+/// stays runs on through the vertices that went, in the order of the edges that start at a
+/// vertex that stays.
+fn joined_boundary(boundary: &[BoundaryEdge], corner: &[u32]) -> Vec<BoundaryEdge> {
+    let mut next = vec![NONE; corner.len()];
+    for edge in boundary {
+        next[edge.vertices[0] as usize] = edge.vertices[1];
+    }
+    boundary
+        .iter()
+        .filter(|edge| corner[edge.vertices[0] as usize] != NONE)
+        .map(|edge| {
+            let mut end = edge.vertices[1];
+            while corner[end as usize] == NONE {
+                end = next[end as usize];
+            }
+            BoundaryEdge {
+                vertices: [edge.vertices[0], end],
+                marker: edge.marker,
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::domain::SubSegment;
+    use crate::mesh::angles_deg;
+    use crate::mesh::fixtures::mesh_of;
+
+    /// The `n`×`n` grid of unit squares, each cut by a diagonal, its four corners input points
+    /// and the vertex at `(1, 1)` a fifth.
+    fn grid(n: u32) -> Mesh {
+        let index = |i: u32, j: u32| j * (n + 1) + i;
+        let vertices = (0..=n)
+            .flat_map(|j| (0..=n).map(move |i| DVec2::new(i as f64, j as f64)))
+            .collect();
+        let mut triangles = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let [a, b, c, d] = [
+                    index(i, j),
+                    index(i + 1, j),
+                    index(i + 1, j + 1),
+                    index(i, j + 1),
+                ];
+                triangles.extend([[a, b, c], [a, c, d]]);
+            }
+        }
+        let inputs = [
+            index(0, 0),
+            index(n, 0),
+            index(n, n),
+            index(0, n),
+            index(1, 1),
+        ];
+        mesh_of(vertices, &inputs, triangles)
+    }
+
+    /// Checks what a coarsening keeps: counter-clockwise triangles within `bounds`, linked to
+    /// one another both ways, covering the area they covered, each input point a vertex at
+    /// its place, every vertex in a triangle, and boundary edges that are triangles' free
+    /// edges.
+    fn check(before: &Mesh, after: &Mesh, bounds: (f64, f64)) {
+        let area = |m: &Mesh| -> f64 {
+            m.triangles
+                .iter()
+                .map(|t| {
+                    let [a, b, c] = t.map(|v| m.vertices[v as usize]);
+                    (b - a).perp_dot(c - a) / 2.0
+                })
+                .sum()
+        };
+        assert_eq!(area(before), area(after));
+        let mut used = vec![false; after.vertices.len()];
+        for (t, corners) in after.triangles.iter().enumerate() {
+            let [a, b, c] = corners.map(|v| after.vertices[v as usize]);
+            assert_eq!(orientation(a, b, c), Orientation::Left);
+            for angle in angles_deg(a, b, c) {
+                assert!(
+                    angle >= bounds.0 - 1e-9 && angle <= bounds.1 + 1e-9,
+                    "{angle}"
+                );
+            }
+            for (i, &across) in after.neighbours[t].iter().enumerate() {
+                let [p, q] = crate::mesh::opposite_edge(*corners, i);
+                match across {
+                    NONE => assert!(after.boundary.iter().any(|e| e.vertices == [p, q])),
+                    _ => {
+                        let other = after.triangles[across as usize];
+                        assert!((0..3).any(|k| crate::mesh::opposite_edge(other, k) == [q, p]));
+                    }
+                }
+            }
+            for v in corners {
+                used[*v as usize] = true;
+            }
+        }
+        assert!(used.iter().all(|&u| u));
+        let inputs = |m: &Mesh| -> Vec<(u32, DVec2)> {
+            let mut kept: Vec<(u32, DVec2)> = (m.vertex_input.iter().zip(&m.vertices))
+                .filter(|(i, _)| **i != NONE)
+                .map(|(&i, &p)| (i, p))
+                .collect();
+            kept.sort_by_key(|&(i, _)| i);
+            kept
+        };
+        assert_eq!(inputs(before), inputs(after));
+        let free_edges: usize = after
+            .neighbours
+            .iter()
+            .flatten()
+            .filter(|&&t| t == NONE)
+            .count();
+        assert_eq!(free_edges, after.boundary.len());
+    }
+
+    #[test]
+    fn a_fine_grid_coarsens_within_the_bounds_with_its_sides_straight() {
+        let before = grid(8);
+        let mut after = before.clone();
+        let coarsened = coarsen(&mut after, COARSE_ANGLE_BOUNDS);
+        assert!(coarsened.collapses > 40, "{coarsened:?}");
+        assert_eq!(
+            after.vertices.len(),
+            before.vertices.len() - coarsened.collapses
+        );
+        assert!(after.triangles.len() < before.triangles.len() / 3);
+        check(&before, &after, COARSE_ANGLE_BOUNDS);
+        for edge in &after.boundary {
+            let [a, b] = edge.vertices.map(|v| after.vertices[v as usize]);
+            let on_a_side = |p: DVec2, q: DVec2| {
+                (p.x == q.x && (p.x == 0.0 || p.x == 8.0))
+                    || (p.y == q.y && (p.y == 0.0 || p.y == 8.0))
+            };
+            assert!(on_a_side(a, b), "{a} – {b}");
+        }
+    }
+
+    #[test]
+    fn nothing_collapses_where_every_collapse_breaks_the_bounds() {
+        // Every triangle of the grid has a right angle; with a largest angle of 80° allowed,
+        // any collapse would make triangles as wide as the ones there.
+        let mut mesh = grid(3);
+        let before = mesh.clone();
+        assert_eq!(coarsen(&mut mesh, (20.0, 80.0)).collapses, 0);
+        assert_eq!(mesh, before);
+    }
+
+    #[test]
+    fn input_points_and_the_ends_of_segment_pieces_stay() {
+        let mut before = grid(6);
+        let on_segment = [15, 16, 17];
+        before.segments = [[15, 16], [16, 17]]
+            .map(|vertices| SubSegment {
+                vertices,
+                segment: 0,
+                marker: 3,
+            })
+            .to_vec();
+        let mut after = before.clone();
+        coarsen(&mut after, COARSE_ANGLE_BOUNDS);
+        check(&before, &after, COARSE_ANGLE_BOUNDS);
+        let kept: Vec<DVec2> = after
+            .segments
+            .iter()
+            .flat_map(|s| s.vertices.map(|v| after.vertices[v as usize]))
+            .collect();
+        let expected: Vec<DVec2> = [[15, 16], [16, 17]]
+            .into_iter()
+            .flatten()
+            .map(|v| before.vertices[v])
+            .collect();
+        assert_eq!(kept, expected);
+        for v in on_segment {
+            assert!(after.vertices.contains(&before.vertices[v]));
+        }
+    }
+
+    #[test]
+    fn the_collapses_of_a_round_claim_disjoint_triangles_and_leave_none_out() {
+        let plan = |centre: u32, claims: &[u32]| Plan {
+            centre,
+            target: 0,
+            claims: claims.to_vec(),
+            star: claims.len() as u32,
+            lot: lot(centre, 3),
+        };
+        let plans: Vec<Plan> = (0..200)
+            .map(|k| plan(k, &[k % 37, (k * 7) % 41 + 40, (k * 13) % 29 + 90]))
+            .collect();
+        let claims: Vec<AtomicU32> = (0..200).map(|_| AtomicU32::new(0)).collect();
+        let goes = independent(&plans, &claims);
+        assert!(claims.iter().all(|c| c.load(Ordering::Relaxed) == 0));
+        let mut owner = vec![None; 200];
+        for (i, plan) in plans.iter().enumerate().filter(|&(i, _)| goes[i]) {
+            for &t in &plan.claims {
+                assert_eq!(owner[t as usize], None, "two collapses claim {t}");
+                owner[t as usize] = Some(i);
+            }
+        }
+        for (i, plan) in plans.iter().enumerate().filter(|&(i, _)| !goes[i]) {
+            assert!(
+                plan.claims.iter().any(|&t| owner[t as usize].is_some()),
+                "plan {i} waits though nothing it claims is taken"
+            );
+        }
+    }
+}
