@@ -291,10 +291,10 @@ impl Options {
         self.sort
     }
 
-    /// [`Self::angle_bounds`] for meshes of `input`: none in the warp mode when it is a graph
+    /// [`Self::angle_bounds`] for meshes of `input`: none in the warp modes when it is a graph
     /// (whose warp proves no bound yet; the report gives the angles reached).
     pub fn angle_bounds_of(&self, input: &Input) -> AngleBounds {
-        if self.mode == Mode::Warp && input.is_graph() {
+        if matches!(self.mode, Mode::Warp | Mode::CompactWarp) && input.is_graph() {
             AngleBounds {
                 min_deg: 0.0,
                 max_deg: 180.0,

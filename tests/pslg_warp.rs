@@ -39,7 +39,11 @@ fn square(lo: DVec2, side: f64) -> [DVec2; 4] {
 /// The warped mesh of `input` on one and two threads, the same bytes, checked as a mesh of the
 /// graph; its report's angles are the mesh's.
 fn warped(input: &Input) -> (Mesh, MeshReport) {
-    let options = Options::default().warp();
+    warped_with(input, Options::default().warp())
+}
+
+/// [`warped`] with `options`.
+fn warped_with(input: &Input, options: Options) -> (Mesh, MeshReport) {
     let one = common::on_threads(1, || quadmesh::mesh(input, &options)).expect("a mesh");
     let two = common::on_threads(2, || quadmesh::mesh(input, &options)).expect("a mesh");
     assert_eq!(one.0, two.0, "1 and 2 threads give different meshes");
@@ -372,7 +376,12 @@ fn moving_the_steiner_vertices_widens_the_narrowest_angles_and_moves_nothing_els
     inputs.push(("rings".into(), quadmesh::generate::nested_curves(2000, 1)));
     for (name, input) in &inputs {
         let before = unsmoothed(input);
-        let (after, _) = warped(input);
+        let (after, _) = warped_with(input, Options::default().compact_warp());
+        // Coarsened, the mesh keeps what the moves reached or 20°, and loses most triangles.
+        let (coarse, _) = warped(input);
+        assert!(coarse.triangles.len() * 2 < after.triangles.len(), "{name}");
+        let floor = smallest_angle(&after).min(20.0);
+        assert!(smallest_angle(&coarse) >= floor - 1e-9, "{name}");
         assert_eq!(after.triangles, before.triangles, "{name}");
         assert_eq!(after.neighbours, before.neighbours, "{name}");
         let mut on_segments = vec![0; before.vertices.len()];

@@ -235,14 +235,9 @@ fn corners_of(mesh: &Mesh) -> Vec<u32> {
     corner
 }
 
-/// Vertex `v`'s lot in round `round` (never 0, which marks "unclaimed").
+/// Vertex `v`'s lot in round `round`, below [`TAKEN`] and never 0.
 fn lot(v: u32, round: usize) -> u32 {
-    // SplitMix64's finaliser.
-    let mut z = (u64::from(v) | (round as u64) << 32).wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    // Below TAKEN, and never 0.
-    ((z ^ (z >> 31)) >> 33) as u32 | 1
+    (super::lot(v, round) >> 33) as u32 | 1
 }
 
 /// A collapse a vertex wants: the vertex, the neighbour it goes onto, the triangles it

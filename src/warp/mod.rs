@@ -48,6 +48,17 @@ use templates::{
 };
 use vertices::{LeafGeometry, Numbering};
 
+/// Vertex `v`'s lot in round `round` of a pass that moves or removes vertices in rounds: a
+/// hash, so that no chain of neighbours waits on one another for long, and the same on any
+/// thread count.
+pub(crate) fn lot(v: u32, round: usize) -> u64 {
+    // SplitMix64's finaliser.
+    let mut z = (u64::from(v) | (round as u64) << 32).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
 /// The angles every block-warped mesh keeps, in degrees: the max-min rule's proven range.
 pub const ANGLE_BOUNDS: (f64, f64) = (22.5, 112.5);
 

@@ -21,6 +21,7 @@ use rayon::prelude::*;
 
 use crate::mesh::{Mesh, NONE, Star, corner_cosines};
 use crate::predicates::{Orientation, orientation};
+use crate::warp::lot;
 
 /// A triangle with an angle below this many degrees has its Steiner corners moved.
 pub const SMOOTH_BELOW_DEG: f64 = 26.0;
@@ -327,16 +328,6 @@ impl Ring {
         let poorness = 90 - (degrees.min(90.0) as u64);
         poorness << 56 | lot(self.star.centre, round) >> 8
     }
-}
-
-/// Vertex `v`'s lot in round `round`: a hash, so that no chain of neighbours waits on one
-/// another for long, and the same on any thread count.
-fn lot(v: u32, round: usize) -> u64 {
-    // SplitMix64's finaliser.
-    let mut z = (u64::from(v) | (round as u64) << 32).wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
 }
 
 /// The place for the ring's centre that makes its triangles best, if better than they are: a
