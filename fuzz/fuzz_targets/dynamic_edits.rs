@@ -22,7 +22,7 @@ use triangle_changes::{changed, triangle_set};
 /// The options of a build from scratch in the dynamic mesh's warp.
 fn options_of(dynamic: &DynamicMesh) -> Options {
     let mode = match dynamic.separation() {
-        Separation::Corner => Mode::Warp,
+        Separation::Corner => Mode::CompactWarp,
         Separation::Block => Mode::BlockWarp,
     };
     Options::default()

@@ -88,7 +88,11 @@ fuzz_target!(|data: &[u8]| {
             .max_vertices(20_000)
     } else if choice & 0x80 == 0 {
         if choice & 0x20 == 0 {
-            Options::default().warp()
+            // The warp coarsened, or the compact warp alone.
+            match choice & 0x02 == 0 {
+                true => Options::default().warp(),
+                false => Options::default().compact_warp(),
+            }
         } else {
             Options::default().block_warp()
         }
@@ -101,7 +105,7 @@ fuzz_target!(|data: &[u8]| {
             // longer than a thousand times their width take a row of cells along the long side,
             // and the block trees a band of up to 2^20 equal cells along a side that a point
             // comes near (seconds of meshing, bounded): those stay with the unit tests.
-            let warp = options.mode() == Mode::Warp;
+            let warp = matches!(options.mode(), Mode::Warp | Mode::CompactWarp);
             if warp && box_aspect(&points).is_some_and(|a| a <= 1e3) {
                 options = options.region(Region::BoundingBox);
             }
