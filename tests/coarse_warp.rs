@@ -131,6 +131,14 @@ fn on_a_given_rectangle_the_sides_stay_straight_and_points_on_them_stay() {
     );
 }
 
+#[test]
+fn a_point_whose_coordinates_square_past_f64_coarsens_within_the_bounds() {
+    // Found by fuzzing: the cosine of a flat triangle 1e133 across, taken from products that
+    // overflowed, read as a right angle, and the collapse made it.
+    coarse(&[DVec2::new(-1.9836442359630618e-301, 6.212171904918606e132)]);
+    coarse(&[DVec2::new(1e150, -3e149), DVec2::new(-2e150, 1e-300)]);
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(100))]
 

@@ -140,9 +140,16 @@ pub(crate) fn angle_deg(u: DVec2, v: DVec2) -> f64 {
 }
 
 /// The cosine of the angle between `u` and `v`, from their dot and cross products (NaN when
-/// either is zero).
+/// either is zero or infinite). Where those products' squares overflow or fall below f64's
+/// normal range, the vectors are first scaled to a largest component of 1.
 #[inline]
 pub(crate) fn cosine(u: DVec2, v: DVec2) -> f64 {
+    let (dot, cross) = (u.dot(v), u.perp_dot(v));
+    let norm = dot * dot + cross * cross;
+    if norm.is_normal() {
+        return dot / norm.sqrt();
+    }
+    let (u, v) = (u / u.abs().max_element(), v / v.abs().max_element());
     let (dot, cross) = (u.dot(v), u.perp_dot(v));
     dot / (dot * dot + cross * cross).sqrt()
 }

@@ -873,11 +873,16 @@ impl AngleScan {
                 bc.length_squared(),
                 ca.length_squared(),
             );
-            let cosines = [
-                -ab.dot(ca) / (lab * lca).sqrt(),
-                -bc.dot(ab) / (lbc * lab).sqrt(),
-                -ca.dot(bc) / (lca * lbc).sqrt(),
-            ];
+            let products = [lab * lca, lbc * lab, lca * lbc];
+            let cosines = match products.iter().all(|p| p.is_normal()) {
+                true => [
+                    -ab.dot(ca) / products[0].sqrt(),
+                    -bc.dot(ab) / products[1].sqrt(),
+                    -ca.dot(bc) / products[2].sqrt(),
+                ],
+                // Products past f64's range: the vectors scaled first.
+                false => crate::mesh::corner_cosines(a, b, c),
+            };
             for cos in cosines {
                 let bin: usize = ends.iter().map(|&e| usize::from(e >= cos)).sum();
                 scan.histogram[bin] += 1;
