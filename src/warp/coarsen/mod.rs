@@ -10,12 +10,18 @@
 //! boundary's shape stay. A vertex on the boundary collapses only along it, onto a neighbour on
 //! the same straight line.
 //!
-//! Collapses go in rounds: every vertex that may go finds its edge and claims the triangles the
-//! collapse changes (its star, and the two beyond the triangles it removes); it goes when its
-//! lot is the highest on every triangle it claims, so that the collapses of one round change
-//! disjoint triangles and each finds its star as it planned. Lots are hashes of the vertex and the round: the result is
+//! Most collapses happen inside chunks of the vertices, one chunk a task, each collapsing
+//! greedily in a copy of the triangles it owns ([`chunks`]): first chunks of consecutive
+//! indices, then chunks in a Morton order shifted off the warp's, for the vertices the first
+//! left at their chunks' edges. The few left after both go in rounds: every vertex that may go
+//! finds its edge and claims the triangles the collapse changes (its star, and the two beyond
+//! the triangles it removes); it goes when its lot is the highest on every triangle it claims,
+//! so that the collapses of one round change disjoint triangles and each finds its star as it
+//! planned. The chunks are fixed and lots are hashes of the vertex and the round: the result is
 //! the same on any thread count. The triangles that survive keep their order, and so do the
 //! vertices.
+
+mod chunks;
 
 use std::sync::atomic::{AtomicU32, Ordering};
 
@@ -23,11 +29,16 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::domain::BoundaryEdge;
-use crate::mesh::{Mesh, NONE, Star, corner_cosines};
+use crate::mesh::{Mesh, NONE, Star, corner_cosines, corner_sides};
 use crate::predicates::{Orientation, orientation};
+use chunks::{Chunking, collapse_in_chunks};
 
 /// The angle bounds the default warp coarsens to, in degrees.
 pub const COARSE_ANGLE_BOUNDS: (f64, f64) = (20.0, 120.0);
+
+/// Vertices per chunk in the passes before the rounds: a fixed number, so that the result is
+/// the same on any thread count; large, since a chunk's edges are left to the rounds.
+const CHUNK_VERTICES: usize = 1 << 14;
 
 /// The most rounds of collapses.
 const MAX_ROUNDS: usize = 96;
@@ -50,10 +61,37 @@ pub struct Coarsened {
 /// points, the vertices of segment pieces and the boundary's bends stay, with the mesh's
 /// domain, outline, segments and regions.
 pub fn coarsen(mesh: &mut Mesh, bounds: (f64, f64)) -> Coarsened {
+    coarsen_in_chunks_of(mesh, bounds, CHUNK_VERTICES)
+}
+
+/// [`coarsen`] with chunks of `chunk_vertices` vertices in its first passes.
+fn coarsen_in_chunks_of(mesh: &mut Mesh, bounds: (f64, f64), chunk_vertices: usize) -> Coarsened {
     let limits = Limits::of(bounds);
     let fixed = fixed_vertices(mesh);
     let mut corner = corners_of(mesh);
-    let mut touched: Vec<u32> = (0..mesh.vertices.len() as u32).collect();
+    let mut pending = vec![true; mesh.vertices.len()];
+    let mut collapses = 0;
+    let mut left = Vec::new();
+    // One chunk leaves no vertex at an edge: the second pass is for many.
+    let passes = if mesh.vertices.len() > chunk_vertices {
+        2
+    } else {
+        1
+    };
+    for pass in 0..passes {
+        let chunking = match pass {
+            0 => Chunking::by_index(chunk_vertices),
+            _ => Chunking::shifted(chunk_vertices, &mesh.vertices),
+        };
+        let done = collapse_in_chunks(mesh, &chunking, &fixed, &mut corner, limits, &pending);
+        collapses += done.collapses;
+        pending.fill(false);
+        for &v in &done.left {
+            pending[v as usize] = true;
+        }
+        left = done.left;
+    }
+    let mut touched = left;
     let mut waiting: Vec<Plan> = Vec::new();
     // Per triangle, the highest lot of the round's collapses that touch it (0: none).
     let claims: Vec<AtomicU32> = (0..mesh.triangles.len())
@@ -61,7 +99,10 @@ pub fn coarsen(mesh: &mut Mesh, bounds: (f64, f64)) -> Coarsened {
         .collect();
     // Per vertex, the round in which a collapse last changed its star.
     let mut changed = vec![0usize; mesh.vertices.len()];
-    let mut coarsened = Coarsened::default();
+    let mut coarsened = Coarsened {
+        collapses,
+        rounds: 0,
+    };
     while coarsened.rounds < MAX_ROUNDS {
         coarsened.rounds += 1;
         let round = coarsened.rounds;
@@ -194,7 +235,41 @@ impl Limits {
 
     /// Whether the triangle `a, b, c` is counter-clockwise with every angle within the limits.
     fn admit(self, a: DVec2, b: DVec2, c: DVec2) -> bool {
-        // The cosines first: they refuse most candidates, and a NaN refuses.
+        // The angles first: they refuse most candidates.
+        for (u, v) in corner_sides(a, b, c) {
+            let (dot, cross) = (u.dot(v), u.perp_dot(v));
+            let norm = dot * dot + cross * cross;
+            if !norm.is_normal() {
+                // Out of f64's normal range (or NaN) the cosines decide, scaled.
+                return self.admit_by_cosines(a, b, c);
+            }
+            if !self.admit_cosine(dot, norm) {
+                return false;
+            }
+        }
+        orientation(a, b, c) == Orientation::Left
+    }
+
+    /// Whether the angle whose sides have dot product `dot` and `dot² + cross² = norm` has its
+    /// cosine, `dot / √norm`, within the limits: compared squared, with no root taken.
+    #[inline]
+    fn admit_cosine(self, dot: f64, norm: f64) -> bool {
+        let square = dot * dot;
+        let below = |limit: f64| match limit >= 0.0 {
+            true => dot <= 0.0 || square <= limit * limit * norm,
+            false => dot < 0.0 && square >= limit * limit * norm,
+        };
+        let above = |limit: f64| match limit <= 0.0 {
+            true => dot >= 0.0 || square <= limit * limit * norm,
+            false => dot > 0.0 && square >= limit * limit * norm,
+        };
+        below(self.narrowest) && above(self.widest)
+    }
+
+    /// [`Limits::admit`] by the cosines themselves, which scale sides whose products leave
+    /// f64's range.
+    fn admit_by_cosines(self, a: DVec2, b: DVec2, c: DVec2) -> bool {
+        // A NaN refuses.
         corner_cosines(a, b, c)
             .iter()
             .all(|&cos| cos <= self.narrowest && cos >= self.widest)
@@ -575,6 +650,39 @@ mod tests {
                     || (p.y == q.y && (p.y == 0.0 || p.y == 8.0))
             };
             assert!(on_a_side(a, b), "{a} – {b}");
+        }
+    }
+
+    /// Coarsens `mesh` with chunks of `chunk_vertices` on a pool of `threads` threads.
+    fn coarsened_on(mesh: &Mesh, chunk_vertices: usize, threads: usize) -> (Mesh, Coarsened) {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("a thread pool");
+        let mut after = mesh.clone();
+        let coarsened =
+            pool.install(|| coarsen_in_chunks_of(&mut after, COARSE_ANGLE_BOUNDS, chunk_vertices));
+        (after, coarsened)
+    }
+
+    #[test]
+    fn small_chunks_their_edges_and_the_rounds_coarsen_as_well_as_one_chunk() {
+        let before = grid(40);
+        let (whole, in_one) = coarsened_on(&before, usize::MAX, 1);
+        check(&before, &whole, COARSE_ANGLE_BOUNDS);
+        assert_eq!(in_one.rounds, 1, "one chunk leaves nothing to the rounds");
+        for chunk_vertices in [50, 200, 777] {
+            let (after, coarsened) = coarsened_on(&before, chunk_vertices, 1);
+            check(&before, &after, COARSE_ANGLE_BOUNDS);
+            assert!(coarsened.rounds > 1, "{chunk_vertices}: {coarsened:?}");
+            // The chunks' order of collapses is not one chunk's, and the rounds, which take the
+            // more collapses the smaller the chunks, collapse less than a greedy pass: the
+            // count stays within 10 %.
+            let (one, many) = (in_one.collapses as f64, coarsened.collapses as f64);
+            assert!(many > 0.9 * one, "{chunk_vertices}: {many} against {one}");
+            for threads in [2, 3] {
+                assert_eq!(coarsened_on(&before, chunk_vertices, threads).0, after);
+            }
         }
     }
 
