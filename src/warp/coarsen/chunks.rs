@@ -18,7 +18,7 @@ use std::ops::Range;
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::{Limits, Plan, Scratch};
+use super::{Limits, Plan, Scratch, corners_of};
 use crate::mesh::{Mesh, NONE};
 use crate::morton::interleave::box_key;
 
@@ -223,12 +223,7 @@ impl<'a> Chunk<'a> {
                 .collect(),
             ..Mesh::default()
         };
-        let mut corner = vec![NONE; ranks.len()];
-        for (t, corners) in copy.triangles.iter().enumerate() {
-            for &v in corners {
-                corner[v as usize] = t as u32;
-            }
-        }
+        let corner = corners_of(&copy);
         Chunk {
             first,
             members,
