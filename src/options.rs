@@ -99,9 +99,16 @@ pub enum Mode {
     /// The block warp: every angle in [22.5°, 112.5°], about 104 triangles per point (each
     /// point's leaf centred in a 5×5 block of empty leaves); the tree the dynamic mesh keeps.
     BlockWarp,
-    /// The quadtree mesh split into right triangles at the points: every angle at most 90°,
-    /// none bounded below, a few more triangles than the warp mode's.
+    /// The nonobtuse split ([`Mode::NonobtuseSplit`]) coarsened: every vertex that is no input
+    /// point collapsed where the triangles it leaves have no angle over 90° nor under 20°
+    /// ([`crate::warp::NONOBTUSE_COARSE_BOUNDS`]), about half the split's triangles. Every
+    /// angle at most 90°; the split's thin triangles at points near its grid lines stay, so
+    /// none is bounded below.
     Nonobtuse,
+    /// The block warp's quadtree split into right triangles at the points: every angle at
+    /// most 90°, none bounded below, about 114 triangles per point; the mesh the dynamic mesh
+    /// keeps for [`Mode::Nonobtuse`].
+    NonobtuseSplit,
 }
 
 impl Mode {
@@ -110,7 +117,11 @@ impl Mode {
     pub fn is_quadtree(self) -> bool {
         matches!(
             self,
-            Mode::Warp | Mode::CompactWarp | Mode::BlockWarp | Mode::Nonobtuse
+            Mode::Warp
+                | Mode::CompactWarp
+                | Mode::BlockWarp
+                | Mode::Nonobtuse
+                | Mode::NonobtuseSplit
         )
     }
 }
@@ -202,6 +213,11 @@ impl Options {
     /// The nonobtuse mode.
     pub fn nonobtuse(self) -> Self {
         self.with_mode(Mode::Nonobtuse)
+    }
+
+    /// The nonobtuse split mode (the nonobtuse mesh not coarsened).
+    pub fn nonobtuse_split(self) -> Self {
+        self.with_mode(Mode::NonobtuseSplit)
     }
 
     /// Every angle at least `degrees` (Delaunay mode), in [0, 45]; 0 asks for no angle bound.
@@ -308,7 +324,7 @@ impl Options {
     /// (the corners of a convex hull): at least the bound and at most 180° minus twice it in the
     /// Delaunay mode, [20°, 120°] in the warp mode, [26°, 120°] in the compact warp mode,
     /// [22.5°, 112.5°] in the block warp mode, at
-    /// most 90° in the nonobtuse mode.
+    /// most 90° in the nonobtuse modes.
     pub fn angle_bounds(&self) -> AngleBounds {
         match self.mode {
             Mode::Warp => AngleBounds {
@@ -323,7 +339,7 @@ impl Options {
                 min_deg: ANGLE_BOUNDS.0,
                 max_deg: ANGLE_BOUNDS.1,
             },
-            Mode::Nonobtuse => AngleBounds {
+            Mode::Nonobtuse | Mode::NonobtuseSplit => AngleBounds {
                 min_deg: 0.0,
                 max_deg: NONOBTUSE_MAX_DEG,
             },

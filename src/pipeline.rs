@@ -23,9 +23,9 @@ use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, ref
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{
-    COARSE_ANGLE_BOUNDS, EdgePieces, GraphLeaves, coarsen, edge_pieces, finest_resolved_level,
-    leaves_in_domain, point_finer_than_grid, smooth_steiner_vertices, split, triangulate_graph,
-    unresolvable, warp,
+    COARSE_ANGLE_BOUNDS, EdgePieces, GraphLeaves, NONOBTUSE_COARSE_BOUNDS, coarsen, edge_pieces,
+    finest_resolved_level, leaves_in_domain, point_finer_than_grid, smooth_steiner_vertices, split,
+    triangulate_graph, unresolvable, warp,
 };
 
 /// The trees of one input on one grid width.
@@ -170,8 +170,9 @@ pub struct MeshOptions {
     /// the block warp ([`crate::warp::ANGLE_BOUNDS`]). The nonobtuse split uses the block rule
     /// whatever this says.
     pub separation: Separation,
-    /// Coarsen the warp's mesh to every angle in [`crate::warp::COARSE_ANGLE_BOUNDS`] (see
-    /// [`crate::warp::coarsen`]); not for the nonobtuse split.
+    /// Coarsen the mesh (see [`crate::warp::coarsen`]): the warp's to every new angle in
+    /// [`crate::warp::COARSE_ANGLE_BOUNDS`], the nonobtuse split's to every new angle in
+    /// [`crate::warp::NONOBTUSE_COARSE_BOUNDS`].
     pub coarsen: bool,
 }
 
@@ -392,8 +393,12 @@ fn mesh_on(points: &[DVec2], options: &MeshOptions) -> Result<(Mesh, MeshReport)
         Tree::Narrow(build) => warp_build(build, points, separation, &mut times)?,
         Tree::Wide(build) => warp_build(build, points, separation, &mut times)?,
     };
-    if options.coarsen && !options.nonobtuse {
-        times.time("coarsen", || coarsen(&mut mesh, COARSE_ANGLE_BOUNDS));
+    if options.coarsen {
+        let bounds = match options.nonobtuse {
+            true => NONOBTUSE_COARSE_BOUNDS,
+            false => COARSE_ANGLE_BOUNDS,
+        };
+        times.time("coarsen", || coarsen(&mut mesh, bounds));
         quality = times.time("angles", || {
             crate::refine::angle_quality(&mesh.vertices, &mesh.triangles)
         });
@@ -480,16 +485,20 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
         Region::Auto | Region::ConvexHull | Region::Square => None,
     };
     match options.mode() {
-        Mode::Warp | Mode::CompactWarp | Mode::BlockWarp | Mode::Nonobtuse => {
+        Mode::Warp
+        | Mode::CompactWarp
+        | Mode::BlockWarp
+        | Mode::Nonobtuse
+        | Mode::NonobtuseSplit => {
             let warp = MeshOptions {
                 sort: options.sort_algorithm(),
                 domain: rectangle,
-                nonobtuse: options.mode() == Mode::Nonobtuse,
+                nonobtuse: matches!(options.mode(), Mode::Nonobtuse | Mode::NonobtuseSplit),
                 separation: match options.mode() {
                     Mode::Warp | Mode::CompactWarp => Separation::Corner,
                     _ => Separation::Block,
                 },
-                coarsen: options.mode() == Mode::Warp,
+                coarsen: matches!(options.mode(), Mode::Warp | Mode::Nonobtuse),
             };
             mesh_points(points, &warp)
         }
@@ -516,7 +525,7 @@ pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Erro
 fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
     match options.mode() {
         Mode::Warp | Mode::CompactWarp => return mesh_graph_warp(input, options),
-        Mode::BlockWarp | Mode::Nonobtuse => input.check_supported()?,
+        Mode::BlockWarp | Mode::Nonobtuse | Mode::NonobtuseSplit => input.check_supported()?,
         Mode::Delaunay => {}
     }
     let convex_hull = match options.region_choice() {

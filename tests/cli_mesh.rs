@@ -219,30 +219,23 @@ fn nonobtuse_meshes_read_back_valid_and_the_modes_exclude_each_other() {
     let dir = TempDir::new("nonobtuse");
     let (input, points) = generate(&dir, 400, "kuzmin");
     let prefix = dir.file("out");
-    let out = quadmesh(&[
-        "mesh",
-        s(&input),
-        "-o",
-        s(&prefix),
-        "--check",
-        "--nonobtuse",
-    ]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    assert!(stderr(&out).contains("check                   passed"));
-    let mesh = read_triangle_files(&prefix);
-    if let Err(fault) = mesh.validate_nonobtuse(&points) {
-        panic!("nonobtuse mesh read back from files is invalid: {fault}");
-    }
-    for other in ["--warp", "--min-angle=25", "--max-area=0.1"] {
-        let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--nonobtuse", other]);
-        assert!(
-            !out.status.success(),
-            "--nonobtuse with {other} was accepted"
-        );
-        assert!(
-            stderr(&out).contains("cannot be used with"),
-            "{}",
-            stderr(&out)
-        );
+    for flag in ["--nonobtuse", "--nonobtuse-split"] {
+        let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--check", flag]);
+        assert!(out.status.success(), "{flag}: {}", stderr(&out));
+        assert!(stderr(&out).contains("check                   passed"));
+        let mesh = read_triangle_files(&prefix);
+        if let Err(fault) = mesh.validate_nonobtuse(&points) {
+            panic!("{flag}: nonobtuse mesh read back from files is invalid: {fault}");
+        }
+        let others = ["--warp", "--min-angle=25", "--max-area=0.1", "--nonobtuse"];
+        for other in others.into_iter().filter(|&o| o != flag) {
+            let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), flag, other]);
+            assert!(!out.status.success(), "{flag} with {other} was accepted");
+            assert!(
+                stderr(&out).contains("cannot be used with"),
+                "{}",
+                stderr(&out)
+            );
+        }
     }
 }

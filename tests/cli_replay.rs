@@ -153,54 +153,60 @@ fn a_bad_edit_is_named_and_nothing_is_written() {
 fn a_nonobtuse_replay_equals_a_nonobtuse_mesh_of_the_live_points() {
     let dir = TempDir::new("replay-nonobtuse");
     let (points, edits, live) = written_inputs(&dir);
-    let (replayed, meshed) = (dir.file("replayed"), dir.file("meshed"));
-    let replay = [
-        "replay",
-        s(&points),
-        s(&edits),
-        "-o",
-        s(&replayed),
-        "--domain",
-        "0,0,1,1",
-        "--nonobtuse",
-        "--verify",
-        "--json",
-    ];
-    let out = quadmesh(&replay);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let json = String::from_utf8(out.stdout).unwrap();
-    assert!(json.contains("\"identical\":true"), "{json}");
-    let mesh = [
-        "mesh",
-        s(&live),
-        "-o",
-        s(&meshed),
-        "--nonobtuse",
-        "--domain",
-        "0,0,1,1",
-    ];
-    let out = quadmesh(&mesh);
-    assert!(out.status.success(), "{}", stderr(&out));
-    for extension in ["node", "ele", "neigh", "edge"] {
-        assert_eq!(
-            output(&replayed, extension),
-            output(&meshed, extension),
-            "the .{extension} files differ"
-        );
+    let mut counts = Vec::new();
+    for flag in ["--nonobtuse", "--nonobtuse-split"] {
+        let (replayed, meshed) = (dir.file("replayed"), dir.file("meshed"));
+        let replay = [
+            "replay",
+            s(&points),
+            s(&edits),
+            "-o",
+            s(&replayed),
+            "--domain",
+            "0,0,1,1",
+            flag,
+            "--verify",
+            "--json",
+        ];
+        let out = quadmesh(&replay);
+        assert!(out.status.success(), "{flag}: {}", stderr(&out));
+        let json = String::from_utf8(out.stdout).unwrap();
+        assert!(json.contains("\"identical\":true"), "{flag}: {json}");
+        let mesh = [
+            "mesh",
+            s(&live),
+            "-o",
+            s(&meshed),
+            flag,
+            "--domain",
+            "0,0,1,1",
+        ];
+        let out = quadmesh(&mesh);
+        assert!(out.status.success(), "{flag}: {}", stderr(&out));
+        for extension in ["node", "ele", "neigh", "edge"] {
+            assert_eq!(
+                output(&replayed, extension),
+                output(&meshed, extension),
+                "{flag}: the .{extension} files differ"
+            );
+        }
+        counts.push(triangle_count(&replayed));
+        // The warped files differ: the two modes are not the same mesh.
+        let warped = dir.file("warped");
+        let out = quadmesh(&[
+            "mesh",
+            s(&live),
+            "-o",
+            s(&warped),
+            "--warp",
+            "--domain",
+            "0,0,1,1",
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        assert_ne!(output(&replayed, "ele"), output(&warped, "ele"));
     }
-    // The warped files differ: the two modes are not the same mesh.
-    let warped = dir.file("warped");
-    let out = quadmesh(&[
-        "mesh",
-        s(&live),
-        "-o",
-        s(&warped),
-        "--warp",
-        "--domain",
-        "0,0,1,1",
-    ]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    assert_ne!(output(&replayed, "ele"), output(&warped, "ele"));
+    // The coarsened mesh is the smaller.
+    assert!(counts[0] < counts[1], "{counts:?}");
 }
 
 /// The number of triangles in `PREFIX.ele` (the first field of its first line that is not a

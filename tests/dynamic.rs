@@ -44,8 +44,9 @@ fn rebuilt(dynamic: &DynamicMesh) -> Mesh {
     rebuilt_in(dynamic, warp_mode(dynamic))
 }
 
-/// The dynamic mesh equals the rebuild, warped and (on the block tree) nonobtuse, and passes
-/// the crate's check with the bounds of its mode; a corner tree refuses the nonobtuse split.
+/// The dynamic mesh equals the rebuild, warped and coarsened (on the corner tree) or nonobtuse,
+/// split and coarsened (on the block tree), and passes the crate's check with the bounds of its
+/// mode; a corner tree refuses the nonobtuse split, a block tree the coarsened warp.
 fn check(dynamic: &DynamicMesh, what: &str) {
     let mesh = dynamic.mesh().expect("the dynamic mesh warps");
     let expected = rebuilt(dynamic);
@@ -64,6 +65,13 @@ fn check(dynamic: &DynamicMesh, what: &str) {
             matches!(dynamic.mesh_nonobtuse(), Err(Error::InvalidOption { .. })),
             "{what}: a corner tree split nonobtuse"
         );
+        assert!(
+            matches!(
+                dynamic.coarsened_nonobtuse_mesh(),
+                Err(Error::InvalidOption { .. })
+            ),
+            "{what}: a corner tree split nonobtuse and coarsened"
+        );
         let coarse = dynamic.coarsened_mesh().expect("the dynamic mesh coarsens");
         assert!(
             coarse == rebuilt_in(dynamic, Mode::Warp),
@@ -81,12 +89,20 @@ fn check(dynamic: &DynamicMesh, what: &str) {
     );
     let split = dynamic.mesh_nonobtuse().expect("the dynamic mesh splits");
     assert!(
-        split == rebuilt_in(dynamic, Mode::Nonobtuse),
-        "{what}: the dynamic nonobtuse mesh differs from a rebuild"
+        split == rebuilt_in(dynamic, Mode::NonobtuseSplit),
+        "{what}: the dynamic nonobtuse split differs from a rebuild"
     );
     split
         .validate_nonobtuse(&points)
         .unwrap_or_else(|e| panic!("{what}: {e}"));
+    let coarse = (dynamic.coarsened_nonobtuse_mesh()).expect("the dynamic mesh coarsens");
+    assert!(
+        coarse == rebuilt_in(dynamic, Mode::Nonobtuse),
+        "{what}: the dynamic coarsened nonobtuse mesh differs from a rebuild"
+    );
+    coarse
+        .validate_nonobtuse(&points)
+        .unwrap_or_else(|e| panic!("{what}: coarsened: {e}"));
 }
 
 /// A point of the unit square from one of the families: uniform, a tight cluster, a

@@ -1,22 +1,75 @@
 //! Nonobtuse meshes of point sets: every mesh passes `Mesh::validate_nonobtuse` (every angle at
 //! most 90° up to the rounding of its vertices), on every family, on grid-aligned, collinear and
 //! domain-touching inputs, for every place of a point in its leaf; 1 and 2 threads give the same
-//! mesh; the count stays within ten triangles per point of the warped mesh of the same tree.
+//! mesh; the split's count stays within ten triangles per point of the warped mesh of the same
+//! tree, and its coarsening keeps every input point, makes no angle under 20°, and takes
+//! triangles away.
 
 mod common;
 
 use common::{FAMILIES, assert_report_extremes, mixed_point_sets, on_threads};
 use proptest::prelude::*;
 use quadmesh::generate::{self, Distribution2d};
-use quadmesh::mesh::Domain;
+use quadmesh::mesh::{Domain, angles_deg};
+use quadmesh::warp::NONOBTUSE_COARSE_BOUNDS;
 use quadmesh::{DVec2, Input, Mesh, MeshOptions, MeshReport, Mode, Options, Region, mesh_points};
+use std::collections::HashSet;
 
+/// The nonobtuse split's options.
 fn nonobtuse(domain: Option<Domain>) -> MeshOptions {
     MeshOptions {
         domain,
         nonobtuse: true,
         ..MeshOptions::default()
     }
+}
+
+/// The coarsened nonobtuse mesh's options (the nonobtuse mode's).
+fn coarsened(domain: Option<Domain>) -> MeshOptions {
+    MeshOptions {
+        coarsen: true,
+        ..nonobtuse(domain)
+    }
+}
+
+/// Triangle `t` of `mesh` by its corners' coordinates, from the least corner on.
+fn corner_key(mesh: &Mesh, t: &[u32; 3]) -> [[u64; 2]; 3] {
+    let k = t.map(|v| {
+        let p = mesh.vertices[v as usize];
+        [p.x.to_bits(), p.y.to_bits()]
+    });
+    let first = (0..3).min_by_key(|&i| k[i]).unwrap();
+    [k[first], k[(first + 1) % 3], k[(first + 2) % 3]]
+}
+
+/// The coarsened nonobtuse mesh of `points`, checked against the split `split` of the same
+/// points: valid, no more triangles, and no angle under the coarsening's bound in a triangle
+/// the split lacks.
+fn coarsened_checked(points: &[DVec2], domain: Option<Domain>, split: &Mesh) -> Mesh {
+    let (mesh, report) = mesh_points(points, &coarsened(domain)).unwrap();
+    if let Err(fault) = mesh.validate_nonobtuse(points) {
+        panic!(
+            "invalid coarsened nonobtuse mesh of {} points: {fault}",
+            points.len()
+        );
+    }
+    assert_eq!(report.triangles, mesh.triangles.len());
+    assert_report_extremes(&mesh, &report);
+    assert!(mesh.triangles.len() <= split.triangles.len());
+    let kept: HashSet<_> = split
+        .triangles
+        .iter()
+        .map(|t| corner_key(split, t))
+        .collect();
+    for t in &mesh.triangles {
+        let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
+        let smallest = angles_deg(a, b, c).into_iter().fold(180.0, f64::min);
+        assert!(
+            kept.contains(&corner_key(&mesh, t)) || smallest >= NONOBTUSE_COARSE_BOUNDS.0 - 1e-9,
+            "a new triangle {a} {b} {c} with an angle of {smallest}°"
+        );
+    }
+    mesh
 }
 
 /// The nonobtuse mesh of `points`, checked, and its report.
@@ -41,9 +94,9 @@ fn warped_count(points: &[DVec2], domain: Option<Domain>) -> usize {
     mesh_points(points, &options).unwrap().0.triangles.len()
 }
 
-/// Checks the mesh and that it adds at most ten triangles per point to the warped mesh's
-/// count (six in the point's leaf, one in each of its four neighbours).
-fn check_against_warp(points: &[DVec2], domain: Option<Domain>) {
+/// Checks the split and that it adds at most ten triangles per point to the warped mesh's
+/// count (six in the point's leaf, one in each of its four neighbours), and its coarsening.
+fn check_against_warp(points: &[DVec2], domain: Option<Domain>) -> (Mesh, Mesh) {
     let (mesh, report) = mesh_checked(points, domain);
     let warped = warped_count(points, domain);
     let n = mesh.triangles.len();
@@ -52,6 +105,8 @@ fn check_against_warp(points: &[DVec2], domain: Option<Domain>) {
         "{n} triangles against {warped} warped for {} points",
         report.points
     );
+    let coarse = coarsened_checked(points, domain, &mesh);
+    (mesh, coarse)
 }
 
 #[test]
@@ -59,7 +114,12 @@ fn every_family_meshes_nonobtuse() {
     for dist in FAMILIES {
         for n in [1, 10, 300, 4000] {
             let points = generate::points(dist, n, 11);
-            check_against_warp(&points, None);
+            let (split, coarse) = check_against_warp(&points, None);
+            // The coarsening takes away about half the split's triangles.
+            if n >= 300 {
+                let (s, c) = (split.triangles.len(), coarse.triangles.len());
+                assert!(c * 10 <= s * 6, "{dist:?} {n}: {c} of {s}");
+            }
         }
     }
 }
@@ -84,7 +144,8 @@ fn a_point_anywhere_in_its_leaf() {
                 lo: DVec2::ZERO,
                 hi: DVec2::ONE,
             };
-            mesh_checked(&points, Some(domain));
+            let (split, _) = mesh_checked(&points, Some(domain));
+            coarsened_checked(&points, Some(domain), &split);
             mesh_checked(&points, None);
         }
     }
@@ -148,6 +209,11 @@ fn one_and_two_threads_give_the_same_mesh() {
         let one = on_threads(1, || mesh_checked(&points, None).0);
         let two = on_threads(2, || mesh_checked(&points, None).0);
         assert_eq!(one, two, "{dist:?}");
+        // Several chunks of the coarsening, and its rounds.
+        let coarse_one = on_threads(1, || coarsened_checked(&points, None, &one));
+        let coarse_two = on_threads(2, || coarsened_checked(&points, None, &one));
+        assert!(coarse_one.vertices.len() > 3 * (1 << 14), "{dist:?}");
+        assert_eq!(coarse_one, coarse_two, "{dist:?}");
     }
 }
 
@@ -158,7 +224,11 @@ fn front_door_mode() {
     assert_eq!(options.mode(), Mode::Nonobtuse);
     let (mesh, _) = quadmesh::mesh(&Input::points(points.clone()), &options).unwrap();
     mesh.validate_nonobtuse(&points).unwrap();
-    assert_eq!(mesh, mesh_checked(&points, None).0);
+    let split = mesh_checked(&points, None).0;
+    assert_eq!(mesh, coarsened_checked(&points, None, &split));
+    let split_mode = Options::default().nonobtuse_split();
+    let (mesh, _) = quadmesh::mesh(&Input::points(points.clone()), &split_mode).unwrap();
+    assert_eq!(mesh, split);
     // The quadtree modes take no area bound, and mesh rectangles only.
     assert!(quadmesh::mesh(&Input::points(points.clone()), &options.max_area(0.1)).is_err());
     let hull = options.region(Region::ConvexHull);
@@ -175,6 +245,7 @@ proptest! {
                 if let Err(fault) = mesh.validate_nonobtuse(&points) {
                     panic!("{fault}");
                 }
+                coarsened_checked(&points, None, &mesh);
             }
             // Points too close for f64 are refused by name, as in the warp mode.
             Err(quadmesh::Error::Unresolvable { .. }) => {}

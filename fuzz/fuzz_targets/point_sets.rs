@@ -97,7 +97,11 @@ fuzz_target!(|data: &[u8]| {
             Options::default().block_warp()
         }
     } else {
-        Options::default().nonobtuse()
+        // The nonobtuse split coarsened, or the split alone.
+        match choice & 0x02 == 0 {
+            true => Options::default().nonobtuse(),
+            false => Options::default().nonobtuse_split(),
+        }
     };
     if choice & 1 != 0 && choice & 0x10 != 0 {
         if choice & 0x08 != 0 {
@@ -120,7 +124,8 @@ fuzz_target!(|data: &[u8]| {
     }
     match quadmesh::mesh(&Input::points(points.clone()), &options) {
         Ok((mesh, _)) => {
-            let checked = if options.mode() == Mode::Nonobtuse {
+            let nonobtuse = matches!(options.mode(), Mode::Nonobtuse | Mode::NonobtuseSplit);
+            let checked = if nonobtuse {
                 mesh.validate_nonobtuse(&points)
             } else {
                 mesh.validate(&points, options.angle_bounds())

@@ -327,9 +327,10 @@ fn _mesh<'py>(
         "compact_warp" => Mode::CompactWarp,
         "block_warp" => Mode::BlockWarp,
         "nonobtuse" => Mode::Nonobtuse,
+        "nonobtuse_split" => Mode::NonobtuseSplit,
         other => {
             return Err(QuadmeshError::new_err(format!(
-                "mode must be \"delaunay\", \"warp\", \"compact_warp\", \"block_warp\" or \"nonobtuse\", not {other:?}"
+                "mode must be \"delaunay\", \"warp\", \"compact_warp\", \"block_warp\", \"nonobtuse\" or \"nonobtuse_split\", not {other:?}"
             )));
         }
     };
@@ -458,12 +459,20 @@ impl PyDynamicMesh {
         self.inner.live_points().0.into_pyarray(py).into_any()
     }
 
-    #[pyo3(signature = (nonobtuse = false))]
-    fn mesh<'py>(&self, py: Python<'py>, nonobtuse: bool) -> PyResult<Bound<'py, PyDict>> {
+    /// The warped or nonobtuse mesh, coarsened or not.
+    #[pyo3(signature = (nonobtuse = false, coarsen = false))]
+    fn mesh<'py>(
+        &self,
+        py: Python<'py>,
+        nonobtuse: bool,
+        coarsen: bool,
+    ) -> PyResult<Bound<'py, PyDict>> {
         let inner = &self.inner;
-        let meshed = py.detach(|| match nonobtuse {
-            true => inner.mesh_nonobtuse(),
-            false => inner.mesh(),
+        let meshed = py.detach(|| match (nonobtuse, coarsen) {
+            (true, true) => inner.coarsened_nonobtuse_mesh(),
+            (true, false) => inner.mesh_nonobtuse(),
+            (false, true) => inner.coarsened_mesh(),
+            (false, false) => inner.mesh(),
         });
         let mesh = meshed.map_err(|e| raise(&e))?;
         let report = MeshReport {

@@ -115,13 +115,17 @@ def test_point_sets_and_keyword_interface():
     block = quadmesh.mesh(points[:200], mode="block_warp")
     assert min_angles(block.vertices, block.triangles).min() >= 22.5 - 1e-6
     assert len(block.triangles) > 2 * len(warped.triangles)
-    # Nonobtuse: every angle at most 90° (to rounding), and every point a vertex.
-    split = quadmesh.mesh(points[:200], mode="nonobtuse")
-    assert max_angles(split.vertices, split.triangles).max() <= 90 + 1e-6
-    assert (area(split.vertices, split.triangles) > 0).all()
-    inputs = split.vertex_input[split.vertex_input >= 0]
-    assert sorted(inputs) == list(range(200))
-    assert (split.vertices[split.vertex_input >= 0] == points[inputs]).all()
+    # Nonobtuse, split and coarsened: every angle at most 90° (to rounding), and every point a
+    # vertex; the coarsening takes away about half the triangles.
+    split = quadmesh.mesh(points[:200], mode="nonobtuse_split")
+    nonobtuse = quadmesh.mesh(points[:200], mode="nonobtuse")
+    for m in (split, nonobtuse):
+        assert max_angles(m.vertices, m.triangles).max() <= 90 + 1e-6
+        assert (area(m.vertices, m.triangles) > 0).all()
+        inputs = m.vertex_input[m.vertex_input >= 0]
+        assert sorted(inputs) == list(range(200))
+        assert (m.vertices[m.vertex_input >= 0] == points[inputs]).all()
+    assert len(nonobtuse.triangles) < 0.6 * len(split.triangles)
     with pytest.raises(quadmesh.QuadmeshError, match="nonobtuse"):
         quadmesh.mesh(points[:10], mode="acute")
 
@@ -225,6 +229,11 @@ def test_a_dynamic_mesh_after_edits_is_a_fresh_one_of_its_live_points(mode):
     if mode == "warp":
         with pytest.raises(quadmesh.QuadmeshError, match="nonobtuse"):
             dynamic.mesh(nonobtuse=True)
+        coarse = dynamic.mesh(coarsen=True)
+        again = quadmesh.DynamicMesh(points, (0, 0, 1, 1), mode=mode)
+        _same_mesh(coarse, again.mesh(coarsen=True))
+        assert min_angles(coarse.vertices, coarse.triangles).min() >= 20 - 1e-6
+        assert len(coarse.triangles) < len(mesh.triangles) / 3
     else:
         # The nonobtuse mesh of the same tree: a rebuild's, every angle at most 90°.
         split = dynamic.mesh(nonobtuse=True)
@@ -232,6 +241,12 @@ def test_a_dynamic_mesh_after_edits_is_a_fresh_one_of_its_live_points(mode):
         _same_mesh(split, again.mesh(nonobtuse=True))
         assert max_angles(split.vertices, split.triangles).max() <= 90 + 1e-6
         assert len(split.triangles) > len(mesh.triangles)
+        coarse = dynamic.mesh(nonobtuse=True, coarsen=True)
+        _same_mesh(coarse, again.mesh(nonobtuse=True, coarsen=True))
+        assert len(coarse.triangles) < 0.6 * len(split.triangles)
+        assert max_angles(coarse.vertices, coarse.triangles).max() <= 90 + 1e-6
+        with pytest.raises(quadmesh.QuadmeshError, match="warp"):
+            dynamic.mesh(coarsen=True)
     # Every live point is a vertex, numbered in id order.
     vertex_of = {int(v): i for i, v in enumerate(mesh.vertex_input) if v >= 0}
     np.testing.assert_array_equal(mesh.vertices[[vertex_of[k] for k in range(len(live))]], points)

@@ -136,7 +136,7 @@ enum Command {
         /// `--block-warp` the block warp): `--edits` insertions (uniform in the points'
         /// bounding box), then as many deletions and moves there, one at a time, medians per
         /// kind against a build of the final points from scratch and its mesh.
-        #[arg(long, conflicts_with_all = ["nonobtuse", "min_angle", "max_area", "max_vertices"])]
+        #[arg(long, conflicts_with_all = ["nonobtuse", "nonobtuse_split", "min_angle", "max_area", "max_vertices"])]
         dynamic: bool,
         /// With `--dynamic`: how many edits of each kind.
         #[arg(long, value_name = "K", default_value_t = 1000, requires = "dynamic")]
@@ -173,15 +173,19 @@ enum Command {
         /// Keep the block warp's tree and write its mesh instead, as `mesh --block-warp` would.
         #[arg(long, conflicts_with_all = ["warp", "compact_warp"])]
         block_warp: bool,
-        /// Keep the block warp's tree and write its nonobtuse mesh instead, as `mesh
-        /// --nonobtuse` would.
+        /// Keep the block warp's tree and write its nonobtuse mesh instead, coarsened, as `mesh
+        /// --nonobtuse` would (`--changes` reports the split's triangles).
         #[arg(long, conflicts_with_all = ["warp", "compact_warp", "block_warp"])]
         nonobtuse: bool,
+        /// Keep the block warp's tree and write its nonobtuse split instead, as `mesh
+        /// --nonobtuse-split` would.
+        #[arg(long, conflicts_with_all = ["warp", "compact_warp", "block_warp", "nonobtuse"])]
+        nonobtuse_split: bool,
         /// Keep a quality Delaunay mesh with every angle at least DEG instead
         /// (`DynamicDelaunay`): the final mesh is refinement in order of the live points
         /// (`--verify` compares it with one), and the JSON lines carry `windows`,
         /// `steiner_removed` and `steiner_added` instead of `cells`.
-        #[arg(long, value_name = "DEG", conflicts_with_all = ["warp", "compact_warp", "block_warp", "nonobtuse"])]
+        #[arg(long, value_name = "DEG", conflicts_with_all = ["warp", "compact_warp", "block_warp", "nonobtuse", "nonobtuse_split"])]
         min_angle: Option<f64>,
         /// Output formats, comma-separated, as for `mesh`.
         #[arg(long, value_delimiter = ',', default_value = "node")]
@@ -251,11 +255,16 @@ struct QualityArgs {
     /// on a rectangle as for `--warp`.
     #[arg(long, conflicts_with_all = ["warp", "compact_warp", "min_angle", "max_area", "max_vertices"])]
     block_warp: bool,
-    /// The quadtree mesh split into right triangles at the points instead: every angle at most
-    /// 90° (none bounded below; a point near a grid line of its leaf makes thin triangles), on
-    /// a rectangle as for `--warp`, with a few more triangles.
+    /// A nonobtuse mesh instead: every angle at most 90° (none bounded below; a point near a
+    /// grid line of its leaf makes thin triangles), about 57 triangles per point, on a
+    /// rectangle as for `--warp`: `--nonobtuse-split` coarsened, no new angle under 20°.
     #[arg(long, conflicts_with_all = ["warp", "compact_warp", "block_warp", "min_angle", "max_area", "max_vertices"])]
     nonobtuse: bool,
+    /// The block warp's quadtree split into right triangles at the points, not coarsened: every
+    /// angle at most 90°, about 114 triangles per point; several times faster than
+    /// `--nonobtuse`.
+    #[arg(long, conflicts_with_all = ["warp", "compact_warp", "block_warp", "nonobtuse", "min_angle", "max_area", "max_vertices"])]
+    nonobtuse_split: bool,
     /// Every angle at least A degrees (0 to 45) [default: 20, below the 20.7° up to which
     /// termination is proven]. Above 20.7° refinement usually finishes up to about 34° and
     /// stops at the vertex budget otherwise. Input angles smaller than A (narrow corners of the
@@ -341,6 +350,9 @@ impl QualityArgs {
         if self.nonobtuse {
             options = options.nonobtuse();
         }
+        if self.nonobtuse_split {
+            options = options.nonobtuse_split();
+        }
         if let Some(a) = self.min_angle {
             options = options.min_angle(a);
         }
@@ -398,7 +410,7 @@ fn cli_terms(e: &quadmesh::Error) -> String {
                 "min_angle" => "--min-angle",
                 "max_area" => "--max-area",
                 "region" | "domain" => "--domain",
-                "mode" => "--warp/--compact-warp/--block-warp/--nonobtuse",
+                "mode" => "--warp/--compact-warp/--block-warp/--nonobtuse/--nonobtuse-split",
                 other => other,
             };
             format!("{flag}: {message}")
@@ -536,6 +548,7 @@ fn main() -> ExitCode {
             compact_warp: _,
             block_warp,
             nonobtuse,
+            nonobtuse_split,
             min_angle: None,
             format,
             threads,
@@ -550,10 +563,11 @@ fn main() -> ExitCode {
             &format,
             threads,
             (json, verify, changes, batch.get()),
-            match (warp, block_warp, nonobtuse) {
-                (_, _, true) => Mode::Nonobtuse,
-                (_, true, _) => Mode::BlockWarp,
-                (true, _, _) => Mode::Warp,
+            match (warp, block_warp, nonobtuse, nonobtuse_split) {
+                (_, _, _, true) => Mode::NonobtuseSplit,
+                (_, _, true, _) => Mode::Nonobtuse,
+                (_, true, _, _) => Mode::BlockWarp,
+                (true, _, _, _) => Mode::Warp,
                 _ => Mode::CompactWarp,
             },
         ),
@@ -653,7 +667,7 @@ fn mesh(
                     let hull = options.region_choice() == Region::ConvexHull;
                     let bounds = options.angle_bounds_of(&input_points);
                     validate_pslg_with(&mesh, &input_points, bounds, hull)?;
-                } else if options.mode() == Mode::Nonobtuse {
+                } else if matches!(options.mode(), Mode::Nonobtuse | Mode::NonobtuseSplit) {
                     mesh.validate_nonobtuse(&input_points.points)?;
                 } else {
                     mesh.validate(&input_points.points, options.angle_bounds())?;
@@ -713,7 +727,8 @@ fn replay(
         let mut out = io::stdout().lock();
         let mut seconds = Vec::with_capacity(edits.len());
         let mesh_of = |dynamic: &DynamicMesh| match mode {
-            Mode::Nonobtuse => dynamic.mesh_nonobtuse(),
+            Mode::Nonobtuse => dynamic.coarsened_nonobtuse_mesh(),
+            Mode::NonobtuseSplit => dynamic.mesh_nonobtuse(),
             Mode::Warp => dynamic.coarsened_mesh(),
             _ => dynamic.mesh(),
         };
@@ -733,7 +748,7 @@ fn replay(
             let mut triangles = String::new();
             if changes {
                 let (found, time) = timed(|| match mode {
-                    Mode::Nonobtuse => dynamic.take_nonobtuse_changes(),
+                    Mode::Nonobtuse | Mode::NonobtuseSplit => dynamic.take_nonobtuse_changes(),
                     _ => dynamic.take_changes(),
                 });
                 triangles = changes_json(found, time)?;

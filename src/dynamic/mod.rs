@@ -578,14 +578,28 @@ impl DynamicMesh {
         Ok(mesh)
     }
 
-    /// The nonobtuse mesh of the live points, from the same tree: what [`crate::mesh()`] gives
-    /// for them in id order on this domain in the nonobtuse mode. It needs the block tree
+    /// The nonobtuse split of the live points, from the same tree: what [`crate::mesh()`] gives
+    /// for them in id order on this domain in the nonobtuse split mode
+    /// ([`crate::Mode::NonobtuseSplit`]). It needs the block tree
     /// ([`Self::with_separation`] with [`Separation::Block`]).
     ///
     /// # Errors
     /// As [`Self::mesh`]; [`Error::InvalidOption`] for a corner tree.
     pub fn mesh_nonobtuse(&self) -> Result<Mesh, Error> {
         self.mesh_of(true)
+    }
+
+    /// [`Self::mesh_nonobtuse`] coarsened ([`crate::warp::coarsen`] to
+    /// [`crate::warp::NONOBTUSE_COARSE_BOUNDS`]): what [`crate::mesh()`] gives in the nonobtuse
+    /// mode ([`crate::Mode::Nonobtuse`]). Made from the whole mesh each time, as
+    /// [`Self::coarsened_mesh`].
+    ///
+    /// # Errors
+    /// As [`Self::mesh_nonobtuse`].
+    pub fn coarsened_nonobtuse_mesh(&self) -> Result<Mesh, Error> {
+        let mut mesh = self.mesh_nonobtuse()?;
+        crate::warp::coarsen(&mut mesh, crate::warp::NONOBTUSE_COARSE_BOUNDS);
+        Ok(mesh)
     }
 
     /// Refuses the nonobtuse split of a tree not separated by blocks.

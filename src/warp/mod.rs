@@ -20,7 +20,7 @@ mod split;
 mod templates;
 mod vertices;
 
-pub use coarsen::{COARSE_ANGLE_BOUNDS, Coarsened, coarsen};
+pub use coarsen::{COARSE_ANGLE_BOUNDS, Coarsened, NONOBTUSE_COARSE_BOUNDS, coarsen};
 pub use cut::{leaves_below, leaves_in_domain};
 pub use edges::{EdgePiece, EdgePieces, edge_pieces, leaf_at, square_box};
 pub(crate) use graph::best_triangulation;

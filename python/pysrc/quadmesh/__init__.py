@@ -136,8 +136,11 @@ def mesh(
     proven yet, the report gives the angles reached); ``mode="compact_warp"`` the warp before
     coarsening, every angle in [26°, 120°] (about 36 triangles per point, several times
     faster); ``mode="block_warp"`` the older warp, every angle in [22.5°, 112.5°] (about 104 triangles
-    per point); ``mode="nonobtuse"`` the quadtree mesh
-    split into right triangles at the points, every angle at most 90° (none bounded below).
+    per point); ``mode="nonobtuse"`` a mesh with every angle at most 90° (none bounded below:
+    a point near a grid line of its leaf makes thin triangles; about 57 triangles per point):
+    ``mode="nonobtuse_split"``, the block warp's quadtree split into right triangles at the
+    points (about 114 triangles per point, several times faster), coarsened with no new angle
+    under 20°.
     ``threads`` sets the number of threads
     for this call (by default, all cores). ``edges=True`` also lists every edge with its
     marker.
@@ -226,14 +229,16 @@ class DynamicMesh(_Dynamic):
             _as_points(points, "points"), (x0, y0, x1, y1), mode == "block_warp"
         )
 
-    def mesh(self, nonobtuse: bool = False) -> Mesh:
+    def mesh(self, nonobtuse: bool = False, coarsen: bool = False) -> Mesh:
         """The current mesh: the warped one, or with ``nonobtuse=True`` (``mode="block_warp"``
-        only) the nonobtuse mesh of the same quadtree (every angle at most 90°), as
-        ``mesh(..., mode="nonobtuse")`` gives."""
-        return _mesh_of(self._inner.mesh(nonobtuse))
+        only) the nonobtuse split of the same quadtree (every angle at most 90°), as
+        ``mesh(..., mode="compact_warp")`` (or ``"block_warp"``, ``"nonobtuse_split"``) gives;
+        with ``coarsen=True`` coarsened, as ``mode="warp"`` (``mode="warp"`` only) or
+        ``mode="nonobtuse"`` gives. The coarsening is made from the whole mesh each time."""
+        return _mesh_of(self._inner.mesh(bool(nonobtuse), bool(coarsen)))
 
     def take_changes(self, nonobtuse: bool = False) -> Tuple[np.ndarray, np.ndarray]:
-        """The triangles of ``mesh()`` (or ``mesh(nonobtuse=True)``) that the edits since
+        """The triangles of ``mesh()`` (or ``mesh(nonobtuse=True)``; never coarsened) that the edits since
         ``track_changes`` or the last call took out and put in, as two arrays of shape
         (k, 3, 2): each triangle's corners, counter-clockwise. Taking ``removed`` out of the
         mesh as it was and putting ``added`` in gives the mesh as it is. Found by re-meshing

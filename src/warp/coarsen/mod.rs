@@ -29,12 +29,19 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::domain::BoundaryEdge;
-use crate::mesh::{Mesh, NONE, Star, corner_cosines, corner_sides};
+use crate::mesh::{
+    Mesh, NONE, Star, corner_cosines, corner_sides, largest_coordinate, rounding_allowance_deg,
+};
 use crate::predicates::{Orientation, orientation};
 use chunks::{Chunking, collapse_in_chunks};
 
 /// The angle bounds the default warp coarsens to, in degrees.
 pub const COARSE_ANGLE_BOUNDS: (f64, f64) = (20.0, 120.0);
+
+/// The angle bounds the nonobtuse mesh coarsens to, in degrees: no new angle over 90° (up to
+/// the rounding of the grid's vertices, as [`crate::mesh::validate_nonobtuse`] allows) nor
+/// under 20°. The split's own thin triangles at points near its grid lines may stay.
+pub const NONOBTUSE_COARSE_BOUNDS: (f64, f64) = (20.0, 90.0);
 
 /// Vertices per chunk in the passes before the rounds: a fixed number, so that the result is
 /// the same on any thread count; large, since a chunk's edges are left to the rounds.
@@ -66,7 +73,7 @@ pub fn coarsen(mesh: &mut Mesh, bounds: (f64, f64)) -> Coarsened {
 
 /// [`coarsen`] with chunks of `chunk_vertices` vertices in its first passes.
 fn coarsen_in_chunks_of(mesh: &mut Mesh, bounds: (f64, f64), chunk_vertices: usize) -> Coarsened {
-    let limits = Limits::of(bounds);
+    let limits = Limits::of(bounds, mesh);
     let fixed = fixed_vertices(mesh);
     let mut corner = corners_of(mesh);
     let mut pending = vec![true; mesh.vertices.len()];
@@ -218,18 +225,30 @@ fn merge_by_centre(a: Vec<Plan>, b: Vec<Plan>) -> Vec<Plan> {
     }
 }
 
-/// The cosines a new angle must lie between.
+/// The cosines a new angle must lie between; a largest angle of exactly 90° is tested as the
+/// nonobtuse check does.
 #[derive(Clone, Copy, Debug)]
 struct Limits {
     narrowest: f64,
     widest: f64,
+    /// For a largest angle of 90°, the largest coordinate of the domain: angles up to 90° pass,
+    /// and past it by what rounding the grid's vertices explains
+    /// ([`crate::mesh::rounding_allowance_deg`]), the figure the nonobtuse check allows. The
+    /// grid's right angles are right only before their corners are rounded to f64.
+    nonobtuse_scale: Option<f64>,
 }
 
 impl Limits {
-    fn of((smallest, largest): (f64, f64)) -> Limits {
+    fn of((smallest, largest): (f64, f64), mesh: &Mesh) -> Limits {
+        let nonobtuse = largest == 90.0;
         Limits {
             narrowest: smallest.to_radians().cos() - COSINE_MARGIN,
-            widest: largest.to_radians().cos() + COSINE_MARGIN,
+            // A cosine of -1 bounds nothing: the test of right angles does.
+            widest: match nonobtuse {
+                true => -1.0,
+                false => largest.to_radians().cos() + COSINE_MARGIN,
+            },
+            nonobtuse_scale: nonobtuse.then(|| largest_coordinate(&mesh.domain)),
         }
     }
 
@@ -247,7 +266,26 @@ impl Limits {
                 return false;
             }
         }
-        orientation(a, b, c) == Orientation::Left
+        self.admit_right_angles(a, b, c) && orientation(a, b, c) == Orientation::Left
+    }
+
+    /// Whether every angle of `a, b, c` is at most 90° up to the rounding of its corners,
+    /// where the limits ask for that.
+    fn admit_right_angles(self, a: DVec2, b: DVec2, c: DVec2) -> bool {
+        let Some(scale) = self.nonobtuse_scale else {
+            return true;
+        };
+        let mut slack = None;
+        corner_sides(a, b, c).into_iter().all(|(u, v)| {
+            let dot = u.dot(v);
+            if dot >= 0.0 {
+                return true;
+            }
+            // The cosine of an angle 90° + δ is −sin δ.
+            let slack = *slack
+                .get_or_insert_with(|| rounding_allowance_deg([a, b, c], scale).to_radians().sin());
+            -dot <= slack * u.length() * v.length()
+        })
     }
 
     /// Whether the angle whose sides have dot product `dot` and `dot² + cross² = norm` has its
@@ -273,6 +311,7 @@ impl Limits {
         corner_cosines(a, b, c)
             .iter()
             .all(|&cos| cos <= self.narrowest && cos >= self.widest)
+            && self.admit_right_angles(a, b, c)
             && orientation(a, b, c) == Orientation::Left
     }
 }
@@ -657,6 +696,27 @@ mod tests {
             };
             assert!(on_a_side(a, b), "{a} – {b}");
         }
+    }
+
+    #[test]
+    fn right_angles_pass_the_nonobtuse_limits_within_rounding_and_obtuse_ones_fail() {
+        let limits = Limits::of(NONOBTUSE_COARSE_BOUNDS, &grid(8));
+        let (a, b, c) = (
+            DVec2::new(0.1, 0.7),
+            DVec2::new(0.4, 0.7),
+            DVec2::new(0.1, 0.9),
+        );
+        assert!(limits.admit(a, b, c));
+        // A step of rounding past 90°, as the grid's rounded corners make, passes; a billionth
+        // of a radian does not, nor a triangle turning clockwise or with an angle under 20°.
+        let rounded = DVec2::new(f64::from_bits(c.x.to_bits() - 1), c.y);
+        assert!(limits.admit(a, b, rounded));
+        assert!(!limits.admit(a, b, DVec2::new(c.x - 2e-10, c.y)));
+        assert!(!limits.admit(a, c, b));
+        assert!(!limits.admit(a, DVec2::new(0.9, 0.7), c));
+        // An angle of 117°: within the warp's limits, not the nonobtuse ones.
+        assert!(Limits::of(COARSE_ANGLE_BOUNDS, &grid(8)).admit(a, b, DVec2::new(0.0, 0.9)));
+        assert!(!limits.admit(a, b, DVec2::new(0.0, 0.9)));
     }
 
     /// Coarsens `mesh` with chunks of `chunk_vertices` on a pool of `threads` threads.
