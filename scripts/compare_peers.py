@@ -7,7 +7,8 @@ Usage (from the repository root):
     pip install triangle numpy          # once; the script installs nothing itself
     python3 scripts/compare_peers.py [--sizes 100000,1000000] [--dists uniform,cluster,kuzmin]
         [--threads 1,2] [--repeats 3] [--angles 20,30] [--domain hull|square]
-        [--tools triangle,spade,quadmesh,quadmesh-compact,quadmesh-block,quadmesh-nonobtuse,quadmesh-refine]
+        [--tools triangle,spade,quadmesh,quadmesh-compact,quadmesh-block,quadmesh-nonobtuse,
+         quadmesh-nonobtuse-split,quadmesh-refine]
         [--quadmesh-args='--some-flag value'] [--timeout 600] [--out results.json] [--markdown]
     python3 scripts/compare_peers.py [--pslg FILE.poly ...] [--pslg-examples]
         [--pslg-generated [--pslg-segments 200000] [--pslg-holes 2000] [--pslg-dir DIR]]
@@ -59,8 +60,9 @@ What it does:
   ``total_s``. If the subcommand is missing or fails, quadmesh rows say so and the other tools
   still run;
 * quadmesh's compact warp before coarsening (tool ``quadmesh-compact``), block warp (tool
-  ``quadmesh-block``) and nonobtuse mesh (tool ``quadmesh-nonobtuse``): the same command with
-  ``--compact-warp``, ``--block-warp`` or ``--nonobtuse`` in place of ``--warp``;
+  ``quadmesh-block``), nonobtuse mesh (tool ``quadmesh-nonobtuse``) and nonobtuse split before
+  coarsening (tool ``quadmesh-nonobtuse-split``): the same command with ``--compact-warp``,
+  ``--block-warp``, ``--nonobtuse`` or ``--nonobtuse-split`` in place of ``--warp``;
 * quadmesh's quality Delaunay mesh (tool ``quadmesh-refine``, the CLI's default mode): the same
   command without ``--warp``, with ``--domain hull`` or ``--domain square`` (as ``--domain``
   says) and ``--min-angle A`` for every angle A of ``--angles`` and every thread count of
@@ -152,9 +154,10 @@ CHILD_MARK = "__triangle_child__"
 
 # The --tools names.
 TOOLS = ("triangle", "spade", "quadmesh", "quadmesh-compact", "quadmesh-block",
-         "quadmesh-nonobtuse", "quadmesh-refine")
+         "quadmesh-nonobtuse", "quadmesh-nonobtuse-split", "quadmesh-refine")
 QUADTREE_MODES = {"quadmesh": "warp", "quadmesh-compact": "compact-warp",
-                  "quadmesh-block": "block-warp", "quadmesh-nonobtuse": "nonobtuse"}
+                  "quadmesh-block": "block-warp", "quadmesh-nonobtuse": "nonobtuse",
+                  "quadmesh-nonobtuse-split": "nonobtuse-split"}
 
 # The --domain choices: the points' convex hull, or the square the warped mesh covers.
 DOMAINS = ("hull", "square")
@@ -277,7 +280,8 @@ def parse_args():
                         help=f"which tools to run (default {','.join(TOOLS)}; quadmesh is the "
                              f"warped mesh, quadmesh-compact it before coarsening, "
                              f"quadmesh-block the block warp, quadmesh-nonobtuse "
-                             f"the nonobtuse quadtree mesh, "
+                             f"the nonobtuse quadtree mesh, quadmesh-nonobtuse-split it "
+                             f"before coarsening, "
                              f"quadmesh-refine the Delaunay refinement)")
     parser.add_argument("--quadmesh-args", default="",
                         help="extra arguments for `quadmesh bench`, one shell-quoted string; "
@@ -994,7 +998,8 @@ def main():
                             what = {"quadmesh": "warped mesh",
                                     "quadmesh-compact": "compact warp",
                                     "quadmesh-block": "block warp",
-                                    "quadmesh-nonobtuse": "nonobtuse mesh"}.get(
+                                    "quadmesh-nonobtuse": "nonobtuse mesh",
+                                    "quadmesh-nonobtuse-split": "nonobtuse split"}.get(
                                         config.selector, "refinement")
                             note = (f"skipped: this quadmesh's `bench` has no "
                                     f"`{unknown.group(1)}`, which its {what} rows need")

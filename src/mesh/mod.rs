@@ -29,7 +29,7 @@ pub use topology::Edge;
 pub(crate) use topology::{EdgeLister, edges_listed_with, opposite_edge};
 pub use validate::{
     AngleBounds, InvalidMesh, MeshCheck, first_obtuse, largest_coordinate, obtuse_beyond,
-    rounding_allowance_deg, validate, validate_nonobtuse,
+    rounding_allowance_deg, rounding_turn, validate, validate_nonobtuse,
 };
 pub use validate_pslg::{validate_pslg, validate_pslg_with};
 

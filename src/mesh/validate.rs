@@ -113,7 +113,13 @@ pub fn largest_coordinate(domain: &Domain) -> f64 {
 /// [`ANGLE_SLACK_DEG`] (see [`first_obtuse`]); `m` as [`largest_coordinate`] gives.
 pub fn rounding_allowance_deg([a, b, c]: [DVec2; 3], m: f64) -> f64 {
     let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
-    (16.0 * 2f64.sqrt() * f64::EPSILON * m / shortest).to_degrees()
+    (rounding_turn(m) / shortest).to_degrees()
+}
+
+/// [`rounding_allowance_deg`] in radians times the triangle's shortest edge: how far rounding
+/// the corners to f64 can turn an edge, times its length.
+pub fn rounding_turn(m: f64) -> f64 {
+    16.0 * 2f64.sqrt() * f64::EPSILON * m
 }
 
 /// Whether an angle `angle` of a triangle whose [`rounding_allowance_deg`] is `allowance` is

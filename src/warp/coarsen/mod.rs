@@ -30,7 +30,7 @@ use rayon::prelude::*;
 
 use crate::domain::BoundaryEdge;
 use crate::mesh::{
-    Mesh, NONE, Star, corner_cosines, corner_sides, largest_coordinate, rounding_allowance_deg,
+    Mesh, NONE, Star, corner_cosines, corner_sides, largest_coordinate, rounding_turn,
 };
 use crate::predicates::{Orientation, orientation};
 use chunks::{Chunking, collapse_in_chunks};
@@ -231,11 +231,11 @@ fn merge_by_centre(a: Vec<Plan>, b: Vec<Plan>) -> Vec<Plan> {
 struct Limits {
     narrowest: f64,
     widest: f64,
-    /// For a largest angle of 90°, the largest coordinate of the domain: angles up to 90° pass,
-    /// and past it by what rounding the grid's vertices explains
-    /// ([`crate::mesh::rounding_allowance_deg`]), the figure the nonobtuse check allows. The
-    /// grid's right angles are right only before their corners are rounded to f64.
-    nonobtuse_scale: Option<f64>,
+    /// For a largest angle of 90°, [`rounding_turn`] of the domain: angles up to 90° pass, and
+    /// past it by what rounding the grid's vertices explains (that over the triangle's
+    /// shortest edge, in radians), the figure the nonobtuse check allows. The grid's right
+    /// angles are right only before their corners are rounded to f64.
+    rounding_turn: Option<f64>,
 }
 
 impl Limits {
@@ -248,12 +248,13 @@ impl Limits {
                 true => -1.0,
                 false => largest.to_radians().cos() + COSINE_MARGIN,
             },
-            nonobtuse_scale: nonobtuse.then(|| largest_coordinate(&mesh.domain)),
+            rounding_turn: nonobtuse.then(|| rounding_turn(largest_coordinate(&mesh.domain))),
         }
     }
 
     /// Whether the triangle `a, b, c` is counter-clockwise with every angle within the limits.
     fn admit(self, a: DVec2, b: DVec2, c: DVec2) -> bool {
+        let mut shortest_squared = None;
         // The angles first: they refuse most candidates.
         for (u, v) in corner_sides(a, b, c) {
             let (dot, cross) = (u.dot(v), u.perp_dot(v));
@@ -265,27 +266,26 @@ impl Limits {
             if !self.admit_cosine(dot, norm) {
                 return false;
             }
-        }
-        self.admit_right_angles(a, b, c) && orientation(a, b, c) == Orientation::Left
-    }
-
-    /// Whether every angle of `a, b, c` is at most 90° up to the rounding of its corners,
-    /// where the limits ask for that.
-    fn admit_right_angles(self, a: DVec2, b: DVec2, c: DVec2) -> bool {
-        let Some(scale) = self.nonobtuse_scale else {
-            return true;
-        };
-        let mut slack = None;
-        corner_sides(a, b, c).into_iter().all(|(u, v)| {
-            let dot = u.dot(v);
-            if dot >= 0.0 {
-                return true;
+            let Some(turn) = self.rounding_turn.filter(|_| dot < 0.0) else {
+                continue;
+            };
+            // An angle 90° + δ has the cosine −sin δ; with δ at most `turn / shortest` (sin δ
+            // below δ), squared: dot² · shortest² ≤ turn² · norm.
+            let shortest = *shortest_squared.get_or_insert_with(|| {
+                let [(ab, _), (bc, _), (ca, _)] = corner_sides(a, b, c);
+                ab.length_squared()
+                    .min(bc.length_squared())
+                    .min(ca.length_squared())
+            });
+            let (past, allowed) = (dot * dot * shortest, turn * turn * norm);
+            if !(past.is_normal() && allowed.is_normal()) {
+                return self.admit_by_cosines(a, b, c);
             }
-            // The cosine of an angle 90° + δ is −sin δ.
-            let slack = *slack
-                .get_or_insert_with(|| rounding_allowance_deg([a, b, c], scale).to_radians().sin());
-            -dot <= slack * u.length() * v.length()
-        })
+            if past > allowed {
+                return false;
+            }
+        }
+        orientation(a, b, c) == Orientation::Left
     }
 
     /// Whether the angle whose sides have dot product `dot` and `dot² + cross² = norm` has its
@@ -308,10 +308,15 @@ impl Limits {
     /// f64's range.
     fn admit_by_cosines(self, a: DVec2, b: DVec2, c: DVec2) -> bool {
         // A NaN refuses.
+        let past_right = |cos: f64| {
+            self.rounding_turn.is_some_and(|turn| {
+                let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
+                cos < -turn / shortest
+            })
+        };
         corner_cosines(a, b, c)
             .iter()
-            .all(|&cos| cos <= self.narrowest && cos >= self.widest)
-            && self.admit_right_angles(a, b, c)
+            .all(|&cos| cos <= self.narrowest && cos >= self.widest && !past_right(cos))
             && orientation(a, b, c) == Orientation::Left
     }
 }
