@@ -1,9 +1,10 @@
 //! End-to-end warped meshing (`mesh_points`: Morton order, framework, quadtree, separation,
-//! warp) by the compact and the block warp, the block warp stage alone, and the nonobtuse split
-//! of the same tree, on generated points.
+//! warp) by the compact and the block warp, the compact warp and the nonobtuse split coarsened
+//! (the warp and nonobtuse modes), the block warp stage alone, and the nonobtuse split of the
+//! same tree, on generated points.
 //!
-//! Group `mesh/<dist>/t<threads>`, ids `compact/<n>` and `mesh/<n>` (the block warp;
-//! throughput: input points), `warp/<n>` and `split/<n>` (throughput: output triangles). Sizes default to 1e4 and 1e5 (`QUADMESH_BENCH_MESH_SIZES`);
+//! Group `mesh/<dist>/t<threads>`, ids `compact/<n>`, `mesh/<n>` (the block warp),
+//! `coarsened/<n>` and `nonobtuse/<n>` (throughput: input points), `warp/<n>` and `split/<n>` (throughput: output triangles). Sizes default to 1e4 and 1e5 (`QUADMESH_BENCH_MESH_SIZES`);
 //! threads come from `QUADMESH_BENCH_THREADS` like the other benches. Triangle counts are printed
 //! to stderr.
 
@@ -102,6 +103,24 @@ fn mesh_benches(c: &mut Criterion) {
                 group.bench_function(BenchmarkId::new("mesh", n), |b| {
                     b.iter_with_large_drop(mesh)
                 });
+                let coarsened = [
+                    ("coarsened", Separation::Corner, false),
+                    ("nonobtuse", Separation::Block, true),
+                ];
+                for (id, separation, nonobtuse) in coarsened {
+                    let options = MeshOptions {
+                        separation,
+                        nonobtuse,
+                        coarsen: true,
+                        ..MeshOptions::default()
+                    };
+                    let run = || pool.install(|| mesh_points(&pts, &options).expect("a mesh"));
+                    eprintln!(
+                        "{group_name}: {n} points, {} {id} triangles",
+                        run().1.triangles
+                    );
+                    group.bench_function(BenchmarkId::new(id, n), |b| b.iter_with_large_drop(run));
+                }
                 group.finish();
                 let options = MeshOptions::default();
                 let (tree, _) = pool.install(|| separated_tree(&pts, &options).expect("a tree"));
