@@ -54,6 +54,13 @@ const MAX_ROUNDS: usize = 96;
 /// cosine, so that the angles measured afterwards keep the bounds.
 const COSINE_MARGIN: f64 = 1e-12;
 
+/// The most, in radians, that a new angle may pass 90° in a nonobtuse coarsening, however much
+/// rounding the grid's vertices could explain: the grid's right angles, rounded, pass it by far
+/// less (about 2e-8 deep in a cluster), and the rounding bound, loose where leaves are small
+/// beside the domain's largest coordinate (18° for leaves a millimetre wide in a domain 1.5e11
+/// across), must not let truly obtuse angles in.
+const PAST_RIGHT_MAX: f64 = 1e-7;
+
 /// What the coarsening did.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Coarsened {
@@ -233,8 +240,9 @@ struct Limits {
     widest: f64,
     /// For a largest angle of 90°, [`rounding_turn`] of the domain: angles up to 90° pass, and
     /// past it by what rounding the grid's vertices explains (that over the triangle's
-    /// shortest edge, in radians), the figure the nonobtuse check allows. The grid's right
-    /// angles are right only before their corners are rounded to f64.
+    /// shortest edge, in radians, the figure the nonobtuse check allows) up to
+    /// [`PAST_RIGHT_MAX`]. The grid's right angles are right only before their corners are
+    /// rounded to f64.
     rounding_turn: Option<f64>,
 }
 
@@ -269,15 +277,17 @@ impl Limits {
             let Some(turn) = self.rounding_turn.filter(|_| dot < 0.0) else {
                 continue;
             };
-            // An angle 90° + δ has the cosine −sin δ; with δ at most `turn / shortest` (sin δ
-            // below δ), squared: dot² · shortest² ≤ turn² · norm.
+            // An angle 90° + δ has the cosine −sin δ, and δ may be `turn / shortest` up to
+            // PAST_RIGHT_MAX; there sin δ and δ differ by far less than the check's slack.
+            // Squared: dot² ≤ δ² · norm.
             let shortest = *shortest_squared.get_or_insert_with(|| {
                 let [(ab, _), (bc, _), (ca, _)] = corner_sides(a, b, c);
                 ab.length_squared()
                     .min(bc.length_squared())
                     .min(ca.length_squared())
             });
-            let (past, allowed) = (dot * dot * shortest, turn * turn * norm);
+            let past_squared = (turn * turn / shortest).min(PAST_RIGHT_MAX * PAST_RIGHT_MAX);
+            let (past, allowed) = (dot * dot, past_squared * norm);
             if !(past.is_normal() && allowed.is_normal()) {
                 return self.admit_by_cosines(a, b, c);
             }
@@ -311,7 +321,7 @@ impl Limits {
         let past_right = |cos: f64| {
             self.rounding_turn.is_some_and(|turn| {
                 let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
-                cos < -turn / shortest
+                cos < -(turn / shortest).min(PAST_RIGHT_MAX)
             })
         };
         corner_cosines(a, b, c)
