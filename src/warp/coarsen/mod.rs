@@ -262,9 +262,10 @@ impl Limits {
 
     /// Whether the triangle `a, b, c` is counter-clockwise with every angle within the limits.
     fn admit(self, a: DVec2, b: DVec2, c: DVec2) -> bool {
+        let sides = corner_sides(a, b, c);
         let mut shortest_squared = None;
         // The angles first: they refuse most candidates.
-        for (u, v) in corner_sides(a, b, c) {
+        for (u, v) in sides {
             let (dot, cross) = (u.dot(v), u.perp_dot(v));
             let norm = dot * dot + cross * cross;
             if !norm.is_normal() {
@@ -280,11 +281,12 @@ impl Limits {
             // An angle 90° + δ has the cosine −sin δ, and δ may be `turn / shortest` up to
             // PAST_RIGHT_MAX; there sin δ and δ differ by far less than the check's slack.
             // Squared: dot² ≤ δ² · norm.
+            // Each corner's first side is one edge, once.
             let shortest = *shortest_squared.get_or_insert_with(|| {
-                let [(ab, _), (bc, _), (ca, _)] = corner_sides(a, b, c);
-                ab.length_squared()
-                    .min(bc.length_squared())
-                    .min(ca.length_squared())
+                sides
+                    .iter()
+                    .map(|(u, _)| u.length_squared())
+                    .fold(f64::INFINITY, f64::min)
             });
             let past_squared = (turn * turn / shortest).min(PAST_RIGHT_MAX * PAST_RIGHT_MAX);
             let (past, allowed) = (dot * dot, past_squared * norm);
@@ -318,11 +320,10 @@ impl Limits {
     /// f64's range.
     fn admit_by_cosines(self, a: DVec2, b: DVec2, c: DVec2) -> bool {
         // A NaN refuses.
+        let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
         let past_right = |cos: f64| {
-            self.rounding_turn.is_some_and(|turn| {
-                let shortest = a.distance(b).min(b.distance(c)).min(c.distance(a));
-                cos < -(turn / shortest).min(PAST_RIGHT_MAX)
-            })
+            self.rounding_turn
+                .is_some_and(|turn| cos < -(turn / shortest).min(PAST_RIGHT_MAX))
         };
         corner_cosines(a, b, c)
             .iter()
