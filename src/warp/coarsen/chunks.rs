@@ -1,8 +1,9 @@
 //! The passes of the coarsening before its rounds: collapses inside chunks of the vertices,
 //! one chunk a task.
 //!
-//! A chunk is a run of a fixed number of vertices in some order of them (the warp numbers them
-//! in Morton order, so a run is a patch of the plane). A chunk owns the triangles whose corners
+//! A chunk is a run of a fixed number of vertices in a Morton order of them, a patch of the
+//! plane (the vertices' own numbering would not do: the nonobtuse split numbers the points'
+//! vertices after the grid's, far from their neighbours). A chunk owns the triangles whose corners
 //! are all its own; only its own collapses change those, and a triangle at one of its vertices
 //! is either its own or one no collapse of a pass changes. A vertex whose triangles the chunk
 //! owns, collapsing onto a neighbour with the triangles beyond owned too, so changes nothing
@@ -70,31 +71,25 @@ pub(super) fn collapse_in_chunks(
     }
 }
 
-/// Which vertices go together: runs of `size` in an order of them, that of their indices or
-/// `order` (with `rank`, its inverse).
+/// Which vertices go together: runs of `size` in the order `order` of them (with `rank`, its
+/// inverse).
 pub(super) struct Chunking {
     size: u32,
-    order: Option<(Vec<u32>, Vec<u32>)>,
+    order: Vec<u32>,
+    rank: Vec<u32>,
 }
 
 impl Chunking {
-    /// Runs of `size` vertices in the order of their indices.
-    pub(super) fn by_index(size: usize) -> Chunking {
-        Chunking {
-            size: size as u32,
-            order: None,
-        }
-    }
-
-    /// Runs of `size` vertices in the order of their Morton keys on a grid shifted off the
-    /// warp's by a third of the box: these runs' edges cross those of the runs by index, which
-    /// follow the quadrants' edges wherever their two sides are far apart in the warp's order.
-    pub(super) fn shifted(size: usize, vertices: &[DVec2]) -> Chunking {
+    /// Runs of `size` vertices in the order of their Morton keys on a square around them whose
+    /// low corner lies `shift` of its side below and left of theirs: with a shift of a third,
+    /// these runs' edges cross those of the runs with none, which follow the quadrants' edges
+    /// wherever their two sides are far apart in Morton order.
+    pub(super) fn morton(size: usize, vertices: &[DVec2], shift: f64) -> Chunking {
         let (lo, hi) = crate::morton::bounding_box(vertices);
         let side = (hi - lo).max_element();
         let (lo, side) = (
-            lo - DVec2::splat(side / 3.0),
-            DVec2::splat(side * 4.0 / 3.0),
+            lo - DVec2::splat(side * shift),
+            DVec2::splat(side * (1.0 + shift)),
         );
         let mut keyed: Vec<(u64, u32)> = (vertices.par_iter().enumerate())
             .map(|(v, &p)| (box_key(p, lo, side), v as u32))
@@ -107,7 +102,8 @@ impl Chunking {
         }
         Chunking {
             size: size as u32,
-            order: Some((order, rank)),
+            order,
+            rank,
         }
     }
 
@@ -117,17 +113,11 @@ impl Chunking {
     }
 
     fn rank(&self, v: u32) -> u32 {
-        match &self.order {
-            None => v,
-            Some((_, rank)) => rank[v as usize],
-        }
+        self.rank[v as usize]
     }
 
     fn vertex(&self, rank: u32) -> u32 {
-        match &self.order {
-            None => rank,
-            Some((order, _)) => order[rank as usize],
-        }
+        self.order[rank as usize]
     }
 
     fn of(&self, v: u32) -> u32 {

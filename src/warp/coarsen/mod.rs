@@ -12,8 +12,8 @@
 //!
 //! Most collapses happen inside chunks of the vertices, one chunk a task, each collapsing
 //! greedily in a copy of the triangles it owns ([`chunks`]): first chunks of consecutive
-//! indices, then chunks in a Morton order shifted off the warp's, for the vertices the first
-//! left at their chunks' edges. The few left after both go in rounds: every vertex that may go
+//! vertices in Morton order, then chunks in a Morton order on a grid shifted off the first, for
+//! the vertices the first left at their chunks' edges. The few left after both go in rounds: every vertex that may go
 //! finds its edge and claims the triangles the collapse changes (its star, and the two beyond
 //! the triangles it removes); it goes when its lot is the highest on every triangle it claims,
 //! so that the collapses of one round change disjoint triangles and each finds its star as it
@@ -94,8 +94,8 @@ fn coarsen_in_chunks_of(mesh: &mut Mesh, bounds: (f64, f64), chunk_vertices: usi
     };
     for pass in 0..passes {
         let chunking = match pass {
-            0 => Chunking::by_index(chunk_vertices),
-            _ => Chunking::shifted(chunk_vertices, &mesh.vertices),
+            0 => Chunking::morton(chunk_vertices, &mesh.vertices, 0.0),
+            _ => Chunking::morton(chunk_vertices, &mesh.vertices, 1.0 / 3.0),
         };
         let done = collapse_in_chunks(mesh, &chunking, &fixed, &mut corner, limits, &pending);
         collapses += done.collapses;
