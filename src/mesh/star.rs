@@ -76,6 +76,19 @@ impl Star {
         Some(())
     }
 
+    /// Whether neighbour `b` follows neighbour `a`: the star has the triangle of the centre,
+    /// `a` and `b`.
+    pub(crate) fn has_edge(&self, a: u32, b: u32) -> bool {
+        let n = &self.neighbours;
+        let Some(i) = n.iter().position(|&w| w == a) else {
+            return false;
+        };
+        match n.get(i + 1) {
+            Some(&next) => next == b,
+            None => self.closed && n[0] == b,
+        }
+    }
+
     /// The pairs of consecutive neighbours, one per triangle, in the triangles' order.
     pub(crate) fn edges(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
         let wrap = self.closed.then(|| {

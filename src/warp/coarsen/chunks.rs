@@ -19,8 +19,9 @@ use std::ops::Range;
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::{Limits, Plan, Scratch, corners_of};
+use super::{Limits, Plan, Refusals, Scratch, corners_of};
 use crate::mesh::{Mesh, NONE};
+use crate::morton::SortPairs;
 use crate::morton::interleave::box_key;
 
 /// Marks, in a chunk's copy, a link to a triangle the chunk does not own.
@@ -91,11 +92,13 @@ impl Chunking {
             lo - DVec2::splat(side * shift),
             DVec2::splat(side * (1.0 + shift)),
         );
-        let mut keyed: Vec<(u64, u32)> = (vertices.par_iter().enumerate())
-            .map(|(v, &p)| (box_key(p, lo, side), v as u32))
+        // A box key has 32 bits: with the vertex below it, one radix sort orders by key, then
+        // by index.
+        let mut keyed: Vec<u64> = (vertices.par_iter().enumerate())
+            .map(|(v, &p)| box_key(p, lo, side) << 32 | v as u64)
             .collect();
-        keyed.par_sort_unstable();
-        let order: Vec<u32> = keyed.into_par_iter().map(|(_, v)| v).collect();
+        u64::sort_keys(&mut keyed);
+        let order: Vec<u32> = keyed.into_par_iter().map(|k| k as u32).collect();
         let mut rank = vec![0; vertices.len()];
         for (r, &v) in order.iter().enumerate() {
             rank[v as usize] = r as u32;
@@ -180,6 +183,7 @@ struct Chunk<'a> {
     mesh: Mesh,
     corner: Vec<u32>,
     collapsed: Vec<bool>,
+    refusals: Vec<Refusals>,
     unsettled: Vec<u32>,
     collapses: usize,
 }
@@ -219,6 +223,7 @@ impl<'a> Chunk<'a> {
             members,
             mesh: copy,
             collapsed: vec![false; corner.len()],
+            refusals: vec![Refusals::default(); corner.len()],
             corner,
             unsettled: Vec::new(),
             collapses: 0,
@@ -251,8 +256,9 @@ impl<'a> Chunk<'a> {
             }
         }
         while let Some(v) = queue.next() {
-            let Some(plan) = Plan::of(&self.mesh, v, self.corner[v as usize], limits, scratch)
-            else {
+            let memory = &mut self.refusals[v as usize];
+            let start = self.corner[v as usize];
+            let Some(plan) = Plan::of(&self.mesh, v, start, limits, scratch, Some(memory)) else {
                 continue;
             };
             if plan.claims.contains(&FOREIGN) {

@@ -125,7 +125,7 @@ fn coarsen_in_chunks_of(mesh: &mut Mesh, bounds: (f64, f64), chunk_vertices: usi
             .par_iter()
             .filter(|&&v| !fixed[v as usize] && corner[v as usize] != NONE)
             .map_init(Scratch::default, |scratch, &v| {
-                Plan::of(mesh, v, corner[v as usize], limits, scratch)
+                Plan::of(mesh, v, corner[v as usize], limits, scratch, None)
             })
             .flatten_iter()
             .collect();
@@ -387,14 +387,63 @@ struct Plan {
 struct Scratch {
     star: Star,
     candidates: Vec<(f64, u32)>,
+    refused: Vec<Refusal>,
+}
+
+/// How many refused candidates a vertex remembers.
+const REMEMBERED: usize = 8;
+
+/// A candidate a vertex's last plan refused, and the edge of its star whose triangle with the
+/// candidate fell outside the limits; [`NONE`] for none.
+type Refusal = [u32; 3];
+
+/// The refusals a vertex's last plan found, up to [`REMEMBERED`]: its nearest candidates, with
+/// the edge that refused each. A triangle's verdict depends only on its corners, so while that
+/// edge stays in the vertex's star the candidate stays refused, and a vertex planned again
+/// after a neighbour's collapse tests only the candidates whose edges the collapse changed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Refusals([Refusal; REMEMBERED]);
+
+impl Default for Refusals {
+    fn default() -> Self {
+        Refusals([[NONE; 3]; REMEMBERED])
+    }
+}
+
+impl Refusals {
+    /// Whether candidate `u` is still refused in `star`.
+    fn refuses(&self, star: &Star, u: u32) -> bool {
+        (self.0.iter())
+            .take_while(|r| r[0] != NONE)
+            .any(|&[w, a, b]| w == u && star.has_edge(a, b))
+    }
+
+    fn remember(&mut self, refused: &[Refusal]) {
+        for (slot, r) in self.0.iter_mut().zip(refused.iter().chain([&[NONE; 3]])) {
+            *slot = *r;
+        }
+    }
 }
 
 impl Plan {
     /// The collapse of `v` (a corner of triangle `start`), if one keeps `limits`: onto its
     /// nearest neighbour that does (ties to the lower index), along the boundary if `v` is on
     /// it.
-    fn of(mesh: &Mesh, v: u32, start: u32, limits: Limits, scratch: &mut Scratch) -> Option<Plan> {
-        let Scratch { star, candidates } = scratch;
+    /// With `memory`, the vertex's [`Refusals`]: the candidates they still refuse are not
+    /// tested, and a plan that finds no target leaves its refusals there.
+    fn of(
+        mesh: &Mesh,
+        v: u32,
+        start: u32,
+        limits: Limits,
+        scratch: &mut Scratch,
+        mut memory: Option<&mut Refusals>,
+    ) -> Option<Plan> {
+        let Scratch {
+            star,
+            candidates,
+            refused,
+        } = scratch;
         star.refill(mesh, v, start)?;
         let at = mesh.vertices[v as usize];
         let distance = |w: u32| (mesh.vertices[w as usize].distance_squared(at), w);
@@ -410,10 +459,26 @@ impl Plan {
             candidates.extend([distance(first), distance(last)]);
         }
         candidates.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-        let target = candidates
-            .iter()
-            .map(|&(_, w)| w)
-            .find(|&u| star.collapses_onto(&mesh.vertices, u, limits))?;
+        refused.clear();
+        let mut target = None;
+        for &(_, u) in candidates.iter() {
+            if memory.as_ref().is_some_and(|m| m.refuses(star, u)) {
+                continue;
+            }
+            match star.refusing_edge(&mesh.vertices, u, limits) {
+                None => {
+                    target = Some(u);
+                    break;
+                }
+                Some((a, b)) => refused.push([u, a, b]),
+            }
+        }
+        let Some(target) = target else {
+            if let Some(memory) = memory.as_mut() {
+                memory.remember(refused);
+            }
+            return None;
+        };
         let mut claims = star.triangles.clone();
         for &t in &star.triangles {
             let corners = mesh.triangles[t as usize];
@@ -504,13 +569,13 @@ fn relink(mesh: &mut Mesh, t: u32, from: u32, to: u32) {
 }
 
 impl Star {
-    /// Whether moving the centre onto neighbour `u` leaves every triangle not at `u`
-    /// admitted by `limits`.
-    fn collapses_onto(&self, vertices: &[DVec2], u: u32, limits: Limits) -> bool {
+    /// The first edge whose triangle with neighbour `u` `limits` refuses, if the centre moved
+    /// onto `u`; `None` if every triangle not at `u` is admitted.
+    fn refusing_edge(&self, vertices: &[DVec2], u: u32, limits: Limits) -> Option<(u32, u32)> {
         let at = vertices[u as usize];
         self.edges()
             .filter(|&(a, b)| a != u && b != u)
-            .all(|(a, b)| limits.admit(at, vertices[a as usize], vertices[b as usize]))
+            .find(|&(a, b)| !limits.admit(at, vertices[a as usize], vertices[b as usize]))
     }
 }
 
