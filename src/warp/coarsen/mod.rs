@@ -855,6 +855,46 @@ mod tests {
     }
 
     #[test]
+    fn remembered_refusals_change_no_plan() {
+        use crate::generate::{Distribution2d, points};
+        let pts = points(Distribution2d::Kuzmin, 300, 5);
+        let options = crate::Options::default().nonobtuse_split();
+        let (mut mesh, _) = crate::mesh(&crate::Input::points(pts), &options).expect("meshed");
+        let limits = Limits::of(NONOBTUSE_COARSE_BOUNDS, &mesh);
+        let fixed = fixed_vertices(&mesh);
+        let mut corner = corners_of(&mesh);
+        let mut refusals = vec![Refusals::default(); mesh.vertices.len()];
+        let (mut scratch, mut fresh) = (Scratch::default(), Scratch::default());
+        let (mut collapses, mut skipped) = (0, 0);
+        // Sweeps in turn: each vertex plans with its memory and afresh, after the collapses
+        // of the sweeps before have changed its star.
+        for _ in 0..4 {
+            for v in 0..mesh.vertices.len() as u32 {
+                let start = corner[v as usize];
+                if fixed[v as usize] || start == NONE {
+                    continue;
+                }
+                let memory = &mut refusals[v as usize];
+                if let Some(star) = Star::around(&mesh, v, start) {
+                    skipped += (star.neighbours.iter())
+                        .filter(|&&u| memory.refuses(&star, u))
+                        .count();
+                }
+                let remembered = Plan::of(&mesh, v, start, limits, &mut scratch, Some(memory));
+                let planned = Plan::of(&mesh, v, start, limits, &mut fresh, None);
+                let key = |p: &Option<Plan>| p.as_ref().map(|p| (p.target, p.claims.clone()));
+                assert_eq!(key(&remembered), key(&planned), "vertex {v}");
+                if let Some(plan) = planned {
+                    plan.collapse(&mut mesh, &mut corner);
+                    collapses += 1;
+                }
+            }
+        }
+        assert!(collapses > 1000, "{collapses}");
+        assert!(skipped > 1000, "{skipped}");
+    }
+
+    #[test]
     fn nothing_collapses_where_every_collapse_breaks_the_bounds() {
         // Every triangle of the grid has a right angle; with a largest angle of 80° allowed,
         // any collapse would make triangles as wide as the ones there.
