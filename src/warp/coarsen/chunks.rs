@@ -53,7 +53,7 @@ pub(super) fn collapse_in_chunks(
     let chunks: Vec<Chunk> = members
         .par_iter()
         .enumerate()
-        .map_init(Scratch::default, |scratch, (c, members)| {
+        .map_init(ChunkScratch::default, |scratch, (c, members)| {
             let mut chunk = Chunk::copy(mesh, chunking, c as u32, members, &owner, &local);
             chunk.collapse(chunking, fixed, &edge, pending, limits, scratch);
             chunk
@@ -183,7 +183,6 @@ struct Chunk<'a> {
     mesh: Mesh,
     corner: Vec<u32>,
     collapsed: Vec<bool>,
-    refusals: Vec<Refusals>,
     unsettled: Vec<u32>,
     collapses: usize,
 }
@@ -223,7 +222,6 @@ impl<'a> Chunk<'a> {
             members,
             mesh: copy,
             collapsed: vec![false; corner.len()],
-            refusals: vec![Refusals::default(); corner.len()],
             corner,
             unsettled: Vec::new(),
             collapses: 0,
@@ -240,8 +238,14 @@ impl<'a> Chunk<'a> {
         edge: &[bool],
         pending: &[bool],
         limits: Limits,
-        scratch: &mut Scratch,
+        scratch: &mut ChunkScratch,
     ) {
+        let ChunkScratch {
+            plan: scratch,
+            refusals,
+        } = scratch;
+        refusals.clear();
+        refusals.resize(self.corner.len(), Refusals::default());
         let mut queue = Queue {
             vertex: |l: u32| chunking.vertex(self.first + l) as usize,
             fixed,
@@ -256,7 +260,7 @@ impl<'a> Chunk<'a> {
             }
         }
         while let Some(v) = queue.next() {
-            let memory = &mut self.refusals[v as usize];
+            let memory = &mut refusals[v as usize];
             let start = self.corner[v as usize];
             let Some(plan) = Plan::of(&self.mesh, v, start, limits, scratch, Some(memory)) else {
                 continue;
@@ -278,6 +282,14 @@ impl<'a> Chunk<'a> {
         }
         self.unsettled = queue.unsettled;
     }
+}
+
+/// Buffers a thread reuses from chunk to chunk: the plans', and the refusals of the chunk's
+/// vertices (kept no longer than the chunk's collapses need them).
+#[derive(Default)]
+struct ChunkScratch {
+    plan: Scratch,
+    refusals: Vec<Refusals>,
 }
 
 /// The vertices a chunk is to plan, in order, and those it leaves to the rounds.
