@@ -256,7 +256,7 @@ struct QualityArgs {
     #[arg(long, conflicts_with_all = ["warp", "compact_warp", "min_angle", "max_area", "max_vertices"])]
     block_warp: bool,
     /// A nonobtuse mesh instead: every angle at most 90° (none bounded below; a point near a
-    /// grid line of its leaf makes thin triangles), about 57 triangles per point, on a
+    /// grid line of its leaf makes thin triangles), about 47–57 triangles per point, on a
     /// rectangle as for `--warp`: `--nonobtuse-split` coarsened, no new angle under 20°.
     #[arg(long, conflicts_with_all = ["warp", "compact_warp", "block_warp", "min_angle", "max_area", "max_vertices"])]
     nonobtuse: bool,

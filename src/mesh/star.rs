@@ -76,19 +76,6 @@ impl Star {
         Some(())
     }
 
-    /// Whether neighbour `b` follows neighbour `a`: the star has the triangle of the centre,
-    /// `a` and `b`.
-    pub(crate) fn has_edge(&self, a: u32, b: u32) -> bool {
-        let n = &self.neighbours;
-        let Some(i) = n.iter().position(|&w| w == a) else {
-            return false;
-        };
-        match n.get(i + 1) {
-            Some(&next) => next == b,
-            None => self.closed && n[0] == b,
-        }
-    }
-
     /// The pairs of consecutive neighbours, one per triangle, in the triangles' order.
     pub(crate) fn edges(&self) -> impl Iterator<Item = (u32, u32)> + '_ {
         let wrap = self.closed.then(|| {
@@ -96,51 +83,5 @@ impl Star {
             (n[n.len() - 1], n[0])
         });
         self.neighbours.windows(2).map(|w| (w[0], w[1])).chain(wrap)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use glam::DVec2;
-
-    use super::*;
-    use crate::mesh::fixtures::mesh_of;
-
-    /// A square cut into four triangles at its centre (4), and the centre's star.
-    fn centre_star() -> (Mesh, Star) {
-        let vertices = vec![
-            DVec2::new(0.0, 0.0),
-            DVec2::new(1.0, 0.0),
-            DVec2::new(1.0, 1.0),
-            DVec2::new(0.0, 1.0),
-            DVec2::new(0.5, 0.5),
-        ];
-        let triangles = vec![[4, 0, 1], [4, 1, 2], [4, 2, 3], [4, 3, 0]];
-        let mesh = mesh_of(vertices, &[], triangles);
-        let star = Star::around(&mesh, 4, 2).expect("a star");
-        (mesh, star)
-    }
-
-    #[test]
-    fn a_closed_star_has_its_edges_counter_clockwise_and_the_wrapping_one() {
-        let (_, star) = centre_star();
-        assert!(star.closed);
-        for (a, b) in [(0, 1), (1, 2), (2, 3), (3, 0)] {
-            assert!(star.has_edge(a, b), "{a} {b}");
-            assert!(!star.has_edge(b, a), "{b} {a}");
-        }
-        assert!(!star.has_edge(0, 2));
-        assert!(!star.has_edge(4, 0));
-    }
-
-    #[test]
-    fn an_open_star_has_no_edge_from_its_last_neighbour_to_its_first() {
-        let (mesh, _) = centre_star();
-        // Corner 1 of the square: triangles 0 and 1, neighbours 0, 4, 2 counter-clockwise.
-        let star = Star::around(&mesh, 1, 0).expect("a star");
-        assert!(!star.closed);
-        assert_eq!(star.neighbours, vec![2, 4, 0]);
-        assert!(star.has_edge(2, 4) && star.has_edge(4, 0));
-        assert!(!star.has_edge(0, 2));
     }
 }

@@ -137,7 +137,7 @@ def mesh(
     coarsening, every angle in [26°, 120°] (about 36 triangles per point, several times
     faster); ``mode="block_warp"`` the older warp, every angle in [22.5°, 112.5°] (about 104 triangles
     per point); ``mode="nonobtuse"`` a mesh with every angle at most 90° (none bounded below:
-    a point near a grid line of its leaf makes thin triangles; about 57 triangles per point):
+    a point near a grid line of its leaf makes thin triangles; about 47–57 triangles per point):
     ``mode="nonobtuse_split"``, the block warp's quadtree split into right triangles at the
     points (about 114 triangles per point, several times faster), coarsened with no new angle
     under 20°.

@@ -1,9 +1,10 @@
 //! The passes of the coarsening before its rounds: collapses inside chunks of the vertices,
 //! one chunk a task.
 //!
-//! A chunk is a run of a fixed number of vertices in a Morton order of them, a patch of the
-//! plane (the vertices' own numbering would not do: the nonobtuse split numbers the points'
-//! vertices after the grid's, far from their neighbours). A chunk owns the triangles whose corners
+//! A chunk is a run of a fixed number of vertices in an order of them that keeps it a patch of
+//! the plane: their own numbering where that is one (the warp numbers them in Morton order), a
+//! Morton order of their places where not (the nonobtuse split numbers the points' vertices
+//! after the grid's, far from their neighbours). A chunk owns the triangles whose corners
 //! are all its own; only its own collapses change those, and a triangle at one of its vertices
 //! is either its own or one no collapse of a pass changes. A vertex whose triangles the chunk
 //! owns, collapsing onto a neighbour with the triangles beyond owned too, so changes nothing
@@ -19,7 +20,7 @@ use std::ops::Range;
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::{Limits, Plan, Refusals, Scratch, corners_of};
+use super::{Limits, Plan, Scratch, corners_of};
 use crate::mesh::{Mesh, NONE};
 use crate::morton::SortPairs;
 use crate::morton::interleave::box_key;
@@ -53,7 +54,7 @@ pub(super) fn collapse_in_chunks(
     let chunks: Vec<Chunk> = members
         .par_iter()
         .enumerate()
-        .map_init(ChunkScratch::default, |scratch, (c, members)| {
+        .map_init(Scratch::default, |scratch, (c, members)| {
             let mut chunk = Chunk::copy(mesh, chunking, c as u32, members, &owner, &local);
             chunk.collapse(chunking, fixed, &edge, pending, limits, scratch);
             chunk
@@ -81,6 +82,24 @@ pub(super) struct Chunking {
 }
 
 impl Chunking {
+    /// Runs of `size` vertices in the order of their indices.
+    pub(super) fn by_index(size: usize, vertices: usize) -> Chunking {
+        let order: Vec<u32> = (0..vertices as u32).collect();
+        Chunking {
+            size: size as u32,
+            rank: order.clone(),
+            order,
+        }
+    }
+
+    /// Whether at least `share` of the triangles fall inside a chunk.
+    pub(super) fn holds(&self, triangles: &[[u32; 3]], share: f64) -> bool {
+        let inside = (triangles.par_iter())
+            .filter(|&&t| self.owner_of(t) != NONE)
+            .count();
+        inside as f64 >= share * triangles.len() as f64
+    }
+
     /// Runs of `size` vertices in the order of their Morton keys on a square around them whose
     /// low corner lies `shift` of its side below and left of theirs: with a shift of a third,
     /// these runs' edges cross those of the runs with none, which follow the quadrants' edges
@@ -238,14 +257,8 @@ impl<'a> Chunk<'a> {
         edge: &[bool],
         pending: &[bool],
         limits: Limits,
-        scratch: &mut ChunkScratch,
+        scratch: &mut Scratch,
     ) {
-        let ChunkScratch {
-            plan: scratch,
-            refusals,
-        } = scratch;
-        refusals.clear();
-        refusals.resize(self.corner.len(), Refusals::default());
         let mut queue = Queue {
             vertex: |l: u32| chunking.vertex(self.first + l) as usize,
             fixed,
@@ -260,9 +273,8 @@ impl<'a> Chunk<'a> {
             }
         }
         while let Some(v) = queue.next() {
-            let memory = &mut refusals[v as usize];
-            let start = self.corner[v as usize];
-            let Some(plan) = Plan::of(&self.mesh, v, start, limits, scratch, Some(memory)) else {
+            let Some(plan) = Plan::of(&self.mesh, v, self.corner[v as usize], limits, scratch)
+            else {
                 continue;
             };
             if plan.claims.contains(&FOREIGN) {
@@ -282,14 +294,6 @@ impl<'a> Chunk<'a> {
         }
         self.unsettled = queue.unsettled;
     }
-}
-
-/// Buffers a thread reuses from chunk to chunk: the plans', and the refusals of the chunk's
-/// vertices (kept no longer than the chunk's collapses need them).
-#[derive(Default)]
-struct ChunkScratch {
-    plan: Scratch,
-    refusals: Vec<Refusals>,
 }
 
 /// The vertices a chunk is to plan, in order, and those it leaves to the rounds.
