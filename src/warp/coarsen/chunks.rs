@@ -73,22 +73,19 @@ pub(super) fn collapse_in_chunks(
     }
 }
 
-/// Which vertices go together: runs of `size` in the order `order` of them (with `rank`, its
-/// inverse).
+/// Which vertices go together: runs of `size` in an order of them, that of their indices or
+/// `order` (with `rank`, its inverse).
 pub(super) struct Chunking {
     size: u32,
-    order: Vec<u32>,
-    rank: Vec<u32>,
+    order: Option<(Vec<u32>, Vec<u32>)>,
 }
 
 impl Chunking {
     /// Runs of `size` vertices in the order of their indices.
-    pub(super) fn by_index(size: usize, vertices: usize) -> Chunking {
-        let order: Vec<u32> = (0..vertices as u32).collect();
+    pub(super) fn by_index(size: usize) -> Chunking {
         Chunking {
             size: size as u32,
-            rank: order.clone(),
-            order,
+            order: None,
         }
     }
 
@@ -124,8 +121,7 @@ impl Chunking {
         }
         Chunking {
             size: size as u32,
-            order,
-            rank,
+            order: Some((order, rank)),
         }
     }
 
@@ -135,11 +131,17 @@ impl Chunking {
     }
 
     fn rank(&self, v: u32) -> u32 {
-        self.rank[v as usize]
+        match &self.order {
+            None => v,
+            Some((_, rank)) => rank[v as usize],
+        }
     }
 
     fn vertex(&self, rank: u32) -> u32 {
-        self.order[rank as usize]
+        match &self.order {
+            None => rank,
+            Some((order, _)) => order[rank as usize],
+        }
     }
 
     fn of(&self, v: u32) -> u32 {

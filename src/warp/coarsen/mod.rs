@@ -175,7 +175,7 @@ const NUMBERING_HOLDS: f64 = 0.9;
 /// The first pass's chunks: runs of consecutive indices where the numbering keeps them patches
 /// of the plane (no sort, and the greedy order of the warp), else runs in a Morton order.
 fn first_chunking(mesh: &Mesh, chunk_vertices: usize) -> Chunking {
-    let by_index = Chunking::by_index(chunk_vertices, mesh.vertices.len());
+    let by_index = Chunking::by_index(chunk_vertices);
     match by_index.holds(&mesh.triangles, NUMBERING_HOLDS) {
         true => by_index,
         false => Chunking::morton(chunk_vertices, &mesh.vertices, 0.0),
@@ -818,7 +818,7 @@ mod tests {
         for t in &mut scattered.triangles {
             *t = t.map(new_index);
         }
-        let by_index = Chunking::by_index(200, n as usize);
+        let by_index = Chunking::by_index(200);
         assert!(by_index.holds(&mesh.triangles, 0.7));
         assert!(!by_index.holds(&scattered.triangles, 0.1));
         let morton = Chunking::morton(200, &scattered.vertices, 0.0);
