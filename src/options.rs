@@ -87,7 +87,8 @@ pub enum Mode {
     /// A planar straight-line graph is meshed over what its segments enclose from a quadtree
     /// bent onto it (see [`crate::warp::triangulate_graph`]), its poor triangles' Steiner
     /// corners then moved (see [`crate::warp::smooth_steiner_vertices`]) and the mesh
-    /// coarsened as a point set's (vertices on segments stay), with no angle bound proven yet:
+    /// coarsened as a point set's (a vertex inside a segment goes only along it, and where
+    /// segments end or meet vertices stay), with no angle bound proven yet:
     /// [`Options::angle_bounds`] does not apply to it, and the report gives the angles reached.
     Warp,
     /// The compact warp, not coarsened: every angle in [26°, 120°], about 36 triangles per

@@ -406,3 +406,49 @@ fn moving_the_steiner_vertices_widens_the_narrowest_angles_and_moves_nothing_els
         assert!(to >= 18.0, "{name}: {from}° → {to}°");
     }
 }
+
+#[test]
+fn vertices_inside_a_segment_go_along_it_and_its_ends_and_junctions_stay() {
+    let mut inputs: Vec<(String, Input)> = vec![
+        ("block".into(), quadmesh::generate::block_with_holes(40, 1)),
+        ("rings".into(), quadmesh::generate::nested_curves(2000, 1)),
+    ];
+    if let Some(dir) = common::triangle_examples() {
+        for name in ["A", "face", "la", "double_hex2", "square_circle_hole"] {
+            let path = dir.join(format!("{name}.poly"));
+            inputs.push((name.to_string(), quadmesh::io::read_input(&path).unwrap()));
+        }
+    } else {
+        eprintln!("Triangle's examples skipped: the Python package `triangle` is not installed");
+    }
+    for (name, input) in &inputs {
+        let (fine, _) = warped_with(input, Options::default().compact_warp());
+        let (coarse, _) = warped(input);
+        // The vertices where a chain ends or meets another, or an input point sits, in both.
+        let mut pieces_at = vec![0; fine.vertices.len()];
+        for piece in &fine.segments {
+            for v in piece.vertices {
+                pieces_at[v as usize] += 1;
+            }
+        }
+        let stays = |v: usize| fine.vertex_input[v] != u32::MAX || ![0, 2].contains(&pieces_at[v]);
+        let mut kept: Vec<[u64; 2]> = (coarse.vertices.iter())
+            .map(|p| [p.x.to_bits(), p.y.to_bits()])
+            .collect();
+        kept.sort_unstable();
+        for (v, p) in fine.vertices.iter().enumerate().filter(|&(v, _)| stays(v)) {
+            let bits = [p.x.to_bits(), p.y.to_bits()];
+            assert!(
+                kept.binary_search(&bits).is_ok(),
+                "{name}: vertex {v} at {p} went"
+            );
+        }
+        // Every segment keeps a chain (checked by `warped`), with far fewer pieces.
+        assert!(
+            coarse.segments.len() * 2 < fine.segments.len(),
+            "{name}: {} pieces of {}",
+            coarse.segments.len(),
+            fine.segments.len()
+        );
+    }
+}

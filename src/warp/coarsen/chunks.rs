@@ -20,7 +20,7 @@ use std::ops::Range;
 use glam::DVec2;
 use rayon::prelude::*;
 
-use super::{Limits, Plan, Scratch, corners_of};
+use super::{Limits, Plan, Rails, Scratch, corners_of};
 use crate::mesh::{Mesh, NONE};
 use crate::morton::SortPairs;
 use crate::morton::interleave::box_key;
@@ -41,7 +41,7 @@ pub(super) struct ChunkPass {
 pub(super) fn collapse_in_chunks(
     mesh: &mut Mesh,
     chunking: &Chunking,
-    fixed: &[bool],
+    (fixed, rails): (&[bool], &Rails),
     corner: &mut [u32],
     limits: Limits,
     pending: &[bool],
@@ -56,7 +56,7 @@ pub(super) fn collapse_in_chunks(
         .enumerate()
         .map_init(Scratch::default, |scratch, (c, members)| {
             let mut chunk = Chunk::copy(mesh, chunking, c as u32, members, &owner, &local);
-            chunk.collapse(chunking, fixed, &edge, pending, limits, scratch);
+            chunk.collapse(chunking, (fixed, rails), &edge, pending, limits, scratch);
             chunk
         })
         .collect();
@@ -255,12 +255,15 @@ impl<'a> Chunk<'a> {
     fn collapse(
         &mut self,
         chunking: &Chunking,
-        fixed: &[bool],
+        (fixed, rails): (&[bool], &Rails),
         edge: &[bool],
         pending: &[bool],
         limits: Limits,
         scratch: &mut Scratch,
     ) {
+        let first = self.first;
+        let global = |l: u32| chunking.vertex(first + l);
+        let along = |a: u32, b: u32| rails.admits(global(a), global(b));
         let mut queue = Queue {
             vertex: |l: u32| chunking.vertex(self.first + l) as usize,
             fixed,
@@ -275,8 +278,8 @@ impl<'a> Chunk<'a> {
             }
         }
         while let Some(v) = queue.next() {
-            let Some(plan) = Plan::of(&self.mesh, v, self.corner[v as usize], limits, scratch)
-            else {
+            let start = self.corner[v as usize];
+            let Some(plan) = Plan::of(&self.mesh, v, start, (limits, &along), scratch) else {
                 continue;
             };
             if plan.claims.contains(&FOREIGN) {

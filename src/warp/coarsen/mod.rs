@@ -8,7 +8,10 @@
 //! new triangle counter-clockwise (the exact test) with every angle within the bounds. Its star
 //! is then a fan from that end, the same polygon: triangles keep their region, segments and the
 //! boundary's shape stay. A vertex on the boundary collapses only along it, onto a neighbour on
-//! the same straight line.
+//! the same straight line. A vertex inside one segment's chain of pieces (where two of its
+//! pieces meet, and nothing else holds it) collapses only along the chain, onto the next
+//! vertex either way: its two pieces become one edge of the fan, and the chain's other
+//! vertices, each within rounding of the segment's line, stay ([`Rails`]).
 //!
 //! Most collapses happen inside chunks of the vertices, one chunk a task, each collapsing
 //! greedily in a copy of the triangles it owns ([`chunks`]): first chunks of consecutive
@@ -29,7 +32,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 use glam::DVec2;
 use rayon::prelude::*;
 
-use crate::domain::BoundaryEdge;
+use crate::domain::{BoundaryEdge, SubSegment};
 use crate::mesh::{
     Mesh, NONE, Star, corner_cosines, corner_sides, largest_coordinate, rounding_turn,
 };
@@ -73,8 +76,9 @@ pub struct Coarsened {
 
 /// Coarsens `mesh` (see the module's description): every triangle made has its angles within
 /// `bounds` (degrees, smallest and largest); the triangles that stay are not measured. Input
-/// points, the vertices of segment pieces and the boundary's bends stay, with the mesh's
-/// domain, outline, segments and regions.
+/// points, the ends of segments and where segments meet, and the boundary's bends stay, with
+/// the mesh's domain, outline and regions; each segment keeps a chain of pieces from end to
+/// end, fewer of them where vertices inside it went along it.
 pub fn coarsen(mesh: &mut Mesh, bounds: (f64, f64)) -> Coarsened {
     coarsen_in_chunks_of(mesh, bounds, CHUNK_VERTICES)
 }
@@ -82,7 +86,8 @@ pub fn coarsen(mesh: &mut Mesh, bounds: (f64, f64)) -> Coarsened {
 /// [`coarsen`] with chunks of `chunk_vertices` vertices in its first passes.
 fn coarsen_in_chunks_of(mesh: &mut Mesh, bounds: (f64, f64), chunk_vertices: usize) -> Coarsened {
     let limits = Limits::of(bounds, mesh);
-    let fixed = fixed_vertices(mesh);
+    let rails = Rails::of(mesh);
+    let fixed = fixed_vertices(mesh, &rails);
     let mut corner = corners_of(mesh);
     let mut pending = vec![true; mesh.vertices.len()];
     let mut collapses = 0;
@@ -98,7 +103,14 @@ fn coarsen_in_chunks_of(mesh: &mut Mesh, bounds: (f64, f64), chunk_vertices: usi
             0 => first_chunking(mesh, chunk_vertices),
             _ => Chunking::morton(chunk_vertices, &mesh.vertices, 1.0 / 3.0),
         };
-        let done = collapse_in_chunks(mesh, &chunking, &fixed, &mut corner, limits, &pending);
+        let done = collapse_in_chunks(
+            mesh,
+            &chunking,
+            (&fixed, &rails),
+            &mut corner,
+            limits,
+            &pending,
+        );
         collapses += done.collapses;
         pending.fill(false);
         for &v in &done.left {
@@ -126,7 +138,8 @@ fn coarsen_in_chunks_of(mesh: &mut Mesh, bounds: (f64, f64), chunk_vertices: usi
             .par_iter()
             .filter(|&&v| !fixed[v as usize] && corner[v as usize] != NONE)
             .map_init(Scratch::default, |scratch, &v| {
-                Plan::of(mesh, v, corner[v as usize], limits, scratch)
+                let along = |a: u32, b: u32| rails.admits(a, b);
+                Plan::of(mesh, v, corner[v as usize], (limits, &along), scratch)
             })
             .flatten_iter()
             .collect();
@@ -348,26 +361,103 @@ impl Limits {
     }
 }
 
-/// Per vertex, whether it must stay: an input point, an end of a segment's piece, or a vertex
-/// where the boundary meets itself (its triangles are two fans, and a star walks one).
-fn fixed_vertices(mesh: &Mesh) -> Vec<bool> {
-    let mut fixed: Vec<bool> = mesh.vertex_input.par_iter().map(|&i| i != NONE).collect();
+/// Per vertex, whether it must stay: an input point, a vertex where the boundary meets itself
+/// (its triangles are two fans, and a star walks one), or a vertex of a segment's pieces that
+/// does not lie on a rail (see [`Rails`]).
+fn fixed_vertices(mesh: &Mesh, rails: &Rails) -> Vec<bool> {
+    let mut fixed = held_vertices(mesh);
     for piece in &mesh.segments {
         for v in piece.vertices {
-            fixed[v as usize] = true;
+            if rails.segment_at(v) == NONE {
+                fixed[v as usize] = true;
+            }
         }
     }
+    fixed
+}
+
+/// Per vertex, whether it must stay whatever the segments: an input point, or a vertex where
+/// the boundary meets itself.
+fn held_vertices(mesh: &Mesh) -> Vec<bool> {
+    let mut held: Vec<bool> = mesh.vertex_input.par_iter().map(|&i| i != NONE).collect();
     let mut boundary_edges = vec![0u8; mesh.vertices.len()];
     for edge in &mesh.boundary {
         for v in edge.vertices {
             let count = &mut boundary_edges[v as usize];
             *count = count.saturating_add(1);
             if *count > 2 {
-                fixed[v as usize] = true;
+                held[v as usize] = true;
             }
         }
     }
-    fixed
+    held
+}
+
+/// The segments' chains of pieces, for the vertices inside them that may go: a vertex where
+/// two pieces of one segment meet, and nothing else, collapses only along that segment, onto
+/// the next vertex of its chain either way. Its star is then a fan from there: the two pieces
+/// become one edge, which the fan has, and the chain's other vertices stay where they were,
+/// within rounding of the segment's line.
+struct Rails {
+    /// Per vertex, the segment whose chain it lies inside and may go along, or [`NONE`]
+    /// (empty without segments).
+    segment: Vec<u32>,
+    /// The other vertices of the chains, `(segment, vertex)` sorted: their ends, and those
+    /// held for another reason.
+    stops: Vec<(u32, u32)>,
+}
+
+impl Rails {
+    fn of(mesh: &Mesh) -> Rails {
+        if mesh.segments.is_empty() {
+            return Rails {
+                segment: Vec::new(),
+                stops: Vec::new(),
+            };
+        }
+        let held = held_vertices(mesh);
+        // Per vertex: how many pieces meet there, and the first one's segment and marker.
+        let mut pieces = vec![(0u32, NONE, 0i32); mesh.vertices.len()];
+        let mut mixed = vec![false; mesh.vertices.len()];
+        for piece in &mesh.segments {
+            for v in piece.vertices {
+                let (count, segment, marker) = &mut pieces[v as usize];
+                if *count == 0 {
+                    (*segment, *marker) = (piece.segment, piece.marker);
+                } else if (*segment, *marker) != (piece.segment, piece.marker) {
+                    mixed[v as usize] = true;
+                }
+                *count += 1;
+            }
+        }
+        let segment: Vec<u32> = (0..mesh.vertices.len())
+            .map(|v| match pieces[v] {
+                (2, s, _) if !mixed[v] && !held[v] => s,
+                _ => NONE,
+            })
+            .collect();
+        let mut stops: Vec<(u32, u32)> = (mesh.segments.iter())
+            .flat_map(|piece| piece.vertices.map(|v| (piece.segment, v)))
+            .filter(|&(_, v)| segment[v as usize] == NONE)
+            .collect();
+        stops.sort_unstable();
+        stops.dedup();
+        Rails { segment, stops }
+    }
+
+    /// The segment vertex `v` may go along, or [`NONE`].
+    fn segment_at(&self, v: u32) -> u32 {
+        self.segment.get(v as usize).copied().unwrap_or(NONE)
+    }
+
+    /// Whether `v` lies on a rail (`None` if not), and if so, whether `w` lies on the same.
+    fn admits(&self, v: u32, w: u32) -> Option<bool> {
+        let s = self.segment_at(v);
+        if s == NONE {
+            return None;
+        }
+        Some(self.segment_at(w) == s || self.stops.binary_search(&(s, w)).is_ok())
+    }
 }
 
 /// Per vertex, a triangle it is a corner of, or [`NONE`].
@@ -407,15 +497,29 @@ struct Scratch {
 
 impl Plan {
     /// The collapse of `v` (a corner of triangle `start`), if one keeps `limits`: onto its
-    /// nearest neighbour that does (ties to the lower index), along the boundary if `v` is on
-    /// it.
-    fn of(mesh: &Mesh, v: u32, start: u32, limits: Limits, scratch: &mut Scratch) -> Option<Plan> {
+    /// nearest neighbour that does (ties to the lower index); along its segment if `along`
+    /// says it lies on a rail (`along(v, w)`: `None` for no rail, else whether `w` is on
+    /// it), else along the boundary if `v` is on it.
+    fn of(
+        mesh: &Mesh,
+        v: u32,
+        start: u32,
+        (limits, along): (Limits, &dyn Fn(u32, u32) -> Option<bool>),
+        scratch: &mut Scratch,
+    ) -> Option<Plan> {
         let Scratch { star, candidates } = scratch;
         star.refill(mesh, v, start)?;
         let at = mesh.vertices[v as usize];
         let distance = |w: u32| (mesh.vertices[w as usize].distance_squared(at), w);
         candidates.clear();
-        if star.closed {
+        if along(v, v).is_some() {
+            // The chain's next vertices either way, both in the star, or no collapse.
+            let on_rail = |&&w: &&u32| along(v, w) == Some(true);
+            candidates.extend(star.neighbours.iter().filter(on_rail).map(|&w| distance(w)));
+            if candidates.len() != 2 || star.triangles.len() < 2 {
+                return None;
+            }
+        } else if star.closed {
             candidates.extend(star.neighbours.iter().map(|&w| distance(w)));
         } else {
             let (first, last) = (star.neighbours[0], *star.neighbours.last()?);
@@ -530,6 +634,27 @@ impl Star {
     }
 }
 
+/// The segment pieces with the collapsed vertices (`corner` [`NONE`]) left out: each went
+/// along its chain, inside it, so the pieces on either side of it become one.
+fn joined_pieces(pieces: &[SubSegment], corner: &[u32]) -> Vec<SubSegment> {
+    let alive = |v: u32| corner[v as usize] != NONE;
+    let mut joined = Vec::with_capacity(pieces.len());
+    let mut from = NONE;
+    for piece in pieces {
+        let [a, b] = piece.vertices;
+        if alive(a) {
+            from = a;
+        }
+        if alive(b) {
+            joined.push(SubSegment {
+                vertices: [from, b],
+                ..*piece
+            });
+        }
+    }
+    joined
+}
+
 /// Drops the collapsed vertices (`corner` [`NONE`]) and dead triangles, keeping the order of
 /// the rest, and joins the boundary edges at the collapsed vertices.
 fn compact(mesh: &mut Mesh, corner: &[u32]) {
@@ -540,6 +665,7 @@ fn compact(mesh: &mut Mesh, corner: &[u32]) {
     for edge in &mut mesh.boundary {
         edge.vertices = edge.vertices.map(|v| renumber(&vertex_map, v));
     }
+    mesh.segments = joined_pieces(&mesh.segments, corner);
     for piece in &mut mesh.segments {
         piece.vertices = piece.vertices.map(|v| renumber(&vertex_map, v));
     }
@@ -840,33 +966,67 @@ mod tests {
     }
 
     #[test]
-    fn input_points_and_the_ends_of_segment_pieces_stay() {
+    fn a_vertex_inside_a_segments_chain_goes_along_it_and_its_ends_stay() {
         let mut before = grid(6);
-        let on_segment = [15, 16, 17];
-        before.segments = [[15, 16], [16, 17]]
-            .map(|vertices| SubSegment {
-                vertices,
-                segment: 0,
-                marker: 3,
-            })
-            .to_vec();
+        // Segment 0 runs from vertex 15 through 16 to 17, segment 1 on from 17 to 19: 16 lies
+        // inside one chain, 17 and 18 where the chains meet and inside the second.
+        let piece = |vertices, segment, marker| SubSegment {
+            vertices,
+            segment,
+            marker,
+        };
+        before.segments = vec![
+            piece([15, 16], 0, 3),
+            piece([16, 17], 0, 3),
+            piece([17, 18], 1, 5),
+            piece([18, 19], 1, 5),
+        ];
         let mut after = before.clone();
         coarsen(&mut after, COARSE_ANGLE_BOUNDS);
         check(&before, &after, COARSE_ANGLE_BOUNDS);
-        let kept: Vec<DVec2> = after
-            .segments
-            .iter()
-            .flat_map(|s| s.vertices.map(|v| after.vertices[v as usize]))
+        let at = |m: &Mesh, v: u32| m.vertices[v as usize];
+        let pieces: Vec<([DVec2; 2], u32, i32)> = (after.segments.iter())
+            .map(|p| (p.vertices.map(|v| at(&after, v)), p.segment, p.marker))
             .collect();
-        let expected: Vec<DVec2> = [[15, 16], [16, 17]]
-            .into_iter()
-            .flatten()
-            .map(|v| before.vertices[v])
-            .collect();
-        assert_eq!(kept, expected);
-        for v in on_segment {
-            assert!(after.vertices.contains(&before.vertices[v]));
+        let expected: Vec<([DVec2; 2], u32, i32)> = [([15, 17], 0, 3), ([17, 19], 1, 5)]
+            .map(|(ends, s, m)| (ends.map(|v| at(&before, v)), s, m))
+            .to_vec();
+        assert_eq!(pieces, expected);
+        // Each piece is an edge of the mesh.
+        for p in &after.segments {
+            let [a, b] = p.vertices;
+            assert!(
+                after
+                    .triangles
+                    .iter()
+                    .any(|t| t.contains(&a) && t.contains(&b))
+            );
         }
+        for v in [16, 18] {
+            assert!(!after.vertices.contains(&before.vertices[v]));
+        }
+    }
+
+    #[test]
+    fn a_rail_admits_only_its_own_chain() {
+        let mut mesh = grid(6);
+        mesh.segments = [[15, 16], [16, 17], [17, 24]]
+            .map(|vertices| SubSegment {
+                vertices,
+                segment: 0,
+                marker: 0,
+            })
+            .to_vec();
+        let rails = Rails::of(&mesh);
+        assert_eq!(rails.admits(16, 15), Some(true));
+        assert_eq!(rails.admits(16, 17), Some(true));
+        assert_eq!(rails.admits(16, 9), Some(false));
+        assert_eq!(rails.admits(17, 24), Some(true));
+        // Ends and free vertices lie on no rail.
+        assert_eq!(rails.admits(15, 16), None);
+        assert_eq!(rails.admits(24, 17), None);
+        assert_eq!(rails.admits(9, 16), None);
+        assert!(Rails::of(&grid(2)).segment.is_empty());
     }
 
     #[test]
