@@ -21,7 +21,11 @@ const LATTICE: usize = 112;
 
 /// Byte `i` of the pattern, read cyclically (0 when there is none).
 fn pattern(bytes: &[u8], i: usize) -> u8 {
-    if bytes.is_empty() { 0 } else { bytes[i % bytes.len()] }
+    if bytes.is_empty() {
+        0
+    } else {
+        bytes[i % bytes.len()]
+    }
 }
 
 /// Adds the closed loop `outline` with `marker` to `input`.
@@ -147,7 +151,10 @@ fuzz_target!(|data: &[u8]| {
                 .unwrap_or_else(|e| panic!("not Delaunay: {e}"));
         }
         (Err(Error::VertexBudget(a)), Err(Error::VertexBudget(b))) => {
-            assert!(a.mesh == b.mesh, "partial meshes differ between thread counts");
+            assert!(
+                a.mesh == b.mesh,
+                "partial meshes differ between thread counts"
+            );
             a.mesh
                 .check_delaunay()
                 .unwrap_or_else(|e| panic!("partial: {e}"));

@@ -3,18 +3,19 @@
 //! in the quadtree. Each stage answers with its result or a typed error, never a panic; the
 //! tree must be valid, its crowded squares those of the brute force, its leaves uncrowded, and
 //! every edge's pieces must run from end to end without a gap. The tree is then bent onto the
-//! graph and the domain cut out (the warp mode's stages): a mesh must pass the PSLG check.
+//! graph and the domain cut out (the warp mode's stages): a mesh must pass the PSLG check, and
+//! so must the mesh coarsened, with no angle beyond both the warp's and the coarsening's bounds.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
 use quadmesh::balance::reference::graph_crowded_squares;
-use quadmesh::mesh::{AngleBounds, validate_pslg};
+use quadmesh::mesh::{AngleBounds, angles_deg, validate_pslg};
 use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::{
     GraphTree, GraphTreeBuild, GraphTreeOptions, StageTimes, graph_tree, warped_graph,
 };
 use quadmesh::pslg::{CleanOptions, CornerCut, clean, cut_acute_corners};
-use quadmesh::warp::finest_resolved_level;
+use quadmesh::warp::{COARSE_ANGLE_BOUNDS, coarsen, finest_resolved_level};
 use quadmesh::{DVec2, Input, Segment};
 
 /// Points from 4 bytes each (two i16 on a 1/64 grid), or from 16 (raw f64 bits) when `raw`.
@@ -85,7 +86,34 @@ fn check_warp<K: MortonKey>(graph: &Input, cut: &CornerCut, build: &GraphTreeBui
             max_deg: 180.0,
         };
         validate_pslg(&mesh, graph, any).unwrap_or_else(|e| panic!("invalid warped mesh: {e}"));
+        // Coarsened (vertices inside a segment going along it), still valid, and no angle
+        // beyond both the warp's and the coarsening's bounds.
+        let (fine_min, fine_max) = angle_range(&mesh);
+        let mut coarse = mesh;
+        coarsen(&mut coarse, COARSE_ANGLE_BOUNDS);
+        validate_pslg(&coarse, graph, any)
+            .unwrap_or_else(|e| panic!("invalid coarsened mesh: {e}"));
+        let (min, max) = angle_range(&coarse);
+        let (low, high) = COARSE_ANGLE_BOUNDS;
+        assert!(
+            min >= fine_min.min(low) - 1e-9,
+            "coarsened to {min}° from {fine_min}°"
+        );
+        assert!(
+            max <= fine_max.max(high) + 1e-9,
+            "coarsened to {max}° from {fine_max}°"
+        );
     }
+}
+
+/// The smallest and largest angle of `mesh`'s triangles, in degrees.
+fn angle_range(mesh: &quadmesh::Mesh) -> (f64, f64) {
+    (mesh.triangles.iter())
+        .flat_map(|t| {
+            let [a, b, c] = t.map(|v| mesh.vertices[v as usize]);
+            angles_deg(a, b, c)
+        })
+        .fold((f64::INFINITY, 0.0), |(lo, hi), x| (lo.min(x), hi.max(x)))
 }
 
 fn check_pieces<K: MortonKey>(build: &GraphTreeBuild<K>) {
