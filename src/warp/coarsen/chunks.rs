@@ -265,7 +265,7 @@ impl<'a> Chunk<'a> {
         let global = |l: u32| chunking.vertex(first + l);
         let along = |a: u32, b: u32| rails.admits(global(a), global(b));
         let mut queue = Queue {
-            vertex: |l: u32| chunking.vertex(self.first + l) as usize,
+            vertex: |l: u32| global(l) as usize,
             fixed,
             edge,
             queued: vec![false; self.corner.len()],

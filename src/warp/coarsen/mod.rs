@@ -86,8 +86,9 @@ pub fn coarsen(mesh: &mut Mesh, bounds: (f64, f64)) -> Coarsened {
 /// [`coarsen`] with chunks of `chunk_vertices` vertices in its first passes.
 fn coarsen_in_chunks_of(mesh: &mut Mesh, bounds: (f64, f64), chunk_vertices: usize) -> Coarsened {
     let limits = Limits::of(bounds, mesh);
-    let rails = Rails::of(mesh);
-    let fixed = fixed_vertices(mesh, &rails);
+    let held = held_vertices(mesh);
+    let rails = Rails::of(mesh, &held);
+    let fixed = fixed_vertices(mesh, held, &rails);
     let mut corner = corners_of(mesh);
     let mut pending = vec![true; mesh.vertices.len()];
     let mut collapses = 0;
@@ -361,11 +362,10 @@ impl Limits {
     }
 }
 
-/// Per vertex, whether it must stay: an input point, a vertex where the boundary meets itself
-/// (its triangles are two fans, and a star walks one), or a vertex of a segment's pieces that
-/// does not lie on a rail (see [`Rails`]).
-fn fixed_vertices(mesh: &Mesh, rails: &Rails) -> Vec<bool> {
-    let mut fixed = held_vertices(mesh);
+/// Per vertex, whether it must stay: one `held` ([`held_vertices`]), or a vertex of a
+/// segment's pieces that does not lie on a rail (see [`Rails`]).
+fn fixed_vertices(mesh: &Mesh, held: Vec<bool>, rails: &Rails) -> Vec<bool> {
+    let mut fixed = held;
     for piece in &mesh.segments {
         for v in piece.vertices {
             if rails.segment_at(v) == NONE {
@@ -377,7 +377,7 @@ fn fixed_vertices(mesh: &Mesh, rails: &Rails) -> Vec<bool> {
 }
 
 /// Per vertex, whether it must stay whatever the segments: an input point, or a vertex where
-/// the boundary meets itself.
+/// the boundary meets itself (its triangles are two fans, and a star walks one).
 fn held_vertices(mesh: &Mesh) -> Vec<bool> {
     let mut held: Vec<bool> = mesh.vertex_input.par_iter().map(|&i| i != NONE).collect();
     let mut boundary_edges = vec![0u8; mesh.vertices.len()];
@@ -408,14 +408,14 @@ struct Rails {
 }
 
 impl Rails {
-    fn of(mesh: &Mesh) -> Rails {
+    /// The rails of `mesh`'s segments, none through a vertex `held`.
+    fn of(mesh: &Mesh, held: &[bool]) -> Rails {
         if mesh.segments.is_empty() {
             return Rails {
                 segment: Vec::new(),
                 stops: Vec::new(),
             };
         }
-        let held = held_vertices(mesh);
         // Per vertex: how many pieces meet there, and the first one's segment and marker.
         let mut pieces = vec![(0u32, NONE, 0i32); mesh.vertices.len()];
         let mut mixed = vec![false; mesh.vertices.len()];
@@ -1017,7 +1017,7 @@ mod tests {
                 marker: 0,
             })
             .to_vec();
-        let rails = Rails::of(&mesh);
+        let rails = Rails::of(&mesh, &held_vertices(&mesh));
         assert_eq!(rails.admits(16, 15), Some(true));
         assert_eq!(rails.admits(16, 17), Some(true));
         assert_eq!(rails.admits(16, 9), Some(false));
@@ -1026,7 +1026,8 @@ mod tests {
         assert_eq!(rails.admits(15, 16), None);
         assert_eq!(rails.admits(24, 17), None);
         assert_eq!(rails.admits(9, 16), None);
-        assert!(Rails::of(&grid(2)).segment.is_empty());
+        let plain = grid(2);
+        assert!(Rails::of(&plain, &held_vertices(&plain)).segment.is_empty());
     }
 
     #[test]
