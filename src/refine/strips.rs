@@ -345,9 +345,6 @@ fn glue(
         regions: Vec::new(),
         segment_of: Vec::new(),
         canonical: false,
-        free_slots: Vec::new(),
-        freed_vertices: Vec::new(),
-        vertices_deleted: 0,
     };
     (t, vertex_input, seam_edges)
 }
