@@ -614,6 +614,85 @@ fn huge_and_tiny_coordinates_in_one_hull() {
     }
 }
 
+/// Meshes the graph `input` within the time limit: a mesh must pass the PSLG check (against
+/// the graph as cleaned) and the Delaunay check, a partial mesh at the vertex budget the
+/// Delaunay check. Returns where refinement said f64 cannot place a vertex, if it did; any
+/// other error fails.
+fn graph_meshes_or_stops(input: &Input, options: Options, split_crossings: bool) -> Option<DVec2> {
+    match within_limit(input, options) {
+        Ok(_) => {
+            let (graph, _) =
+                quadmesh::pslg::clean(input, CleanOptions { split_crossings }).unwrap();
+            let mesh = within_limit(&graph, options).unwrap();
+            validate_pslg_with(&mesh, &graph, options.angle_bounds(), false).unwrap();
+            mesh.check_delaunay().unwrap();
+            None
+        }
+        Err(Error::VertexBudget(partial)) => {
+            partial.mesh.check_delaunay().unwrap();
+            None
+        }
+        Err(Error::RefinementResolution { x, y }) => Some(DVec2::new(x, y)),
+        Err(e) => panic!("{e}"),
+    }
+}
+
+/// The distance from `p` to the line through `a` and `b`.
+fn off_line(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    (b - a).perp_dot(p - a).abs() / a.distance(b)
+}
+
+#[test]
+fn a_vertex_within_rounding_of_a_side_split_by_a_crossing() {
+    // Found by the `poly_file` fuzz target (20°, crossings split): the square-like polygon
+    // (0, 0), (2, 0), (3, 3), (0, 3) with a point at (2.9, 2.7), on the side from (2, 0) to
+    // (3, 3) but for rounding, and a segment crossing that side to (227, 1.1). Refinement
+    // split the side toward the point until a split point fell within rounding of it: the
+    // cavity held the point inside, the fan from the split point dropped it and left a
+    // triangle marked as in a cavity, and the angle scan read the mark as a vertex number and
+    // panicked. A cavity must now be a disk, and a split point must lie in the circumcircles
+    // of the triangles on the side it splits; refinement stops where f64 cannot split it so.
+    let mut input = peer_cases::polygon(&[(0.0, 0.0), (2.0, 0.0), (3.0, 3.0), (0.0, 3.0)], 1);
+    input.points.push(DVec2::new(2.9, 2.7));
+    peer_cases::push_segment(&mut input, DVec2::new(0.1, 0.3), DVec2::new(227.0, 1.1));
+    let options = Options::default()
+        .min_angle(20.0)
+        .max_vertices(20_000)
+        .split_crossings();
+    let stop =
+        graph_meshes_or_stops(&input, options, true).expect("refinement reaches f64's resolution");
+    let side = (DVec2::new(2.0, 0.0), DVec2::new(3.0, 3.0));
+    assert!(off_line(stop, side.0, side.1) < 1e-12, "{stop}");
+    assert!(stop.distance(DVec2::new(2.9, 2.7)) < 0.1, "{stop}");
+}
+
+#[test]
+fn a_segment_split_where_rounding_leaves_a_thin_triangle_beyond_it() {
+    // Found by the `poly_file` fuzz target (20°): a quadrilateral 1.24e9 tall and 4 wide at
+    // the base, its corner at the top 1e-9 radians wide, with a segment from inside to that
+    // corner. Splitting the segment 6.8e8 up, where f64's step is 1.2e-7, put the split point
+    // off the segment, on one side; the fan on the other side then had an edge that was not
+    // locally Delaunay (the triangle it replaced, 0.5 wide and 6.8e8 long, did not have the
+    // point in its circumcircle), and at the vertex budget the partial mesh failed the exact
+    // Delaunay check. Such a split is now refused, naming the point.
+    let mut input = peer_cases::polygon(
+        &[(0.0, 0.0), (3.0, 0.0), (3.0, 3.0), (4.0, 1_240_111_034.0)],
+        1,
+    );
+    input.points.push(DVec2::new(0.1, 5.3));
+    let corner = input.points[3];
+    let from = DVec2::new(0.3, 4.9);
+    input.points.push(from);
+    input.segments.push(quadmesh::Segment {
+        ends: [5, 3],
+        marker: 7,
+    });
+    let options = Options::default().min_angle(20.0).max_vertices(20_000);
+    if let Some(stop) = graph_meshes_or_stops(&input, options, false) {
+        assert!(off_line(stop, from, corner) < 1e-6, "{stop}");
+    }
+}
+
 /// Every case above in the warp mode (which takes graphs with no angle bound): within the
 /// time limit, a mesh that passes the PSLG check, or a typed error
 /// that names the input's fault; never a panic or a hang.

@@ -715,6 +715,14 @@ impl Cavity {
         &self.rim
     }
 
+    /// Whether the cavity [`Self::dig`] last found is a disk with every vertex on its rim: a
+    /// triangulated polygon has two rim edges more than triangles, one with a vertex inside or
+    /// a hole fewer. Rounding can make a cavity otherwise (a split point within rounding of a
+    /// vertex), and then a fan from the point would drop that vertex or overlap the hole.
+    pub fn is_disk(&self) -> bool {
+        self.rim.len() == self.triangles.len() + 2
+    }
+
     /// Drops the cavity [`Self::dig`] last found, leaving the triangulation as it was.
     pub fn abandon<S: Store>(&mut self, s: &mut S) {
         for &t in &self.triangles {
@@ -753,6 +761,10 @@ impl Cavity {
         }
         // A fan has one triangle more than an interior cavity (one less for a boundary edge
         // split), so every cavity slot is reused, which also clears its mark.
+        debug_assert!(
+            self.triangles.len() <= self.rim.len(),
+            "a cavity that is no disk"
+        );
         self.created.clear();
         for k in 0..self.rim.len() {
             let id = match self.triangles.get(k) {

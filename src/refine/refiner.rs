@@ -11,7 +11,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::delaunay::{
-    Cavity, Location, MARK, NEXT, PREV, Split, Store, Triangulation, is_wall, locate,
+    Cavity, Location, MARK, NEXT, PREV, Split, Store, Triangulation, beyond, is_wall, locate,
 };
 use super::hull::ACUTE_CORNER_DEG;
 use super::queue::{Queued, SizeQueue};
@@ -20,7 +20,7 @@ use super::{MIN_GAP, RefineOptions};
 use crate::error::Error;
 use crate::mesh::NONE;
 use crate::morton::interleave::interleave32;
-use crate::predicates::{Orientation, orient_value, orientation};
+use crate::predicates::{InCircle, Orientation, in_circle, orient_value, orientation};
 
 /// An encroached boundary edge as it was when queued: the edge opposite `corner` of `triangle`,
 /// live while that slot still has these ends there.
@@ -399,6 +399,11 @@ impl<'w, S: Store> Refiner<'w, S> {
                     self.defer(class, q);
                     return Ok(());
                 }
+                if !self.work.cavity.is_disk() {
+                    // A vertex within rounding of the point lies inside its cavity.
+                    self.work.cavity.abandon(&mut self.s);
+                    return Err(Error::RefinementResolution { x: p.x, y: p.y });
+                }
                 let before = self.work.encroached.len();
                 let walls = self
                     .work
@@ -480,9 +485,10 @@ impl<'w, S: Store> Refiner<'w, S> {
             self.work.deferred_edges.push(e);
             return Ok(());
         }
-        if !self.sees_whole_rim(m, e.ends) {
-            // Rounding put the split point off its segment far enough that some new triangle
-            // would be flat or inverted: f64 cannot split this segment here.
+        if !self.fan_fits(m, &e, interior) {
+            // Rounding put the split point off its segment far enough that the fan from it
+            // would not be a constrained Delaunay triangulation of the cavity: f64 cannot
+            // split this segment here.
             self.work.cavity.abandon(&mut self.s);
             return Err(Error::RefinementResolution { x: m.x, y: m.y });
         }
@@ -495,6 +501,27 @@ impl<'w, S: Store> Refiner<'w, S> {
         self.s.set_segment_of(v, segment);
         self.inspect_created();
         Ok(())
+    }
+
+    /// Whether the fan from `m`, splitting the wall `e`, triangulates the cavity dug for it
+    /// and keeps it Delaunay: the cavity is a disk, `m` sees its whole rim, and the triangles
+    /// on the wall, which join the cavity without the circle test, have `m` in their
+    /// circumcircles. A split point rounded off its segment can fail the last where they are
+    /// thin: a new edge across from it would then not be locally Delaunay, and could not be
+    /// flipped without putting a sliver between the segment's halves.
+    fn fan_fits(&self, m: DVec2, e: &Encroached, interior: bool) -> bool {
+        let beside = interior.then(|| beyond(self.s.across(e.triangle)[e.corner as usize]));
+        self.work.cavity.is_disk()
+            && self.sees_whole_rim(m, e.ends)
+            && std::iter::once(e.triangle)
+                .chain(beside)
+                .all(|t| self.circle_holds(t, m))
+    }
+
+    /// Whether `m` lies inside or on the circumcircle of triangle `t`.
+    fn circle_holds(&self, t: u32, m: DVec2) -> bool {
+        let [a, b, c] = self.s.corners(t).map(|v| self.s.point(v));
+        in_circle(a, b, c, m) != InCircle::Outside
     }
 
     /// Whether `m`, splitting the wall `ends`, lies strictly left of every edge of the cavity's
