@@ -113,6 +113,25 @@ fn a_square_with_a_hundred_holes() {
     assert!(mesh.boundary.iter().all(|e| e.marker == 1 || e.marker == 2));
 }
 
+/// At 33° the block's segments are split with free vertices inside their diametral circles,
+/// which refinement deletes first (as Triangle does): the mesh is still a valid constrained
+/// Delaunay mesh of the graph with every angle at least the bound, the same on two threads, and
+/// it keeps no deleted vertex.
+#[test]
+fn free_vertices_in_a_split_segments_circle_are_deleted_first() {
+    let block = quadmesh::generate::block_with_holes(200, 1);
+    let (mesh, report) = mesh_checked(&block, Options::default().min_angle(33.0), false);
+    assert!(report.free_vertices_deleted > 0, "no vertex was deleted");
+    let mut used = vec![false; mesh.vertices.len()];
+    for t in &mesh.triangles {
+        for &v in t {
+            used[v as usize] = true;
+        }
+    }
+    assert!(used.iter().all(|&u| u), "a vertex is in no triangle");
+    assert_eq!(report.vertices, mesh.vertices.len());
+}
+
 /// Seeds exactly on loose input points: a hole seed on a point inside a hole eats the hole,
 /// and a region seed on a point inside a room names the room.
 #[test]

@@ -1027,6 +1027,7 @@ fn print_report(err: &mut dyn Write, report: &MeshReport, mesh: &Mesh) {
             ("segment pieces", mesh.segments.len()),
             ("holes", mesh.holes.len()),
             ("regions", mesh.region_attributes.len()),
+            ("free vertices deleted", report.free_vertices_deleted),
         ];
         for (label, value) in graph {
             let _ = writeln!(err, "{label:<24}{value}");

@@ -167,6 +167,10 @@ pub struct MeshReport {
     pub stages: Vec<(&'static str, Duration)>,
     /// What cleaning a planar straight-line graph changed (none for a point set).
     pub cleaning: Option<crate::pslg::CleanReport>,
+    /// Free vertices (Steiner points on no segment) that refinement deleted from segments'
+    /// diametral circles before splitting the segments, as Triangle does (a graph's Delaunay
+    /// mode, in its sequential loop).
+    pub free_vertices_deleted: usize,
 }
 
 impl MeshReport {
@@ -213,6 +217,7 @@ pub(crate) fn report_of(
         histogram: quality.histogram,
         stages: times.0,
         cleaning: None,
+        free_vertices_deleted: 0,
     }
 }
 

@@ -135,6 +135,20 @@ pub(crate) trait Store {
     fn canonical(&self) -> bool {
         false
     }
+    /// Gives back the slot of a triangle a vertex deletion removed, for a later insertion.
+    /// Only a whole triangulation deletes vertices.
+    fn free_triangle(&mut self, _t: u32) {
+        unreachable!("only a whole triangulation deletes vertices")
+    }
+    /// Notes that vertex `v` is a corner of no triangle any more.
+    fn free_vertex(&mut self, _v: u32) {
+        unreachable!("only a whole triangulation deletes vertices")
+    }
+    /// Whether slot `t` holds no triangle.
+    #[inline]
+    fn is_free(&self, _t: u32) -> bool {
+        false
+    }
 
     /// Triangle `t` (outside a cavity search).
     #[inline]
@@ -160,7 +174,16 @@ pub(crate) struct Triangulation {
     /// Whether cocircular points are told apart by [`perturbed_inside`], so that the
     /// triangulation of a point set is one and the same whatever the order of insertion.
     pub canonical: bool,
+    /// Slots a vertex deletion freed ([`FREE`] corners), reused by the next new triangles.
+    pub free_slots: Vec<u32>,
+    /// Vertices deleted since the arrays were last packed.
+    pub freed_vertices: Vec<u32>,
+    /// Vertices deleted in all.
+    pub vertices_deleted: usize,
 }
+
+/// The corners of a slot that holds no triangle: no vertex has this number.
+pub(crate) const FREE: u32 = MARK - 1;
 
 impl Triangulation {
     /// The rectangle `[lo, hi]` as two triangles; its corners are vertices 0 to 3,
@@ -173,6 +196,9 @@ impl Triangulation {
             regions: Vec::new(),
             segment_of: Vec::new(),
             canonical: false,
+            free_slots: Vec::new(),
+            freed_vertices: Vec::new(),
+            vertices_deleted: 0,
         }
     }
 
@@ -194,6 +220,61 @@ impl Triangulation {
     /// Triangles so far.
     pub fn len(&self) -> usize {
         self.corners.len()
+    }
+
+    /// Drops the slots and vertices deletions freed, keeping the order of the others.
+    pub fn pack(&mut self) {
+        if !self.free_slots.is_empty() {
+            let kept: Vec<u32> = (0..self.corners.len() as u32)
+                .filter(|&t| self.corners[t as usize][0] != FREE)
+                .collect();
+            let mut renumber = vec![NONE; self.corners.len()];
+            for (new, &old) in kept.iter().enumerate() {
+                renumber[old as usize] = new as u32;
+            }
+            let link = |n: u32| match n {
+                NONE => NONE,
+                n => renumber[beyond(n) as usize] | (n & SEGMENT),
+            };
+            self.across = kept
+                .iter()
+                .map(|&t| self.across[t as usize].map(link))
+                .collect();
+            self.corners = kept.iter().map(|&t| self.corners[t as usize]).collect();
+            if !self.regions.is_empty() {
+                self.regions = kept.iter().map(|&t| self.regions[t as usize]).collect();
+            }
+            self.free_slots.clear();
+        }
+        if !self.freed_vertices.is_empty() {
+            let mut gone = vec![false; self.vertices.len()];
+            for &v in &self.freed_vertices {
+                gone[v as usize] = true;
+            }
+            let mut renumber = vec![NONE; self.vertices.len()];
+            let mut next = 0;
+            for (v, &g) in gone.iter().enumerate() {
+                if !g {
+                    renumber[v] = next;
+                    next += 1;
+                }
+            }
+            for c in &mut self.corners {
+                *c = c.map(|v| renumber[v as usize]);
+            }
+            let keep = |v: &usize| !gone[*v];
+            self.vertices = (0..self.vertices.len())
+                .filter(keep)
+                .map(|v| self.vertices[v])
+                .collect();
+            if !self.segment_of.is_empty() {
+                self.segment_of = (0..self.segment_of.len())
+                    .filter(keep)
+                    .map(|v| self.segment_of[v])
+                    .collect();
+            }
+            self.freed_vertices.clear();
+        }
     }
 
     /// Inserts `points`, each walking from the triangles the last one made; a point on a
@@ -323,6 +404,12 @@ impl Store for Triangulation {
     }
     #[inline]
     fn push_triangle(&mut self) -> u32 {
+        if let Some(t) = self.free_slots.pop() {
+            self.corners[t as usize] = [0; 3];
+            self.across[t as usize] = [NONE; 3];
+            self.set_region(t, NONE);
+            return t;
+        }
         self.corners.push([0; 3]);
         self.across.push([NONE; 3]);
         if !self.regions.is_empty() {
@@ -339,7 +426,7 @@ impl Store for Triangulation {
         self.corners.len()
     }
     fn vertex_count(&self) -> usize {
-        self.vertices.len()
+        self.vertices.len() - self.freed_vertices.len()
     }
     fn room(&self) -> bool {
         true
@@ -371,6 +458,19 @@ impl Store for Triangulation {
     #[inline]
     fn canonical(&self) -> bool {
         self.canonical
+    }
+    fn free_triangle(&mut self, t: u32) {
+        self.corners[t as usize] = [FREE; 3];
+        self.across[t as usize] = [NONE; 3];
+        self.free_slots.push(t);
+    }
+    fn free_vertex(&mut self, v: u32) {
+        self.freed_vertices.push(v);
+        self.vertices_deleted += 1;
+    }
+    #[inline]
+    fn is_free(&self, t: u32) -> bool {
+        self.corners[t as usize][0] == FREE
     }
 }
 
@@ -442,6 +542,16 @@ impl<S: Store> Store for &mut S {
     #[inline]
     fn canonical(&self) -> bool {
         (**self).canonical()
+    }
+    fn free_triangle(&mut self, t: u32) {
+        (**self).free_triangle(t);
+    }
+    fn free_vertex(&mut self, v: u32) {
+        (**self).free_vertex(v);
+    }
+    #[inline]
+    fn is_free(&self, t: u32) -> bool {
+        (**self).is_free(t)
     }
 }
 
@@ -515,7 +625,7 @@ fn found<S: Store>(s: &S, p: DVec2, t: u32) -> Location {
 }
 
 fn locate_by_scan<S: Store>(s: &S, p: DVec2) -> Location {
-    let triangles = 0..s.triangle_count() as u32;
+    let triangles = (0..s.triangle_count() as u32).filter(|&t| !s.is_free(t));
     if let Some(t) = triangles
         .clone()
         .find(|&t| matches!(step(s, p, t, NONE), Step::Found))

@@ -14,7 +14,9 @@
 //! point that would encroach on a boundary edge (lie in its diametral circle) is not inserted;
 //! the edge is split instead, as in Ruppert's algorithm: at its midpoint, or, beside a hull
 //! corner narrower than 60°, on a circle around the corner of a power-of-two radius, so that
-//! the splits on its two sides stop encroaching on each other. A hull corner narrower than the
+//! the splits on its two sides stop encroaching on each other. On a graph, the sequential loop
+//! first deletes the free vertices inside a segment's diametral circle (Chew's rule, as
+//! Triangle does), which leaves fewer vertices along the segments. A hull corner narrower than the
 //! bound keeps its angle: a triangle whose smallest angle lies there, or whose shortest edge
 //! spans it with its third corner no further out, is left as it is (Shewchuk's rule). Every
 //! insertion keeps the triangulation Delaunay, with exact predicates.
@@ -297,6 +299,7 @@ pub fn refine_pslg(
     let unmet = times.time("refine", || {
         refine_to_budget(&mut t, &bounds, domain, distinct, budget)
     })?;
+    let deleted = t.vertices_deleted;
     let mesh = times.time("mesh", || {
         let walls = bounds.walls().expect("a graph's bounds have walls");
         let (mut pieces, boundary) = segments::segment_pieces(&t, walls, &clean);
@@ -322,6 +325,7 @@ pub fn refine_pslg(
     let quality = times.time("angles", || angle_quality(&mesh.vertices, &mesh.triangles));
     let mut report = report_of(&mesh, distinct, cleaning.merged_points, &quality, times);
     report.cleaning = Some(cleaning);
+    report.free_vertices_deleted = deleted;
     within_budget(mesh, report, unmet, budget)
 }
 
@@ -665,6 +669,7 @@ fn refine(
         // No bound asked for: the Delaunay triangulation is the mesh.
         return Ok(Finish::Done);
     }
+    let first_steiner = t.vertices.len() as u32;
     let (mut bad, mut edges) = refiner::inspect_all(t, bounds);
     if points >= tiles::MIN_POINTS {
         let side = (domain.hi - domain.lo).max_element();
@@ -672,7 +677,16 @@ fn refine(
     }
     let mut work = Work::new();
     work.queue_all(&bad, &edges);
-    Refiner::new(t, &mut work, bounds, budget).run()
+    let canonical = t.canonical;
+    let mut refiner = Refiner::new(&mut *t, &mut work, bounds, budget);
+    // A graph's walls are split as Triangle splits segments, deleting the free vertices in
+    // their way; a canonical triangulation (the dynamic meshes') keeps every vertex.
+    if bounds.walls().is_some() && !canonical {
+        refiner = refiner.deleting_free_vertices_from(first_steiner);
+    }
+    let finish = refiner.run()?;
+    t.pack();
+    Ok(finish)
 }
 
 /// Inserts the distinct points in rounds of Morton order, each walk starting from the last new

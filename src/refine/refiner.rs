@@ -11,7 +11,8 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::delaunay::{
-    Cavity, Location, MARK, NEXT, PREV, Split, Store, Triangulation, beyond, is_wall, locate,
+    Cavity, Location, MARK, NEXT, PREV, SEGMENT, Split, Store, Triangulation, beyond, is_wall,
+    locate,
 };
 use super::hull::ACUTE_CORNER_DEG;
 use super::queue::{Queued, SizeQueue};
@@ -293,6 +294,12 @@ pub(super) struct Refiner<'w, S: Store> {
     budget: usize,
     /// Bad triangles of larger size classes are set aside, not fixed.
     class_limit: usize,
+    /// Where set: vertices numbered from this on that lie on no wall are free, and those inside
+    /// a wall's diametral circle go before it is split.
+    free_from: Option<u32>,
+    /// Deletions still allowed: as many as the vertex budget, so that deletions and insertions
+    /// cannot take turns without end.
+    deletions_left: usize,
 }
 
 impl<'w, S: Store> Refiner<'w, S> {
@@ -303,7 +310,19 @@ impl<'w, S: Store> Refiner<'w, S> {
             bounds,
             budget,
             class_limit: usize::MAX,
+            free_from: None,
+            deletions_left: budget,
         }
+    }
+
+    /// Deletes, before a wall is split, the free vertices (numbered from `first` on, on no
+    /// wall) that lie inside its diametral circle as the apex of its triangle, one after
+    /// another, as Chew's refinement and Triangle do: the split point replaces them, and the
+    /// mesh keeps fewer vertices next to the walls. Only a whole triangulation deletes.
+    pub fn deleting_free_vertices_from(mut self, first: u32) -> Self {
+        debug_assert!(S::WHOLE);
+        self.free_from = Some(first);
+        self
     }
 
     /// Sets aside bad triangles whose size class is above `limit`.
@@ -360,7 +379,13 @@ impl<'w, S: Store> Refiner<'w, S> {
         let Some((corner, shortest2)) = badness(&self.s, self.bounds, q.triangle) else {
             return Ok(());
         };
-        debug_assert_eq!(class, SizeQueue::class_of(shortest2));
+        if class != SizeQueue::class_of(shortest2) {
+            // A vertex deletion's triangle reused a slot and has the largest corner of one it
+            // held before: queue it as what it is.
+            let found = inspection(&self.s, self.bounds, q.triangle);
+            self.queue(found);
+            return Ok(());
+        }
         let p = resolvable_steiner_point(&self.s, self.bounds, q.triangle, (corner, shortest2))?;
         // The triangle waits for the boundary edges it encroaches on to be split. A tile may
         // have to set those splits aside; the triangle then waits for a later pass too, rather
@@ -474,7 +499,12 @@ impl<'w, S: Store> Refiner<'w, S> {
     fn split_wall(&mut self, e: Encroached) -> Result<(), Error> {
         let (a, b) = (self.s.point(e.ends.0), self.s.point(e.ends.1));
         let acute = |v: u32| self.bounds.is_acute(v);
-        let m = split_point(a, b, (acute(e.ends.0), acute(e.ends.1)))?;
+        let acute = (acute(e.ends.0), acute(e.ends.1));
+        let e = match self.free_from {
+            Some(first) if acute == (false, false) => self.clear_diametral_circle(e, first),
+            _ => e,
+        };
+        let m = split_point(a, b, acute)?;
         let interior = self.s.across(e.triangle)[e.corner as usize] != NONE;
         let through = interior.then_some(e.ends);
         if !self
@@ -522,6 +552,113 @@ impl<'w, S: Store> Refiner<'w, S> {
     fn circle_holds(&self, t: u32, m: DVec2) -> bool {
         let [a, b, c] = self.s.corners(t).map(|v| self.s.point(v));
         in_circle(a, b, c, m) != InCircle::Outside
+    }
+
+    /// Deletes the apex of wall `e`'s triangle while it is a free vertex (numbered from `first`
+    /// on, on no wall) inside the wall's diametral circle; returns the wall's entry in the
+    /// triangulation after.
+    fn clear_diametral_circle(&mut self, mut e: Encroached, first: u32) -> Encroached {
+        let (a, b) = (self.s.point(e.ends.0), self.s.point(e.ends.1));
+        // A bound on the deletions in a row: each makes the wall's triangle larger.
+        for _ in 0..MAX_DELETIONS_PER_SPLIT.min(self.deletions_left) {
+            let v = self.s.corners(e.triangle)[e.corner as usize];
+            let q = self.s.point(v);
+            if v < first || self.s.segment_of(v) != NONE || (q - a).dot(q - b) >= 0.0 {
+                break;
+            }
+            let Some(made) = self.delete_vertex(e.triangle, e.corner as usize) else {
+                break;
+            };
+            self.deletions_left -= 1;
+            let Some(wall) = made.iter().find_map(|&t| {
+                let tri = self.s.triangle(t);
+                (0..3)
+                    .find(|&i| tri.edge(i) == e.ends)
+                    .map(|i| (t, i as u8))
+            }) else {
+                unreachable!("the wall's side of the deleted vertex's star is a new triangle's");
+            };
+            (e.triangle, e.corner) = wall;
+            for &t in &made {
+                let found = inspection(&self.s, self.bounds, t);
+                self.queue(found);
+            }
+        }
+        e
+    }
+
+    /// Deletes the vertex at corner `k` of triangle `t0` where no wall meets it and its star
+    /// has at most [`MAX_DELETED_DEGREE`] triangles: the hole is filled by the Delaunay
+    /// triangulation of its rim (ears with no rim vertex strictly inside their circumcircles,
+    /// exact), in the star's slots, the last two freed. Returns the new triangles, or `None`
+    /// with nothing changed.
+    fn delete_vertex(&mut self, t0: u32, k0: usize) -> Option<Vec<u32>> {
+        let v = self.s.corners(t0)[k0];
+        // The star counter-clockwise: triangle i is (v, rim[i], rim[i + 1]), and outer[i]
+        // the link across its edge opposite v.
+        let (mut star, mut rim, mut outer) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut t, mut k) = (t0, k0);
+        loop {
+            let tri = self.s.triangle(t);
+            let around = tri.n[NEXT[k]];
+            if is_wall(around) || star.len() == MAX_DELETED_DEGREE {
+                return None;
+            }
+            star.push(t);
+            rim.push(tri.v[NEXT[k]]);
+            outer.push(tri.n[k]);
+            t = around;
+            k = self.s.corners(t).iter().position(|&c| c == v)?;
+            if t == t0 {
+                break;
+            }
+        }
+        let ears = delaunay_ears(&self.s, &rim)?;
+        let region = self.s.region(t0);
+        // The link across the rim edge from each position to the next one left: first the
+        // outer triangles, then, past a cut ear (p, q, r), the ear across the diagonal p–r.
+        let mut edge_link = outer;
+        let mut made: Vec<u32> = Vec::with_capacity(ears.len());
+        for (j, &(p, q, r)) in ears.iter().enumerate() {
+            let slot = star[j];
+            let last = j + 1 == ears.len();
+            let (pq, qr) = (edge_link[p], edge_link[q]);
+            let rp = if last { edge_link[r] } else { NONE };
+            *self.s.corners_mut(slot) = [rim[p], rim[q], rim[r]];
+            *self.s.across_mut(slot) = [qr, rp, pq];
+            self.s.set_region(slot, region);
+            for (link, corner) in [(qr, 0), (rp, 1), (pq, 2)] {
+                self.link_back(link, slot, corner, &made);
+            }
+            edge_link[p] = slot;
+            made.push(slot);
+        }
+        for &spare in &star[ears.len()..] {
+            self.s.free_triangle(spare);
+        }
+        self.s.free_vertex(v);
+        Some(made)
+    }
+
+    /// Points the triangle across `link` back at new triangle `slot`, whose edge opposite
+    /// `corner` they share: an earlier new triangle (`made`), whose diagonal is opposite its
+    /// corner 1, or an outer one, which pointed at a star triangle.
+    fn link_back(&mut self, link: u32, slot: u32, corner: usize, made: &[u32]) {
+        let other = beyond(link);
+        if other == NONE {
+            return;
+        }
+        if made.contains(&other) {
+            self.s.across_mut(other)[1] = slot;
+            return;
+        }
+        let (x, y) = self.s.triangle(slot).edge(corner);
+        let far = self.s.triangle(other);
+        let i = (0..3)
+            .find(|&i| far.edge(i) == (y, x))
+            .expect("the outer triangle shares the rim edge");
+        let old = far.n[i];
+        self.s.across_mut(other)[i] = slot | (old & SEGMENT);
     }
 
     /// Whether `m`, splitting the wall `ends`, lies strictly left of every edge of the cavity's
@@ -671,6 +808,41 @@ fn inspection<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Inspection {
         }
     }
     Inspection { bad, encroached }
+}
+
+/// The most free vertices deleted before one wall split.
+const MAX_DELETIONS_PER_SPLIT: usize = 16;
+
+/// The largest star a free vertex is deleted from: stars are small in a quality mesh, and the
+/// ear search takes time cubic in the star's size.
+const MAX_DELETED_DEGREE: usize = 32;
+
+/// The Delaunay triangulation of a deleted vertex's rim (`rim`, counter-clockwise, star-shaped
+/// around where the vertex was), as ears in the order they are cut: each the positions
+/// `(p, q, r)` of three consecutive rim vertices, counter-clockwise, with no other remaining rim
+/// vertex strictly inside its circumcircle; the last ear is what remains. `None` where no ear
+/// qualifies (not for the rim of a vertex of a Delaunay triangulation).
+fn delaunay_ears<S: Store>(s: &S, rim: &[u32]) -> Option<Vec<(usize, usize, usize)>> {
+    let mut left: Vec<usize> = (0..rim.len()).collect();
+    let mut ears = Vec::with_capacity(rim.len() - 2);
+    while left.len() > 3 {
+        let m = left.len();
+        let ear = (0..m).find(|&i| {
+            let (p, q, r) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
+            let [a, b, c] = [p, q, r].map(|x| s.point(rim[x]));
+            orientation(a, b, c) == Orientation::Left
+                && left.iter().all(|&x| {
+                    x == p
+                        || x == q
+                        || x == r
+                        || in_circle(a, b, c, s.point(rim[x])) != InCircle::Inside
+                })
+        })?;
+        ears.push((left[(ear + m - 1) % m], left[ear], left[(ear + 1) % m]));
+        left.remove(ear);
+    }
+    ears.push((left[0], left[1], left[2]));
+    Some(ears)
 }
 
 /// Whether `p` lies in the diametral lens of the edge between vertices `ends` (Shewchuk's, as

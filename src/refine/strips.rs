@@ -345,6 +345,9 @@ fn glue(
         regions: Vec::new(),
         segment_of: Vec::new(),
         canonical: false,
+        free_slots: Vec::new(),
+        freed_vertices: Vec::new(),
+        vertices_deleted: 0,
     };
     (t, vertex_input, seam_edges)
 }
