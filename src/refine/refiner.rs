@@ -819,8 +819,10 @@ const MAX_DELETED_DEGREE: usize = 32;
 
 /// The Delaunay triangulation of a deleted vertex's rim (`rim`, counter-clockwise, star-shaped
 /// around where the vertex was), as ears in the order they are cut: each the positions
-/// `(p, q, r)` of three consecutive rim vertices, counter-clockwise, with no other remaining rim
-/// vertex strictly inside its circumcircle; the last ear is what remains. `None` where no ear
+/// `(p, q, r)` of three consecutive rim vertices, counter-clockwise, with no other rim vertex
+/// strictly inside its circumcircle, those already cut off included (else a later triangle
+/// could hold one, across the diagonal that cut it, in its circle); the last ear is what
+/// remains. `None` where no ear
 /// qualifies (not for the rim of a vertex of a Delaunay triangulation).
 fn delaunay_ears<S: Store>(s: &S, rim: &[u32]) -> Option<Vec<(usize, usize, usize)>> {
     let mut left: Vec<usize> = (0..rim.len()).collect();
@@ -831,7 +833,7 @@ fn delaunay_ears<S: Store>(s: &S, rim: &[u32]) -> Option<Vec<(usize, usize, usiz
             let (p, q, r) = (left[(i + m - 1) % m], left[i], left[(i + 1) % m]);
             let [a, b, c] = [p, q, r].map(|x| s.point(rim[x]));
             orientation(a, b, c) == Orientation::Left
-                && left.iter().all(|&x| {
+                && (0..rim.len()).all(|x| {
                     x == p
                         || x == q
                         || x == r
