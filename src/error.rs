@@ -255,6 +255,10 @@ pub enum Error {
         x: f64,
         /// Its y coordinate.
         y: f64,
+        /// The mesh refinement reached, where it stopped there (a quality refinement's loops;
+        /// not a refinement in order, nor the insertion of input points): valid, with the
+        /// triangles still outside the bounds listed.
+        reached: Option<Box<Incomplete>>,
     },
     /// A segment names a point the input does not have.
     #[error("segment {segment} names point {index}, but the input has {points} points")]
@@ -290,6 +294,23 @@ pub enum Error {
         b: usize,
         /// Where they meet (rounded to f64).
         at: [f64; 2],
+    },
+    /// Splitting crossings does not settle: the split points, rounded to f64, keep making new
+    /// crossings (segments nearly on one line, or far from the origin for their spacing).
+    #[error(
+        "segments {a} and {b} still cross at ({}, {}) after {rounds} rounds of splitting          crossings: the split points, rounded to f64, keep making new crossings there; join the          segments at a shared point or move them apart",
+        at[0],
+        at[1]
+    )]
+    CrossingsUnsettled {
+        /// Input index of one segment.
+        a: usize,
+        /// Input index of the other (larger than `a`).
+        b: usize,
+        /// Where they meet (rounded to f64).
+        at: [f64; 2],
+        /// The rounds of splitting done.
+        rounds: usize,
     },
     /// A hole or region seed lies exactly on a segment or on a segment's end: which region it
     /// names is ambiguous.
@@ -334,10 +355,11 @@ pub enum Error {
     },
 }
 
-/// A mesh that refinement left unfinished at its vertex budget.
+/// A mesh that refinement left unfinished: at its vertex budget, or where f64 could not place
+/// the vertex it needed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Incomplete {
-    /// The budget.
+    /// The vertex budget refinement ran under.
     pub limit: usize,
     /// The mesh reached: it passes [`Mesh::validate`] except for the bounds.
     pub mesh: Mesh,
@@ -361,6 +383,15 @@ pub struct Unmet {
 }
 
 impl Error {
+    /// [`Error::RefinementResolution`] at `p`, without a mesh.
+    pub(crate) fn resolution_at(p: DVec2) -> Error {
+        Error::RefinementResolution {
+            x: p.x,
+            y: p.y,
+            reached: None,
+        }
+    }
+
     /// The same error for the input's mirror image `r`: coordinates and sides mapped.
     pub fn reflected(mut self, r: Reflection) -> Error {
         let image = |p: [f64; 2]| <[f64; 2]>::from(r.point(DVec2::from(p)));
@@ -373,7 +404,9 @@ impl Error {
             Error::Inseparable { pa, pb, .. } | Error::SquareBudget { pa, pb, .. } => {
                 (*pa, *pb) = (image(*pa), image(*pb));
             }
-            Error::CrossingSegments { at, .. } => *at = image(*at),
+            Error::CrossingSegments { at, .. } | Error::CrossingsUnsettled { at, .. } => {
+                *at = image(*at);
+            }
             Error::CoordinateRange { lo, hi } => {
                 let (a, b) = (DVec2::from(image(*lo)), DVec2::from(image(*hi)));
                 (*lo, *hi) = (a.min(b).into(), a.max(b).into());

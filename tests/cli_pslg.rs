@@ -136,6 +136,45 @@ fn bad_graphs_write_nothing() {
 }
 
 #[test]
+fn a_split_f64_cannot_place_writes_the_mesh_reached_and_is_an_error() {
+    // A quadrilateral with a point on its side from (2, 0) to (3, 3) but for rounding, and a
+    // segment crossing that side: refinement splits the side toward the point until f64
+    // cannot place the split, stops there, and still writes the mesh it reached.
+    let dir = TempDir::new("pslg-resolution");
+    let input = dir.file("near.poly");
+    std::fs::write(
+        &input,
+        "7 2 0 0\n1 0 0\n2 2 0\n3 3 3\n4 0 3\n5 0.1 0.3\n6 2.9 2.7\n7 227 1.1\n\
+         5 0\n1 1 2\n2 2 3\n3 3 4\n4 4 1\n5 5 7\n0\n",
+    )
+    .unwrap();
+    let prefix = dir.file("out");
+    let out = quadmesh(&[
+        "mesh",
+        s(&input),
+        "-o",
+        s(&prefix),
+        "--min-angle",
+        "20",
+        "--split-crossings",
+    ]);
+    let err = stderr(&out);
+    assert!(!out.status.success(), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    let last = err.trim_end().lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("error: ") && last.contains("f64 resolves"),
+        "{err}"
+    );
+    let names = dir.names();
+    for name in ["out.ele", "out.node", "out.poly"] {
+        assert!(names.iter().any(|n| n == name), "{names:?}");
+    }
+    let node = rows(&dir.file("out.node"));
+    assert!(node[0][0].parse::<usize>().unwrap() > 7, "{node:?}");
+}
+
+#[test]
 fn tree_graph_writes_the_leaves_of_the_separated_tree() {
     let dir = TempDir::new("cli-tree-graph");
     // A right triangle with angles of 90°, about 14° and about 76°: two corners are cut.

@@ -141,7 +141,7 @@ fn segments_crossing_where_no_float_lies_and_a_third_through_it() {
                 partial.mesh
             }
             // Or f64 cannot place a split there: refused, naming the point.
-            Err(Error::RefinementResolution { x, y }) => {
+            Err(Error::RefinementResolution { x, y, .. }) => {
                 assert!(DVec2::new(x, y).distance(DVec2::splat(1.5)) < 1e-6);
                 continue;
             }
@@ -614,27 +614,40 @@ fn huge_and_tiny_coordinates_in_one_hull() {
     }
 }
 
-/// Meshes the graph `input` within the time limit: a mesh must pass the PSLG check (against
-/// the graph as cleaned) and the Delaunay check, a partial mesh at the vertex budget the
-/// Delaunay check. Returns where refinement said f64 cannot place a vertex, if it did; any
+/// Meshes the graph `input` within the time limit: a mesh must pass the PSLG check and the
+/// Delaunay check, as must the mesh reached where refinement stops short (at the vertex budget,
+/// or where f64 cannot place a vertex), but for the angle bound. The checks go by the graph as
+/// cleaned, meshed again. Returns where f64 could not place a vertex, if it stopped there; any
 /// other error fails.
 fn graph_meshes_or_stops(input: &Input, options: Options, split_crossings: bool) -> Option<DVec2> {
-    match within_limit(input, options) {
-        Ok(_) => {
-            let (graph, _) =
-                quadmesh::pslg::clean(input, CleanOptions { split_crossings }).unwrap();
-            let mesh = within_limit(&graph, options).unwrap();
-            validate_pslg_with(&mesh, &graph, options.angle_bounds(), false).unwrap();
-            mesh.check_delaunay().unwrap();
-            None
+    let first = within_limit(input, options);
+    let (graph, _) = quadmesh::pslg::clean(input, CleanOptions { split_crossings }).unwrap();
+    let cleaned = within_limit(&graph, options);
+    assert_eq!(
+        first.as_ref().map(|_| ()).map_err(std::mem::discriminant),
+        cleaned.as_ref().map(|_| ()).map_err(std::mem::discriminant),
+        "the graph and its cleaned copy end alike"
+    );
+    let any_angle = AngleBounds {
+        min_deg: 0.0,
+        max_deg: 180.0,
+    };
+    let (mesh, bounds, stop) = match cleaned {
+        Ok(mesh) => (mesh, options.angle_bounds(), None),
+        Err(Error::VertexBudget(partial)) => (partial.mesh, any_angle, None),
+        Err(Error::RefinementResolution {
+            x,
+            y,
+            reached: Some(partial),
+        }) => {
+            assert!(!partial.unmet.is_empty());
+            (partial.mesh, any_angle, Some(DVec2::new(x, y)))
         }
-        Err(Error::VertexBudget(partial)) => {
-            partial.mesh.check_delaunay().unwrap();
-            None
-        }
-        Err(Error::RefinementResolution { x, y }) => Some(DVec2::new(x, y)),
         Err(e) => panic!("{e}"),
-    }
+    };
+    validate_pslg_with(&mesh, &graph, bounds, false).unwrap();
+    mesh.check_delaunay().unwrap();
+    stop
 }
 
 /// The distance from `p` to the line through `a` and `b`.

@@ -35,7 +35,13 @@ fuzz_target!(|data: &[u8]| {
             mesh.check_delaunay()
                 .unwrap_or_else(|e| panic!("not Delaunay: {e}"));
         }
-        Err(Error::VertexBudget(partial)) => {
+        Err(
+            Error::VertexBudget(partial)
+            | Error::RefinementResolution {
+                reached: Some(partial),
+                ..
+            },
+        ) => {
             partial
                 .mesh
                 .check_delaunay()

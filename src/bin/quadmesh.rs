@@ -618,6 +618,18 @@ fn pool(threads: Option<NonZeroUsize>) -> Result<rayon::ThreadPool> {
         .context("cannot start the worker threads")
 }
 
+/// The mesh a refinement reached before it stopped short, where the error carries one.
+fn reached(e: &quadmesh::Error) -> Option<&quadmesh::Incomplete> {
+    match e {
+        quadmesh::Error::VertexBudget(partial) => Some(partial),
+        quadmesh::Error::RefinementResolution {
+            reached: Some(partial),
+            ..
+        } => Some(partial),
+        _ => None,
+    }
+}
+
 /// A spinner on standard error while `f` runs, when standard error is a terminal.
 fn with_spinner<T>(message: &'static str, f: impl FnOnce() -> T) -> T {
     let spinner = if io::stderr().is_terminal() {
@@ -650,15 +662,17 @@ fn mesh(
         let (read, read_time) = timed(|| with_spinner("reading", || read_input(input)));
         let read = read?;
         let ((input_points, meshed), _) = timed(|| with_spinner("meshing", || quality.mesh(read)));
-        // A refinement stopped at its budget still writes the mesh it reached, then fails.
+        // A refinement stopped at its budget, or where f64 cannot place a vertex, still
+        // writes the mesh it reached, then fails.
         let (mesh, report, unfinished) = match meshed {
             Ok((mesh, report)) => (mesh, report, None),
-            Err(quadmesh::Error::VertexBudget(partial)) => {
-                let message = quadmesh::Error::VertexBudget(partial.clone()).to_string();
-                let partial = *partial;
-                (partial.mesh, partial.report, Some(message))
-            }
-            Err(e) => return Err(anyhow::anyhow!("{}: {e}", input.display())),
+            Err(e) => match reached(&e) {
+                Some(partial) => {
+                    let partial = partial.clone();
+                    (partial.mesh, partial.report, Some(e.to_string()))
+                }
+                None => return Err(anyhow::anyhow!("{}: {e}", input.display())),
+            },
         };
         let options = quality.options();
         if check && unfinished.is_none() {

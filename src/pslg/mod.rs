@@ -33,6 +33,11 @@ pub const REPORT_EXAMPLES: usize = 8;
 /// rounded, and its pieces may cross again) are refused.
 const MAX_ROUNDS: usize = 16;
 
+/// Crossings a round after the first may find beyond twice the first round's before they are
+/// refused as coming back without end: each round's splits can make new crossings, and pieces
+/// nearly on one line far from the origin made more every round, doubling the points each time.
+const RUNAWAY_SLACK: usize = 64;
+
 /// What [`clean`] may repair beyond what it always does.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct CleanOptions {
@@ -172,7 +177,8 @@ struct Crossing {
 /// a NaN or infinite coordinate, [`Error::SegmentIndex`] for the first segment naming a point
 /// that does not exist, [`Error::ZeroLengthSegment`] for the first segment whose ends are the
 /// same point or at the same position, and [`Error::CrossingSegments`] naming the first pair (in
-/// input segment order) of segments whose interiors meet, unless they are split.
+/// input segment order) of segments whose interiors meet, unless they are split;
+/// [`Error::CrossingsUnsettled`] where splitting them keeps making new crossings.
 pub fn clean(input: &Input, options: CleanOptions) -> Result<(Input, CleanReport), Error> {
     clean_segments(input, merge_points(input)?, options)
 }
@@ -246,6 +252,7 @@ pub(crate) fn clean_segments(
     } = merged;
     // Built only when a crossing is split: the point, if any, at each position.
     let mut first: Option<HashMap<(u64, u64), u32>> = None;
+    let mut first_round = 0;
     for round in 0.. {
         let mut grid = Grid::new(&points, &pieces);
         // The pieces are as the grid has them unless split here or at crossings before.
@@ -257,12 +264,19 @@ pub(crate) fn clean_segments(
         let Some(c) = crossings.first() else {
             break;
         };
-        if !options.split_crossings || round == MAX_ROUNDS {
-            let [a, b] = c.pieces.map(|i| pieces[i].origin as usize);
-            return Err(Error::CrossingSegments {
-                a: a.min(b),
-                b: a.max(b),
-                at: c.at.into(),
+        let [a, b] = c.pieces.map(|i| pieces[i].origin as usize);
+        let (a, b, at) = (a.min(b), a.max(b), c.at.into());
+        if !options.split_crossings {
+            return Err(Error::CrossingSegments { a, b, at });
+        }
+        if round == 0 {
+            first_round = crossings.len();
+        } else if round == MAX_ROUNDS || crossings.len() > 2 * first_round + RUNAWAY_SLACK {
+            return Err(Error::CrossingsUnsettled {
+                a,
+                b,
+                at,
+                rounds: round,
             });
         }
         let first = first.get_or_insert_with(|| {

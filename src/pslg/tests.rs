@@ -316,6 +316,38 @@ fn random_crossings_split_into_a_clean_graph_on_any_thread_count() {
     }
 }
 
+#[test]
+fn crossings_that_splitting_keeps_making_are_refused_in_few_rounds() {
+    // Found by the `poly_file` fuzz target (20°, crossings split): a segment from (2, 0) to a
+    // point 7.8e20 up and 1.8e10 across crosses three short ones near its foot. Its pieces are
+    // nearly vertical, so each rounded split point made new crossings, more each round (6, 5,
+    // 11, 20, 58, 199, 1 638, 12 168, 65 641 ...), and the points doubled until the rounds ran
+    // out: minutes of work and gigabytes. A round after the first that finds more than twice
+    // the first round's crossings, and some, is refused.
+    let tangle = input(
+        &[
+            (0.0, 0.0),
+            (3.5, 0.2),
+            (1.5, 2.0),
+            (3.0, 0.0),
+            (0.0, 3.0),
+            (2.0, 0.0),
+            (17_777_777_774.0, 777_777_777_777_777_777_777.0),
+        ],
+        &[[0, 1], [2, 3], [3, 4], [6, 5]],
+    );
+    let split = CleanOptions {
+        split_crossings: true,
+    };
+    match clean(&tangle, split) {
+        Err(Error::CrossingsUnsettled { a, b, rounds, .. }) => {
+            assert!(a < b && b <= 3, "{a} {b}");
+            assert!((2..MAX_ROUNDS).contains(&rounds), "{rounds}");
+        }
+        other => panic!("unexpected {other:?}"),
+    }
+}
+
 /// A polygon around a circle and short segments on a grid inside it: no two meet.
 fn circle_and_grid(sides: usize, grid: usize) -> Input {
     let mut points = Vec::new();

@@ -603,38 +603,69 @@ fn refine_order(
     within_budget(mesh, report, unmet, budget)
 }
 
-/// Refines as [`refine`] does; at the vertex budget, returns the triangles still outside the
-/// bounds.
+/// Where refinement stopped short of the bounds: the triangles still outside them, and the
+/// point f64 could not place where that, not the vertex budget, stopped it.
+pub(crate) struct Unfinished {
+    unmet: Vec<Unmet>,
+    unresolved: Option<DVec2>,
+}
+
+impl Unfinished {
+    /// At the vertex budget, with `unmet` left.
+    pub(crate) fn at_budget(unmet: Vec<Unmet>) -> Self {
+        Unfinished {
+            unmet,
+            unresolved: None,
+        }
+    }
+}
+
+/// Refines as [`refine`] does; where it stops at the vertex budget, or where f64 cannot place
+/// the vertex it needs, returns the triangles still outside the bounds and that point.
 fn refine_to_budget(
     t: &mut Triangulation,
     bounds: &Bounds,
     domain: Domain,
     points: usize,
     budget: usize,
-) -> Result<Option<Vec<Unmet>>, Error> {
-    Ok(match refine(t, bounds, domain, points, budget)? {
-        Finish::Done => None,
-        Finish::OutOfBudget => Some(unmet_triangles(t, bounds)),
-    })
+) -> Result<Option<Unfinished>, Error> {
+    let unresolved = match refine(t, bounds, domain, points, budget) {
+        Ok(Finish::Done) => return Ok(None),
+        Ok(Finish::OutOfBudget) => None,
+        Err(Error::RefinementResolution { x, y, .. }) => Some(DVec2::new(x, y)),
+        Err(e) => return Err(e),
+    };
+    Ok(Some(Unfinished {
+        unmet: unmet_triangles(t, bounds),
+        unresolved,
+    }))
 }
 
-/// The finished mesh, or, with triangles left unmet at the vertex budget, the error that
-/// carries it.
+/// The finished mesh, or, where refinement stopped short, the error that carries the mesh it
+/// reached.
 fn within_budget(
     mesh: Mesh,
     report: MeshReport,
-    unmet: Option<Vec<Unmet>>,
+    unfinished: Option<Unfinished>,
     budget: usize,
 ) -> Result<(Mesh, MeshReport), Error> {
-    match unmet {
-        None => Ok((mesh, report)),
-        Some(unmet) => Err(Error::VertexBudget(Box::new(Incomplete {
-            limit: budget,
-            mesh,
-            report,
-            unmet,
-        }))),
-    }
+    let Some(Unfinished { unmet, unresolved }) = unfinished else {
+        return Ok((mesh, report));
+    };
+    let reached = Box::new(Incomplete {
+        limit: budget,
+        mesh,
+        report,
+        unmet,
+    });
+    Err(match unresolved {
+        None => Error::VertexBudget(reached),
+        Some(p) => Error::RefinementResolution {
+            x: p.x,
+            y: p.y,
+            reached: Some(reached),
+        },
+    })
 }
 
 /// The triangles still outside the bounds, where they are and how far off.
@@ -657,7 +688,8 @@ fn unmet_triangles(t: &Triangulation, bounds: &Bounds) -> Vec<Unmet> {
 }
 
 /// Refines the Delaunay triangulation of `points` points: by tiles in parallel where there
-/// are enough points, then by the sequential loop for what the tiles left.
+/// are enough points, then by the sequential loop for what the tiles left. Stopped with
+/// [`Error::RefinementResolution`], it leaves `t` a whole triangulation of what it reached.
 fn refine(
     t: &mut Triangulation,
     bounds: &Bounds,
@@ -684,9 +716,10 @@ fn refine(
     if bounds.walls().is_some() && !canonical {
         refiner = refiner.deleting_free_vertices_from(first_steiner);
     }
-    let finish = refiner.run()?;
+    // Stopped where f64 cannot place a vertex, the triangulation is whole all the same.
+    let finish = refiner.run();
     t.pack();
-    Ok(finish)
+    finish
 }
 
 /// Inserts the distinct points in rounds of Morton order, each walk starting from the last new
@@ -714,7 +747,7 @@ fn insert_in_order(
                 vertex_input[v as usize] = index;
             }
             // Distinct points inside the domain are always inserted; this guards the invariant.
-            _ => return Err(Error::RefinementResolution { x: p.x, y: p.y }),
+            _ => return Err(Error::resolution_at(p)),
         }
     }
     Ok(vertex_input)

@@ -41,8 +41,8 @@ use super::refiner::{
 };
 use super::sides::side_points;
 use super::{
-    RefineDomain, RefineOptions, boundary_edges, checked_order, insert_in_order, square_around,
-    unmet_triangles, within_budget,
+    RefineDomain, RefineOptions, Unfinished, boundary_edges, checked_order, insert_in_order,
+    square_around, unmet_triangles, within_budget,
 };
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, MeshReport, NONE, StageTimes, report_of};
@@ -101,7 +101,7 @@ pub(crate) fn run_in_order(
         let vertex_input = insert_in_order(&mut t, points, &morton.order)?;
         let side = side_points(points, domain);
         t.insert_all(side.iter().copied())
-            .map_err(|p| Error::RefinementResolution { x: p.x, y: p.y })?;
+            .map_err(Error::resolution_at)?;
         Ok::<_, Error>((vertex_input, side))
     })?;
     let bounds = Bounds::new(options, domain.lo, domain.hi);
@@ -109,7 +109,8 @@ pub(crate) fn run_in_order(
     let (finish, stamps) = times.time("refine", || {
         refine_in_order(&mut t, &bounds, budget, stamps)
     })?;
-    let unmet = (finish == Finish::OutOfBudget).then(|| unmet_triangles(&t, &bounds));
+    let unmet = (finish == Finish::OutOfBudget)
+        .then(|| Unfinished::at_budget(unmet_triangles(&t, &bounds)));
     let mesh = times.time("mesh", || canonical_mesh(t, vertex_input, domain));
     let quality = times.time("angles", || {
         super::angle_quality(&mesh.vertices, &mesh.triangles)
@@ -152,7 +153,7 @@ pub(crate) fn canonical_delaunay(
             .then(a.1.y.total_cmp(&b.1.y))
     });
     t.insert_all(order.into_iter().map(|(_, p)| p))
-        .map_err(|p| Error::RefinementResolution { x: p.x, y: p.y })?;
+        .map_err(Error::resolution_at)?;
     Ok(canonical_mesh(t, vertex_input, domain))
 }
 
@@ -550,7 +551,7 @@ fn fix<W: Watch>(
             }
         }
         Location::Vertex(_) | Location::Foreign => {
-            return Err(Error::RefinementResolution { x: p.x, y: p.y });
+            return Err(Error::resolution_at(p));
         }
     };
     let corners = t.corners[slot as usize];

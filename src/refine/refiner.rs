@@ -414,7 +414,7 @@ impl<'w, S: Store> Refiner<'w, S> {
                 requeue(self);
                 Ok(())
             }
-            Location::Vertex(_) => Err(Error::RefinementResolution { x: p.x, y: p.y }),
+            Location::Vertex(_) => Err(Error::resolution_at(p)),
             Location::Foreign => {
                 self.defer(class, q);
                 Ok(())
@@ -427,7 +427,7 @@ impl<'w, S: Store> Refiner<'w, S> {
                 if !self.work.cavity.is_disk() {
                     // A vertex within rounding of the point lies inside its cavity.
                     self.work.cavity.abandon(&mut self.s);
-                    return Err(Error::RefinementResolution { x: p.x, y: p.y });
+                    return Err(Error::resolution_at(p));
                 }
                 let before = self.work.encroached.len();
                 let walls = self
@@ -520,7 +520,7 @@ impl<'w, S: Store> Refiner<'w, S> {
             // would not be a constrained Delaunay triangulation of the cavity: f64 cannot
             // split this segment here.
             self.work.cavity.abandon(&mut self.s);
-            return Err(Error::RefinementResolution { x: m.x, y: m.y });
+            return Err(Error::resolution_at(m));
         }
         let segment = self.segment_between(e.ends);
         let split = Split {
@@ -716,7 +716,7 @@ pub(super) fn resolvable_steiner_point<S: Store>(
     if !p.is_finite() || shortest2 < MIN_GAP * MIN_GAP {
         let c = s.corners(id).map(|v| s.point(v));
         let at = (c[0] + c[1] + c[2]) / 3.0;
-        return Err(Error::RefinementResolution { x: at.x, y: at.y });
+        return Err(Error::resolution_at(at));
     }
     Ok(p)
 }
@@ -734,7 +734,7 @@ pub(super) fn split_point(a: DVec2, b: DVec2, acute: (bool, bool)) -> Result<DVe
     };
     let m = kept_on_axis(m, a, b);
     if m == a || m == b || m.distance(a).min(m.distance(b)) < MIN_GAP {
-        return Err(Error::RefinementResolution { x: m.x, y: m.y });
+        return Err(Error::resolution_at(m));
     }
     Ok(m)
 }

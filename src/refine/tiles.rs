@@ -920,6 +920,36 @@ pub(super) fn refine_tiles(
         later: vec![Vec::new(); levels.finest + 1],
     };
     levels.file(&shared, bad, &mut lists.later);
+    // A tile that stops where f64 cannot place a vertex leaves the triangulation valid: it is
+    // settled all the same, so that the mesh reached can be returned with the error.
+    let grids = grid_after_grid(
+        &mut shared,
+        origin,
+        side,
+        bounds,
+        budget,
+        &levels,
+        &mut lists,
+    );
+    shared.settle(&mut lists);
+    grids?;
+    let mut bad = lists.bad;
+    for batch in lists.later.into_iter().flatten() {
+        bad.extend(batch);
+    }
+    Ok((bad, lists.edges))
+}
+
+/// The grids of [`refine_tiles`] from fine to coarse, then the pass on tiles twice as wide.
+fn grid_after_grid(
+    shared: &mut Shared,
+    origin: DVec2,
+    side: f64,
+    bounds: &Bounds,
+    budget: usize,
+    levels: &Levels,
+    lists: &mut Lists,
+) -> Result<(), Error> {
     let used: Vec<usize> = levels.used().collect();
     for level in used {
         let waiting = std::mem::take(&mut lists.later[level]);
@@ -932,14 +962,7 @@ pub(super) fn refine_tiles(
         let file = |shared: &Shared, larger, lists: &mut Lists| {
             levels.file(shared, larger, &mut lists.later);
         };
-        if !rounds(
-            &mut shared,
-            (&tiling, limit),
-            bounds,
-            budget,
-            &mut lists,
-            file,
-        )? {
+        if !rounds(shared, (&tiling, limit), bounds, budget, lists, file)? {
             break;
         }
     }
@@ -954,19 +977,14 @@ pub(super) fn refine_tiles(
         debug_assert!(larger.is_empty());
     };
     rounds(
-        &mut shared,
+        shared,
         (&tiling, usize::MAX),
         bounds,
         budget,
-        &mut lists,
+        lists,
         none_larger,
     )?;
-    shared.settle(&mut lists);
-    let mut bad = lists.bad;
-    for batch in lists.later.into_iter().flatten() {
-        bad.extend(batch);
-    }
-    Ok((bad, lists.edges))
+    Ok(())
 }
 
 /// Rounds of the four colours of `tiling`, each tile taking the bad triangles up to size
