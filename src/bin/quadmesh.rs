@@ -618,15 +618,16 @@ fn pool(threads: Option<NonZeroUsize>) -> Result<rayon::ThreadPool> {
         .context("cannot start the worker threads")
 }
 
-/// The mesh a refinement reached before it stopped short, where the error carries one.
-fn reached(e: &quadmesh::Error) -> Option<&quadmesh::Incomplete> {
+/// The mesh a refinement reached before it stopped short, taken out of the error that
+/// carries one; any other error back.
+fn reached(e: quadmesh::Error) -> Result<quadmesh::Incomplete, quadmesh::Error> {
     match e {
-        quadmesh::Error::VertexBudget(partial) => Some(partial),
-        quadmesh::Error::RefinementResolution {
+        quadmesh::Error::VertexBudget(partial)
+        | quadmesh::Error::RefinementResolution {
             reached: Some(partial),
             ..
-        } => Some(partial),
-        _ => None,
+        } => Ok(*partial),
+        e => Err(e),
     }
 }
 
@@ -666,13 +667,13 @@ fn mesh(
         // writes the mesh it reached, then fails.
         let (mesh, report, unfinished) = match meshed {
             Ok((mesh, report)) => (mesh, report, None),
-            Err(e) => match reached(&e) {
-                Some(partial) => {
-                    let partial = partial.clone();
-                    (partial.mesh, partial.report, Some(e.to_string()))
+            Err(e) => {
+                let message = e.to_string();
+                match reached(e) {
+                    Ok(partial) => (partial.mesh, partial.report, Some(message)),
+                    Err(e) => return Err(anyhow::anyhow!("{}: {e}", input.display())),
                 }
-                None => return Err(anyhow::anyhow!("{}: {e}", input.display())),
-            },
+            }
         };
         let options = quality.options();
         if check && unfinished.is_none() {

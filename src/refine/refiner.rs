@@ -822,8 +822,8 @@ const MAX_DELETED_DEGREE: usize = 32;
 /// `(p, q, r)` of three consecutive rim vertices, counter-clockwise, with no other rim vertex
 /// strictly inside its circumcircle, those already cut off included (else a later triangle
 /// could hold one, across the diagonal that cut it, in its circle); the last ear is what
-/// remains. `None` where no ear
-/// qualifies (not for the rim of a vertex of a Delaunay triangulation).
+/// remains. `None` where no ear qualifies (not for the rim of a vertex of a Delaunay
+/// triangulation).
 fn delaunay_ears<S: Store>(s: &S, rim: &[u32]) -> Option<Vec<(usize, usize, usize)>> {
     let mut left: Vec<usize> = (0..rim.len()).collect();
     let mut ears = Vec::with_capacity(rim.len() - 2);
