@@ -664,6 +664,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
         let mut seen: HashSet<usize> = removed.iter().copied().collect();
         let mut queue = removed.to_vec();
         let mut searched = HashSet::new();
+        let mut windows = Windows::default();
         while let Some(r) = queue.pop() {
             let is_removed = removed.binary_search(&r).is_ok();
             // The removed point also frees the points its own presence crowded, one level
@@ -682,8 +683,8 @@ impl<K: MortonKey> SeparatedPoints<K> {
                 if !searched.insert(search) {
                     continue;
                 }
-                for q in self.alone_near(centre, radius as u64) {
-                    if seen.contains(&q) || points_only_level(q) != m {
+                for q in windows.alone_near(self, centre, radius) {
+                    if seen.contains(&q) {
                         continue;
                     }
                     let cell = Cell::containing(self.keys[q], m);
@@ -693,7 +694,8 @@ impl<K: MortonKey> SeparatedPoints<K> {
                         let above = |k: K| grid_position(Cell::containing(k, m - 1));
                         chebyshev(above(self.keys[q]), above(self.keys[r])) <= 2
                     };
-                    if rested || crowded {
+                    // The points-only level last: the dearest test.
+                    if (rested || crowded) && points_only_level(q) == m {
                         seen.insert(q);
                         found.push(q);
                         queue.push(q);
@@ -833,6 +835,50 @@ impl GridRect {
         let (x, y) = (u128::from(x), u128::from(y));
         let side = 1u128 << (K::AXIS_BITS - u32::from(cell.level));
         x < self.x1 && self.x0 < x + side && y < self.y1 && self.y0 < y + side
+    }
+}
+
+/// The searches of [`SeparatedPoints::alone_near`] one removal made, kept so that a window
+/// inside one searched before is read from its answer: the points found around a removed point
+/// lie near it, and their windows at the coarser levels mostly lie inside its own.
+#[derive(Default)]
+struct Windows<K: MortonKey> {
+    /// By the square searched around: each radius searched and the points found.
+    searched: HashMap<Cell<K>, Vec<(u64, Vec<usize>)>>,
+}
+
+impl<K: MortonKey> Windows<K> {
+    /// The widest radius searched.
+    const WIDEST: u64 = 5;
+
+    /// The points alone in their square of `centre`'s level within `radius` (at most
+    /// [`Self::WIDEST`]) of it.
+    fn alone_near(
+        &mut self,
+        points: &SeparatedPoints<K>,
+        centre: Cell<K>,
+        radius: u64,
+    ) -> Vec<usize> {
+        debug_assert!(radius <= Self::WIDEST);
+        let position = grid_position(centre);
+        let holding = around_and(centre, (Self::WIDEST - radius) as i64).find_map(|cell| {
+            let distance = chebyshev(grid_position(cell), position);
+            self.searched
+                .get(&cell)?
+                .iter()
+                .find(|(wider, _)| distance + radius <= *wider)
+        });
+        if let Some((_, found)) = holding {
+            let near = |&q: &usize| {
+                let cell = Cell::containing(points.keys[q], centre.level);
+                chebyshev(grid_position(cell), position) <= radius
+            };
+            return found.iter().copied().filter(near).collect();
+        }
+        let found = points.alone_near(centre, radius);
+        let searches = self.searched.entry(centre).or_default();
+        searches.push((radius, found.clone()));
+        found
     }
 }
 
