@@ -22,7 +22,7 @@
 //! no split square tells; the points within two squares of a new one at their own level are
 //! settled against the points as well.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::{BTreeMap, BTreeSet, HashMap, HashSet};
 
 use super::separate::{
     DomainSides, Move, ON_BOTTOM, ON_LEFT, ON_RIGHT, ON_TOP, Rules, around, chebyshev,
@@ -57,6 +57,15 @@ pub struct SeparatedPoints<K: MortonKey> {
     set: SplitSet<K>,
     /// How many points have their leaf at each level.
     at_level: Vec<usize>,
+    /// The points alone in their square of level `isolated_level` (their lone level at most
+    /// that, see [`lone_level`]), with their lone levels: where the squares of a coarse level
+    /// hold many points each, the few alone in theirs are found here, not in `keys`.
+    isolated: BTreeMap<K, u8>,
+    /// The same points by lone level, then key: those alone at a level are a few runs here.
+    isolated_by_level: BTreeSet<(u8, K)>,
+    /// The coarsest level whose squares' lone points are all in `isolated`, chosen at the build
+    /// so that about one point in [`ISOLATED_SHARE`] is.
+    isolated_level: u8,
     /// Split squares added and taken out by the last edit.
     touched: usize,
     /// While on, each split square edits changed, with whether it was split before.
@@ -116,6 +125,8 @@ impl<K: MortonKey> SeparatedPoints<K> {
         for &level in &levels {
             at_level[level as usize] += 1;
         }
+        let (isolated, isolated_level) = isolated_points(&keys);
+        let isolated_by_level = isolated.iter().map(|(&k, &l)| (l, k)).collect();
         SeparatedPoints {
             keys: keys.into(),
             levels: levels.into(),
@@ -124,6 +135,9 @@ impl<K: MortonKey> SeparatedPoints<K> {
             separation,
             set,
             at_level,
+            isolated,
+            isolated_by_level,
+            isolated_level,
             touched: 0,
             log: None,
         }
@@ -368,6 +382,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
         self.keys.insert_sorted(&positions, &keys);
         self.levels.insert_sorted(&positions, &vec![0; new.len()]);
         self.sides.on.insert_sorted(&positions, &on);
+        self.note_isolation_around(&positions);
         for &(key, _) in new.iter().filter(|n| n.1 != 0) {
             let at = self.on_a_side.partition_point(|k| *k < key);
             self.on_a_side.insert(at, key);
@@ -418,6 +433,8 @@ impl<K: MortonKey> SeparatedPoints<K> {
             return false;
         }
         self.keys[i] = to;
+        self.forget_isolated(from);
+        self.note_isolation_around(&[i]);
         if on != 0 {
             // The point's leaf holds no other key: the order stays.
             let at = self
@@ -480,9 +497,41 @@ impl<K: MortonKey> SeparatedPoints<K> {
                 self.on_a_side.remove(at);
             }
         }
+        for &i in removed {
+            self.forget_isolated(self.keys[i]);
+        }
         self.keys.remove_sorted(removed);
         self.levels.remove_sorted(removed);
         self.sides.on.remove_sorted(removed);
+        // The points on either side of each gap have new Morton neighbours.
+        let gaps: Vec<usize> = removed.iter().enumerate().map(|(j, &i)| i - j).collect();
+        self.note_isolation_around(&gaps);
+    }
+
+    /// Brings the entries of `isolated` up to date at the Morton positions `positions` and
+    /// next to them, after the keys there changed.
+    fn note_isolation_around(&mut self, positions: &[usize]) {
+        let n = self.keys.len();
+        for &p in positions {
+            for i in p.saturating_sub(1)..(p + 2).min(n) {
+                let (key, lone) = (self.keys[i], lone_level(&self.keys, i));
+                if self.isolated.get(&key) == Some(&lone) {
+                    continue;
+                }
+                self.forget_isolated(key);
+                if lone <= self.isolated_level {
+                    self.isolated.insert(key, lone);
+                    self.isolated_by_level.insert((lone, key));
+                }
+            }
+        }
+    }
+
+    /// Takes `key` out of the isolated points, if it is there.
+    fn forget_isolated(&mut self, key: K) {
+        if let Some(lone) = self.isolated.remove(&key) {
+            self.isolated_by_level.remove(&(lone, key));
+        }
     }
 
     /// The move of point `i` from the root: past split squares and squares whose block holds
@@ -502,12 +551,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// The first level where point `i`'s square holds no other point: its leaf's level in the
     /// unbalanced tree, below the squares that hold it and its Morton neighbours.
     fn lone_level(&self, i: usize) -> u8 {
-        let key = self.keys[i];
-        let shared = |j: Option<usize>| {
-            j.and_then(|j| self.keys.get(j))
-                .map_or(0, |&other| key.common_level(other) + 1)
-        };
-        shared(i.checked_sub(1)).max(shared(Some(i + 1)))
+        lone_level(&self.keys, i)
     }
 
     /// The rounds of [`super::separate_in`] from `moves` on: the squares the moves demand,
@@ -581,6 +625,9 @@ impl<K: MortonKey> SeparatedPoints<K> {
     fn alone_near(&self, centre: Cell<K>, radius: u64) -> Vec<usize> {
         const SHORT_RUN: usize = 48;
         let level = centre.level;
+        if level <= self.isolated_level {
+            return self.isolated_near(centre, radius);
+        }
         let up = 4.min(level);
         let (x, y) = grid_position(centre);
         let last = last_position(level);
@@ -616,6 +663,54 @@ impl<K: MortonKey> SeparatedPoints<K> {
                         && alone(run.start + first, cell)
                     {
                         found.push(run.start + first);
+                    }
+                }
+            }
+        }
+        found
+    }
+
+    /// [`Self::alone_near`] at a level no finer than `isolated_level`, read from the isolated
+    /// points: those alone in their square of `centre`'s level are the ones whose lone level is
+    /// no finer. They are found lone level by lone level in the (at most 2×2) squares four
+    /// levels up that cover the window, or, where that takes more searches than the window
+    /// has squares, square by square: a square holds a point alone in it when its first
+    /// isolated key has a lone level no finer than the square's.
+    fn isolated_near(&self, centre: Cell<K>, radius: u64) -> Vec<usize> {
+        let level = centre.level;
+        let up = 4.min(level);
+        let (x, y) = grid_position(centre);
+        let last = last_position(level);
+        let span = |c: u64| c.saturating_sub(radius)..=c.saturating_add(radius).min(last);
+        let (columns, rows) = (span(x), span(y));
+        let width = |r: &std::ops::RangeInclusive<u64>| r.end() - r.start() + 1;
+        let covers = width(&columns).div_ceil(1 << up) * width(&rows).div_ceil(1 << up);
+        let position = |key: &K| {
+            let at = self.keys.binary_search(key);
+            at.expect("an isolated key is a point")
+        };
+        if covers * (u64::from(level) + 1) > width(&columns) * width(&rows) {
+            return around_and(centre, radius as i64)
+                .filter_map(|cell| {
+                    let (key, &lone) = self.isolated.range(cell.anchor..).next()?;
+                    (cell.contains(*key) && lone <= level).then(|| position(key))
+                })
+                .collect();
+        }
+        let mut found = Vec::new();
+        for cx in columns.start() >> up..=columns.end() >> up {
+            for cy in rows.start() >> up..=rows.end() >> up {
+                let cover = at_position::<K>(cx, cy, level - up);
+                for lone in 0..=level {
+                    let run = self
+                        .isolated_by_level
+                        .range((lone, cover.anchor)..)
+                        .take_while(|&&(l, k)| l == lone && cover.contains(k));
+                    for (_, key) in run {
+                        let cell = Cell::containing(*key, level);
+                        if chebyshev(grid_position(cell), (x, y)) <= radius {
+                            found.push(position(key));
+                        }
                     }
                 }
             }
@@ -838,6 +933,49 @@ impl GridRect {
     }
 }
 
+/// About one point in this many is in [`SeparatedPoints::isolated`] after a build.
+const ISOLATED_SHARE: usize = 32;
+
+/// The first level where point `i` of `keys` (sorted) is alone in its square: one below the
+/// deepest square it shares with a Morton neighbour.
+fn lone_level<K: MortonKey>(keys: &[K], i: usize) -> u8 {
+    let key = keys[i];
+    let shared = |j: Option<usize>| {
+        j.and_then(|j| keys.get(j))
+            .map_or(0, |&other| key.common_level(other) + 1)
+    };
+    shared(i.checked_sub(1)).max(shared(Some(i + 1)))
+}
+
+/// The points of `keys` (sorted) alone in their square of the coarsest level that leaves at
+/// most one point in [`ISOLATED_SHARE`] so, with their lone levels; and that level (the root's
+/// with no keys, which keeps the map empty for a tree grown from none).
+fn isolated_points<K: MortonKey>(keys: &[K]) -> (BTreeMap<K, u8>, u8) {
+    if keys.is_empty() {
+        return (BTreeMap::new(), 0);
+    }
+    let lone: Vec<u8> = (0..keys.len()).map(|i| lone_level(keys, i)).collect();
+    let mut at = vec![0usize; K::AXIS_BITS as usize + 2];
+    for &l in &lone {
+        at[l as usize] += 1;
+    }
+    let allowed = keys.len() / ISOLATED_SHARE;
+    let mut level = 0;
+    let mut count = at[0];
+    while level < K::AXIS_BITS as usize && count + at[level + 1] <= allowed {
+        level += 1;
+        count += at[level];
+    }
+    let level = level as u8;
+    let isolated = keys
+        .iter()
+        .zip(&lone)
+        .filter(|&(_, &l)| l <= level)
+        .map(|(&k, &l)| (k, l))
+        .collect();
+    (isolated, level)
+}
+
 /// The searches of [`SeparatedPoints::alone_near`] one removal made, kept so that a window
 /// inside one searched before is read from its answer: the points found around a removed point
 /// lie near it, and their windows at the coarser levels mostly lie inside its own.
@@ -949,6 +1087,16 @@ mod tests {
             .map(|i| points.keys[i])
             .collect();
         assert_eq!(points.on_a_side, on_a_side, "the points on a side, listed");
+        let isolated: BTreeMap<K, u8> = (0..points.keys.len())
+            .map(|i| (points.keys[i], lone_level(&points.keys, i)))
+            .filter(|&(_, lone)| lone <= points.isolated_level)
+            .collect();
+        assert_eq!(points.isolated, isolated, "the isolated points");
+        let by_level: BTreeSet<(u8, K)> = isolated.iter().map(|(&k, &l)| (l, k)).collect();
+        assert_eq!(
+            points.isolated_by_level, by_level,
+            "the isolated points by level"
+        );
         let Some(expected) = static_tree(&points.keys, &points.sides, points.separation) else {
             return;
         };
@@ -1295,6 +1443,45 @@ mod tests {
     fn a_built_tree_edits_like_one_grown_point_by_point() {
         for separation in SEPARATIONS {
             built_then_edited(separation);
+        }
+    }
+
+    #[test]
+    fn a_built_tree_takes_random_edits_as_a_rebuild_would() {
+        let grid = Grid::on_domain(DVec2::ZERO, DVec2::ONE, u64::AXIS_BITS).unwrap();
+        for separation in SEPARATIONS {
+            let mut rng = Rng::seed_from_u64(5);
+            let pairs = random_keys(&mut rng, 600, &grid);
+            let (keys, on): (Vec<u64>, Vec<u8>) = pairs.iter().copied().unzip();
+            let mut points = SeparatedPoints::new(keys.clone(), on, separation);
+            assert!(points.isolated_level > 0, "a build chooses a level");
+            let mut live = keys;
+            for _ in 0..150 {
+                let p = point(&mut rng);
+                let key = key_of(&grid, p);
+                match rng.random_range(0..3) {
+                    0 if !points.contains(key) => {
+                        points.insert(key, on_sides(p));
+                        live.push(key);
+                    }
+                    1 => {
+                        let from = live[rng.random_range(0..live.len())];
+                        let on = points.sides_on_of(from).expect("a live point");
+                        // Places off the domain's sides, near the point: most stay in its leaf.
+                        let near = from ^ rng.random_range(0..1u64 << 20);
+                        let free = on == 0 && !points.contains(near);
+                        if free && points.move_within_leaf(from, near, on) {
+                            live.retain(|&k| k != from);
+                            live.push(near);
+                        }
+                    }
+                    _ => {
+                        let key = live.swap_remove(rng.random_range(0..live.len()));
+                        points.remove(key);
+                    }
+                }
+                check_against_static(&points);
+            }
         }
     }
 
