@@ -538,7 +538,7 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// another point or leaves the root, then past squares whose block holds a split square.
     fn first_move(&self, i: usize) -> Move {
         let rules = self.rules();
-        let split = walk(&self.set, self.keys[i], self.lone_level(i));
+        let split = walk(&self.set, self.keys[i], lone_level(&self.keys, i));
         let level = clear_of_points(&rules, &self.keys, i, split);
         Move {
             point: i as u32,
@@ -546,12 +546,6 @@ impl<K: MortonKey> SeparatedPoints<K> {
             split: 0,
             to: descend(&self.set, &rules, &self.keys, i, level),
         }
-    }
-
-    /// The first level where point `i`'s square holds no other point: its leaf's level in the
-    /// unbalanced tree, below the squares that hold it and its Morton neighbours.
-    fn lone_level(&self, i: usize) -> u8 {
-        lone_level(&self.keys, i)
     }
 
     /// The rounds of [`super::separate_in`] from `moves` on: the squares the moves demand,
@@ -628,11 +622,6 @@ impl<K: MortonKey> SeparatedPoints<K> {
         if level <= self.isolated_level {
             return self.isolated_near(centre, radius);
         }
-        let up = 4.min(level);
-        let (x, y) = grid_position(centre);
-        let last = last_position(level);
-        let span =
-            |c: u64| (c.saturating_sub(radius) >> up)..=(c.saturating_add(radius).min(last) >> up);
         let alone = |q: usize, cell: Cell<K>| {
             let holds = |j: Option<usize>| {
                 j.and_then(|j| self.keys.get(j))
@@ -641,29 +630,25 @@ impl<K: MortonKey> SeparatedPoints<K> {
             !holds(q.checked_sub(1)) && !holds(Some(q + 1))
         };
         let mut found = Vec::new();
-        for cx in span(x) {
-            for cy in span(y) {
-                let cover = at_position::<K>(cx, cy, level - up);
-                let run = self.points_in(cover);
-                if run.len() <= SHORT_RUN {
-                    for q in run {
-                        let cell = Cell::containing(self.keys[q], level);
-                        let near = chebyshev(grid_position(cell), (x, y)) <= radius;
-                        if near && alone(q, cell) {
-                            found.push(q);
-                        }
+        for cover in Window::new(centre, radius).covers() {
+            let run = self.points_in(cover);
+            if run.len() <= SHORT_RUN {
+                for q in run {
+                    let key = self.keys[q];
+                    if lies_within(key, centre, radius) && alone(q, Cell::containing(key, level)) {
+                        found.push(q);
                     }
-                    continue;
                 }
-                let keys = &self.keys[run.clone()];
-                for cell in around_and(centre, radius as i64).filter(|c| cover.contains(c.anchor)) {
-                    let anchor = cell.anchor;
-                    let first = keys.partition_point(|k| *k < anchor);
-                    if keys.get(first).is_some_and(|&k| cell.contains(k))
-                        && alone(run.start + first, cell)
-                    {
-                        found.push(run.start + first);
-                    }
+                continue;
+            }
+            let keys = &self.keys[run.clone()];
+            for cell in around_and(centre, radius as i64).filter(|c| cover.contains(c.anchor)) {
+                let anchor = cell.anchor;
+                let first = keys.partition_point(|k| *k < anchor);
+                if keys.get(first).is_some_and(|&k| cell.contains(k))
+                    && alone(run.start + first, cell)
+                {
+                    found.push(run.start + first);
                 }
             }
         }
@@ -678,18 +663,13 @@ impl<K: MortonKey> SeparatedPoints<K> {
     /// isolated key has a lone level no finer than the square's.
     fn isolated_near(&self, centre: Cell<K>, radius: u64) -> Vec<usize> {
         let level = centre.level;
-        let up = 4.min(level);
-        let (x, y) = grid_position(centre);
-        let last = last_position(level);
-        let span = |c: u64| c.saturating_sub(radius)..=c.saturating_add(radius).min(last);
-        let (columns, rows) = (span(x), span(y));
-        let width = |r: &std::ops::RangeInclusive<u64>| r.end() - r.start() + 1;
-        let covers = width(&columns).div_ceil(1 << up) * width(&rows).div_ceil(1 << up);
+        let window = Window::new(centre, radius);
+        let covers = window.covers();
         let position = |key: &K| {
             let at = self.keys.binary_search(key);
             at.expect("an isolated key is a point")
         };
-        if covers * (u64::from(level) + 1) > width(&columns) * width(&rows) {
+        if covers.len() as u64 * (u64::from(level) + 1) > window.squares() {
             return around_and(centre, radius as i64)
                 .filter_map(|cell| {
                     let (key, &lone) = self.isolated.range(cell.anchor..).next()?;
@@ -698,19 +678,15 @@ impl<K: MortonKey> SeparatedPoints<K> {
                 .collect();
         }
         let mut found = Vec::new();
-        for cx in columns.start() >> up..=columns.end() >> up {
-            for cy in rows.start() >> up..=rows.end() >> up {
-                let cover = at_position::<K>(cx, cy, level - up);
-                for lone in 0..=level {
-                    let run = self
-                        .isolated_by_level
-                        .range((lone, cover.anchor)..)
-                        .take_while(|&&(l, k)| l == lone && cover.contains(k));
-                    for (_, key) in run {
-                        let cell = Cell::containing(*key, level);
-                        if chebyshev(grid_position(cell), (x, y)) <= radius {
-                            found.push(position(key));
-                        }
+        for cover in covers {
+            for lone in 0..=level {
+                let run = self
+                    .isolated_by_level
+                    .range((lone, cover.anchor)..)
+                    .take_while(|&&(l, k)| l == lone && cover.contains(k));
+                for (_, key) in run {
+                    if lies_within(*key, centre, radius) {
+                        found.push(position(key));
                     }
                 }
             }
@@ -751,9 +727,9 @@ impl<K: MortonKey> SeparatedPoints<K> {
         let rules = self.rules();
         let mut points_only = std::collections::HashMap::new();
         let mut points_only_level = |q: usize| {
-            *points_only
-                .entry(q)
-                .or_insert_with(|| clear_of_points(&rules, &self.keys, q, self.lone_level(q)))
+            *points_only.entry(q).or_insert_with(|| {
+                clear_of_points(&rules, &self.keys, q, lone_level(&self.keys, q))
+            })
         };
         let mut found: Vec<usize> = Vec::new();
         let mut seen: HashSet<usize> = removed.iter().copied().collect();
@@ -933,6 +909,49 @@ impl GridRect {
     }
 }
 
+/// The squares of a level within a radius of one of them, inside the root: columns and rows.
+struct Window {
+    level: u8,
+    columns: std::ops::RangeInclusive<u64>,
+    rows: std::ops::RangeInclusive<u64>,
+}
+
+impl Window {
+    fn new<K: MortonKey>(centre: Cell<K>, radius: u64) -> Self {
+        let (x, y) = grid_position(centre);
+        let last = last_position(centre.level);
+        let span = |c: u64| c.saturating_sub(radius)..=c.saturating_add(radius).min(last);
+        Window {
+            level: centre.level,
+            columns: span(x),
+            rows: span(y),
+        }
+    }
+
+    /// How many squares it has.
+    fn squares(&self) -> u64 {
+        let width = |r: &std::ops::RangeInclusive<u64>| r.end() - r.start() + 1;
+        width(&self.columns) * width(&self.rows)
+    }
+
+    /// The squares four levels up (fewer near the root) that cover it: at most 2×2 for a
+    /// radius up to 7, each a run of Morton positions.
+    fn covers<K: MortonKey>(&self) -> Vec<Cell<K>> {
+        let up = 4.min(self.level);
+        let span = |r: &std::ops::RangeInclusive<u64>| r.start() >> up..=r.end() >> up;
+        span(&self.columns)
+            .flat_map(|cx| span(&self.rows).map(move |cy| (cx, cy)))
+            .map(|(cx, cy)| at_position(cx, cy, self.level - up))
+            .collect()
+    }
+}
+
+/// Whether the square of `centre`'s level holding `key` lies within `radius` of `centre`.
+fn lies_within<K: MortonKey>(key: K, centre: Cell<K>, radius: u64) -> bool {
+    let cell = Cell::containing(key, centre.level);
+    chebyshev(grid_position(cell), grid_position(centre)) <= radius
+}
+
 /// About one point in this many is in [`SeparatedPoints::isolated`] after a build.
 const ISOLATED_SHARE: usize = 32;
 
@@ -1007,10 +1026,7 @@ impl<K: MortonKey> Windows<K> {
                 .find(|(wider, _)| distance + radius <= *wider)
         });
         if let Some((_, found)) = holding {
-            let near = |&q: &usize| {
-                let cell = Cell::containing(points.keys[q], centre.level);
-                chebyshev(grid_position(cell), position) <= radius
-            };
+            let near = |&q: &usize| lies_within(points.keys[q], centre, radius);
             return found.iter().copied().filter(near).collect();
         }
         let found = points.alone_near(centre, radius);
