@@ -815,6 +815,61 @@ fn the_changes_of_one_edit_among_many_points_take_few_leaves_with(separation: Se
 }
 
 #[test]
+fn edits_beside_a_crowd_warp_few_leaves() {
+    for separation in SEPARATIONS {
+        edits_beside_a_crowd_warp_few_leaves_with(separation);
+    }
+}
+
+/// A crowd of points 1e-3 across in the middle and a few points far out: an edit far from the
+/// crowd has large leaves, whose 2×2 blocks and rings reach the crowd's square without holding
+/// it. Its changes must warp the leaves around it, not the crowd's tree.
+fn edits_beside_a_crowd_warp_few_leaves_with(separation: Separation) {
+    let mut rng = Rng::seed_from_u64(23);
+    let mut points: Vec<DVec2> = (0..3000)
+        .map(|_| DVec2::splat(0.5) + (DVec2::new(rng.random(), rng.random()) - 0.5) * 1e-3)
+        .collect();
+    points.extend([
+        DVec2::new(0.1, 0.15),
+        DVec2::new(0.85, 0.2),
+        DVec2::new(0.3, 0.9),
+    ]);
+    let mut dynamic = DynamicMesh::with_separation(&points, unit(), separation).unwrap();
+    dynamic.track_changes(true);
+    let mut mesh = dynamic.mesh().unwrap();
+    let mut split = dynamic.mesh_nonobtuse().unwrap_or_default();
+    let total = mesh.triangles.len();
+    // Inserted far out, each then moved far out, and the first far points deleted.
+    let mut inserted = 0;
+    for step in 0..9 {
+        let edit = match step % 3 {
+            0 => Edit::Insert(DVec2::new(rng.random::<f64>(), rng.random::<f64>())),
+            1 => Edit::Move(
+                inserted,
+                DVec2::new(rng.random::<f64>(), rng.random::<f64>()),
+            ),
+            _ => Edit::Delete(3000 + step as u32 / 3),
+        };
+        let what = format!("step {step}: {edit:?}");
+        inserted = dynamic.apply(&[edit]).unwrap()[0].id;
+        if separation == Separation::Block {
+            let (after, taken) = check_changes_in(&mut dynamic, &split, &what, true);
+            assert!(
+                taken * 20 < total,
+                "{what}: {taken} leaves, {total} triangles"
+            );
+            split = after;
+        }
+        let (after, taken) = check_changes(&mut dynamic, &mesh, &what);
+        assert!(
+            taken * 20 < total,
+            "{what}: {taken} leaves, {total} triangles"
+        );
+        mesh = after;
+    }
+}
+
+#[test]
 fn changes_are_refused_unless_tracked() {
     let mut dynamic = DynamicMesh::new(&[DVec2::splat(0.5)], unit()).unwrap();
     assert!(matches!(

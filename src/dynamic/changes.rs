@@ -339,15 +339,19 @@ impl<K: MortonKey> Keyed<K> {
         parent_split && !tree.is_split(cell, before)
     }
 
-    /// Adds to the region's exact part the 5×5 block of leaves of each point warped, with a
-    /// ring of their neighbours, as it was (`was`) and as it is (`now`): the warp of a point
-    /// reads its block.
+    /// Adds to the region's exact part, for each point warped, as it was (`was`) and as it is
+    /// (`now`), the 3×3 squares of its leaf's size around its leaf and a unit ring: a point
+    /// warps the 2×2 leaves around one corner of its leaf (or splits its leaf and the four
+    /// beside it), whose templates read whether the squares across their sides are split.
+    /// Those squares' own leaves need not be exact: in a corner-separated tree leaves may halve
+    /// ring by ring, so a wider exact block could reach a crowd of points and split all its
+    /// tree.
     fn add_blocks(&self, region: &mut Region, now: &[DVec2], was: &[DVec2]) {
         let tree = &self.separated;
         for (points, before) in [(now, false), (was, true)] {
             for &p in points {
                 let leaf = tree.leaf_of(self.key(p), before);
-                region.exact.push(around(leaf, 3 * side(leaf)));
+                region.exact.push(around(leaf, side(leaf) + 1));
             }
         }
     }
