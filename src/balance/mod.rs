@@ -28,7 +28,6 @@ pub use separate::{
     coarsest_band_level, nearest_corner, separate, separate_in, separate_with, sides_of,
     upper_halves,
 };
-pub(crate) use slack::SlackVec;
 
 use crate::framework::NONE;
 use crate::morton::{Cell, MortonKey, Side};

@@ -375,7 +375,7 @@ impl<K: MortonKey> Keyed<K> {
         positions.dedup();
         positions
             .into_iter()
-            .map(|i| points[self.ids[i] as usize])
+            .map(|i| points[self.ids[&self.separated.keys()[i]] as usize])
             .filter(|&p| self.inside(rects, p))
             .collect()
     }

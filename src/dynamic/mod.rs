@@ -16,9 +16,12 @@ mod refined;
 pub use changes::TriangleChanges;
 pub use refined::{DynamicDelaunay, RefinedEdit};
 
-use glam::DVec2;
+use std::collections::HashMap;
 
-use crate::balance::{SeparatedPoints, Separation, SlackVec, sides_of};
+use glam::DVec2;
+use rayon::prelude::*;
+
+use crate::balance::{SeparatedPoints, Separation, sides_of};
 use crate::error::Error;
 use crate::mesh::{Domain, Mesh, StageTimes};
 use crate::morton::{DomainCells, Grid, MortonKey};
@@ -41,8 +44,8 @@ pub enum Edit {
 struct Plan {
     ids: Vec<u32>,
     ends: std::collections::BTreeMap<u32, Option<DVec2>>,
-    starts: std::collections::HashMap<u32, Option<DVec2>>,
-    inserted_at: std::collections::HashMap<u32, DVec2>,
+    starts: HashMap<u32, Option<DVec2>>,
+    inserted_at: HashMap<u32, DVec2>,
     next_id: u32,
 }
 
@@ -97,12 +100,14 @@ enum Tracked {
     Wide(Keyed<u128>),
 }
 
-/// A separated tree with the id of each point by Morton position.
+/// A separated tree with the id of each point by key.
 #[derive(Clone)]
 struct Keyed<K: MortonKey> {
     grid: Grid,
     separated: SeparatedPoints<K>,
-    ids: SlackVec<u32>,
+    /// By key, not by Morton position: an edit then shifts no array of ids (the tree's own
+    /// sorted arrays are shifted enough), and nothing reads the ids in the map's order.
+    ids: HashMap<K, u32>,
 }
 
 impl DynamicMesh {
@@ -439,7 +444,7 @@ impl DynamicMesh {
         };
         let bits = |p: DVec2| ((p.x + 0.0).to_bits(), (p.y + 0.0).to_bits());
         // Places the batch filled, by their point.
-        let mut taken: std::collections::HashMap<(u64, u64), u32> = Default::default();
+        let mut taken: HashMap<(u64, u64), u32> = Default::default();
         for (k, &edit) in edits.iter().enumerate() {
             let now = |plan: &Plan, id: u32| match plan.ends.get(&id) {
                 Some(&end) => end,
@@ -497,7 +502,7 @@ impl DynamicMesh {
     }
 
     /// Puts the points a failed batch touched back where they were, and the tree with them.
-    fn restore(&mut self, starts: &std::collections::HashMap<u32, Option<DVec2>>, first_new: u32) {
+    fn restore(&mut self, starts: &HashMap<u32, Option<DVec2>>, first_new: u32) {
         self.points.truncate(first_new as usize);
         self.live.truncate(first_new as usize);
         for (&id, &start) in starts {
@@ -776,7 +781,7 @@ impl<K: MortonKey> Keyed<K> {
                 separation,
                 grid.inner_lines(),
             ),
-            ids: SlackVec::default(),
+            ids: HashMap::new(),
         })
     }
 
@@ -789,7 +794,7 @@ impl<K: MortonKey> Keyed<K> {
         separation: Separation,
     ) -> Result<Option<Self>, Error> {
         let keyed = Self::build_unchecked(points, ids, domain, separation)?;
-        let distinct = keyed.ids.len() == ids.len();
+        let distinct = keyed.separated.keys().len() == ids.len();
         Ok((distinct && !keyed.too_deep()).then_some(keyed))
     }
 
@@ -811,9 +816,9 @@ impl<K: MortonKey> Keyed<K> {
             .iter()
             .map(|&(_, id)| sides_of(points[id as usize], domain.lo, domain.hi))
             .collect();
-        let (keys, ids): (Vec<K>, Vec<u32>) = pairs.into_iter().unzip();
+        keyed.ids = pairs.iter().copied().collect();
+        let keys = pairs.into_iter().map(|(key, _)| key).collect();
         keyed.separated = SeparatedPoints::within(keys, on, separation, keyed.grid.inner_lines());
-        keyed.ids = ids.into();
         Ok(keyed)
     }
 
@@ -824,9 +829,7 @@ impl<K: MortonKey> Keyed<K> {
 
     /// The id of the point whose key `p` has, if any.
     fn id_of(&self, p: DVec2) -> Option<u32> {
-        let keys = self.separated.keys();
-        let i = keys.binary_search(&self.key(p)).ok()?;
-        Some(self.ids[i])
+        self.ids.get(&self.key(p)).copied()
     }
 
     /// Puts point `id` at `p` in; `None`, with the tree as it was, if its key is taken or its
@@ -836,13 +839,12 @@ impl<K: MortonKey> Keyed<K> {
         if self.separated.contains(key) {
             return None;
         }
-        let i = self.separated.insert(key, on);
-        self.ids.insert(i, id);
+        self.separated.insert(key, on);
         if self.too_deep() {
             self.separated.remove(key);
-            self.ids.remove(i);
             return None;
         }
+        self.ids.insert(key, id);
         Some(self.separated.touched())
     }
 
@@ -860,15 +862,14 @@ impl<K: MortonKey> Keyed<K> {
             return None;
         }
         let keyed: Vec<(K, u8)> = new.iter().map(|n| (n.0, n.1)).collect();
-        let positions = self.separated.insert_many(&keyed);
+        self.separated.insert_many(&keyed);
         let touched = self.separated.touched();
         if self.too_deep() {
             let keys: Vec<K> = new.iter().map(|n| n.0).collect();
             self.separated.remove_many(&keys);
             return None;
         }
-        let ids: Vec<u32> = new.iter().map(|n| n.2).collect();
-        self.ids.insert_sorted(&positions, &ids);
+        self.ids.extend(new.iter().map(|n| (n.0, n.2)));
         Some(touched)
     }
 
@@ -876,8 +877,10 @@ impl<K: MortonKey> Keyed<K> {
     fn remove_many(&mut self, places: &[DVec2]) -> usize {
         let mut keys: Vec<K> = places.iter().map(|&p| self.key(p)).collect();
         keys.sort_unstable();
-        let removed = self.separated.remove_many(&keys);
-        self.ids.remove_sorted(&removed);
+        self.separated.remove_many(&keys);
+        for key in &keys {
+            self.ids.remove(key);
+        }
         self.separated.touched()
     }
 
@@ -885,14 +888,22 @@ impl<K: MortonKey> Keyed<K> {
     /// [`SeparatedPoints::move_within_leaf`]).
     fn move_within_leaf(&mut self, from: DVec2, to: DVec2, on: u8) -> bool {
         let (from, to) = (self.key(from), self.key(to));
-        from == to && self.separated.sides_on_of(from) == Some(on)
-            || self.separated.move_within_leaf(from, to, on)
+        if from == to {
+            return self.separated.sides_on_of(from) == Some(on);
+        }
+        if !self.separated.move_within_leaf(from, to, on) {
+            return false;
+        }
+        let id = self.ids.remove(&from).expect("a point's id");
+        self.ids.insert(to, id);
+        true
     }
 
     /// Takes the point at `p` out; returns the split squares touched.
     fn remove(&mut self, p: DVec2) -> usize {
-        let i = self.separated.remove(self.key(p));
-        self.ids.remove(i);
+        let key = self.key(p);
+        self.separated.remove(key);
+        self.ids.remove(&key);
         self.separated.touched()
     }
 
@@ -910,12 +921,17 @@ impl<K: MortonKey> Keyed<K> {
             .iter()
             .position(|&l| u32::from(l) > finest)
             .unwrap_or(0);
-        self.ids[i]
+        self.ids[&self.separated.keys()[i]]
     }
 
     fn mesh(&self, live_points: &[DVec2], rank: &[u32], nonobtuse: bool) -> Result<Mesh, Error> {
         let tree = self.separated.tree();
-        let order: Vec<u32> = self.ids.iter().map(|&id| rank[id as usize]).collect();
+        let order: Vec<u32> = self
+            .separated
+            .keys()
+            .par_iter()
+            .map(|key| rank[self.ids[key] as usize])
+            .collect();
         let keys = self.corner_keys(self.separated.keys());
         mesh_tree(tree, (&order, keys), &self.grid, live_points, nonobtuse)
     }
