@@ -47,7 +47,7 @@ def write_edits(path, edits):
             f.write(" ".join(e if isinstance(e, str) else repr(e) for e in e) + "\n")
 
 
-WARP_FLAGS = {"compact": "--warp", "block": "--block-warp"}
+WARP_FLAGS = {"compact": "--compact-warp", "block": "--block-warp"}
 WARP = "compact"
 
 
