@@ -851,7 +851,10 @@ fn edits_beside_a_crowd_warp_few_leaves_with(separation: Separation) {
             _ => Edit::Delete(3000 + step as u32 / 3),
         };
         let what = format!("step {step}: {edit:?}");
-        inserted = dynamic.apply(&[edit]).unwrap()[0].id;
+        let id = dynamic.apply(&[edit]).unwrap()[0].id;
+        if matches!(edit, Edit::Insert(_)) {
+            inserted = id;
+        }
         if separation == Separation::Block {
             let (after, taken) = check_changes_in(&mut dynamic, &split, &what, true);
             assert!(
