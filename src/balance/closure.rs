@@ -394,6 +394,10 @@ fn distributed<K: MortonKey, S: HasCell<K>>(
     }
     // Written in parallel without being cleared first: clearing is a serial pass, and on fresh
     // memory a serial first touch of every page.
+    // Where each chunk must end at each level: the next chunk's starts, or the totals.
+    let ends: Vec<Vec<usize>> = (starts.iter().skip(1).cloned())
+        .chain(std::iter::once(totals.clone()))
+        .collect();
     let mut levels = Levels::<K>::with_capacities(&totals);
     let (narrow_totals, deep_totals) = totals.split_at(NARROW_LEVEL + 1);
     let narrow = room_writers(&mut levels.narrow, narrow_totals);
@@ -417,13 +421,16 @@ fn distributed<K: MortonKey, S: HasCell<K>>(
             };
             at[level] += 1;
         }
+        // Every slot below the totals is written: each chunk filled its ranges to the end.
+        assert_eq!(at, ends[c], "chunk {c} wrote other than it counted");
     });
     drop((narrow, deep));
     // SAFETY: the lists are fresh (length 0) with capacity `totals[level]` at least
     // (`with_capacities`), and the chunks' ranges at each level, from the prefix sums of their
     // own counts of the same squares, cover the level's first `totals[level]` slots, all written
-    // above (a panicking chunk would have ended the join before this line); the writers, which
-    // borrowed the lists, are dropped.
+    // above: each chunk was asserted to end its ranges where the next begins (a panicking
+    // chunk would have ended the join before this line); the writers, which borrowed the
+    // lists, are dropped.
     #[allow(unsafe_code)]
     unsafe {
         assume_written(&mut levels.narrow, narrow_totals);

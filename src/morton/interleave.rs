@@ -65,12 +65,15 @@ pub(crate) fn encode_all<K: MortonKey>(points: &[DVec2], grid: &Grid) -> Vec<Pai
         .zip(points.par_chunks(ENCODE_CHUNK))
         .enumerate()
         .for_each(|(chunk, (out, pts))| {
+            // Each encoder writes a slot per point: the chunks must pair up exactly.
+            assert_eq!(out.len(), pts.len(), "encode chunk {chunk}");
             let first = (chunk * ENCODE_CHUNK) as u32;
             K::encode_points(pts, first, grid, out);
         });
     // SAFETY: the capacity is `points.len()` (`with_capacity_huge`). The output chunks split
     // the first `points.len()` slots as the point chunks split the points (same length, same
-    // chunk size), so each output chunk has as many slots as its points, and `encode_points`
+    // chunk size), so each output chunk has as many slots as its points (asserted per chunk,
+    // in release too; `zip` stops at the shorter otherwise), and `encode_points`
     // of both key types (the trait is sealed: `u64` and `u128` in `key.rs`, calling
     // `encode_narrow`/`encode_wide` below) writes `out[i]` for every point `i`; so every slot
     // is initialised. The parallel loop has ended, so nothing writes them meanwhile.
