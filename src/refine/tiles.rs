@@ -552,11 +552,11 @@ impl TileStore<'_> {
         let v = v & !MARK;
         check_slot(v, self.arrays.vertex_capacity);
         // SAFETY: `add` stays within the buffer's capacity (checked above in debug builds and
-        // in the crate's tests, release ones included, which run the tiles: the numbers a tile uses are corners of triangles it reached, all below the
-        // `vertex_end` of its pass, at most the capacity reserved before the pass, or numbers
-        // of its own chunks, each asserted against the capacity in `push_vertex`). Only the
-        // offset is computed here; what may be read or written through it is argued where it
-        // is dereferenced.
+        // in the crate's tests): the numbers a tile uses are corners of triangles it reached,
+        // all below the `vertex_end` of its pass, at most the capacity reserved before the
+        // pass, or numbers of its own chunks, each asserted against the capacity in
+        // `push_vertex`. Only the offset is computed here; what may be read or written through
+        // it is argued where it is dereferenced.
         #[allow(unsafe_code)]
         unsafe {
             self.arrays.vertices.add(v as usize)
