@@ -836,7 +836,8 @@ impl<K: MortonKey> Keyed<K> {
     /// leaf would be finer than this grid resolves.
     fn insert(&mut self, id: u32, p: DVec2, on: u8) -> Option<usize> {
         let key = self.key(p);
-        if self.separated.contains(key) {
+        // The id map holds the tree's keys: it answers without a search of the sorted keys.
+        if self.ids.contains_key(&key) {
             return None;
         }
         self.separated.insert(key, on);
@@ -858,7 +859,7 @@ impl<K: MortonKey> Keyed<K> {
             .collect();
         new.sort_unstable_by_key(|n| n.0);
         let repeated = new.windows(2).any(|w| w[0].0 == w[1].0);
-        if repeated || new.iter().any(|n| self.separated.contains(n.0)) {
+        if repeated || new.iter().any(|n| self.ids.contains_key(&n.0)) {
             return None;
         }
         let keyed: Vec<(K, u8)> = new.iter().map(|n| (n.0, n.1)).collect();
