@@ -168,6 +168,7 @@ pub struct Options {
     sort: SortAlgorithm,
     boundary_steiner: bool,
     split_crossings: bool,
+    spare_vertices_removed: bool,
 }
 
 impl Default for Options {
@@ -181,6 +182,7 @@ impl Default for Options {
             sort: SortAlgorithm::default(),
             boundary_steiner: true,
             split_crossings: false,
+            spare_vertices_removed: false,
         }
     }
 }
@@ -271,6 +273,21 @@ impl Options {
             split_crossings: true,
             ..self
         }
+    }
+
+    /// After refining a planar straight-line graph (Delaunay mode), take out the Steiner
+    /// vertices on no segment wherever the mesh left, with free vertices beside them moved,
+    /// still meets every bound: a smaller mesh, still constrained Delaunay, for more time.
+    pub fn remove_spare_vertices(self) -> Self {
+        Options {
+            spare_vertices_removed: true,
+            ..self
+        }
+    }
+
+    /// Whether spare Steiner vertices are taken out after refinement.
+    pub fn spare_vertices_removed(&self) -> bool {
+        self.spare_vertices_removed
     }
 
     /// Whether boundary edges may be split.

@@ -551,6 +551,7 @@ fn mesh_graph(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Er
         convex_hull,
         no_boundary_steiner: !options.boundary_steiner_allowed(),
         split_crossings: options.crossings_split(),
+        remove_spare_vertices: options.spare_vertices_removed(),
     };
     refine_pslg(input, &refine, pslg)
 }

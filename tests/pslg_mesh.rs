@@ -132,6 +132,108 @@ fn free_vertices_in_a_split_segments_circle_are_deleted_first() {
     assert_eq!(report.vertices, mesh.vertices.len());
 }
 
+/// Spare Steiner vertices taken out after refinement: the mesh is still a valid constrained
+/// Delaunay mesh of the graph with every angle at least the bound (checked independently), the
+/// same on two threads, with fewer triangles than refinement alone left.
+#[test]
+fn spare_vertices_removed_leave_a_smaller_mesh_that_meets_the_bounds() {
+    let block = quadmesh::generate::block_with_holes(200, 1);
+    for angle in [20.0, 30.0, 33.0] {
+        let plain = Options::default().min_angle(angle);
+        let (before, _) = mesh_checked(&block, plain, false);
+        let (after, report) = mesh_checked(&block, plain.remove_spare_vertices(), false);
+        assert!(
+            report.spare_vertices_removed > 0,
+            "none removed at {angle}°"
+        );
+        assert!(
+            after.triangles.len() < before.triangles.len(),
+            "{} triangles after, {} before, at {angle}°",
+            after.triangles.len(),
+            before.triangles.len()
+        );
+        assert_eq!(report.vertices, after.vertices.len());
+        // Every input point stays, bit for bit, and only Steiner vertices went.
+        let inputs = |m: &Mesh| {
+            m.vertex_input
+                .iter()
+                .filter(|&&i| i != quadmesh::NONE)
+                .count()
+        };
+        assert_eq!(inputs(&after), inputs(&before));
+    }
+}
+
+/// Regions' area bounds and a global one still hold after spare vertices are taken out.
+#[test]
+fn spare_vertices_removed_keep_the_area_bounds() {
+    let mut input = Input::default();
+    for (k, side) in [8.0, 4.0, 2.0].into_iter().enumerate() {
+        let lo = DVec2::splat(-side / 2.0);
+        closed_loop(
+            &mut input.points,
+            &mut input.segments,
+            &square(lo, side),
+            k as i32 + 1,
+        );
+    }
+    let areas = [0.5, 0.05, 0.005];
+    for (k, seed) in [3.5, 1.5, 0.0].into_iter().enumerate() {
+        input.regions.push(RegionSeed {
+            seed: DVec2::splat(seed),
+            attribute: 10.0 * (k + 1) as f64,
+            max_area: Some(areas[k]),
+        });
+    }
+    let options = Options::default()
+        .min_angle(30.0)
+        .max_area(0.1)
+        .remove_spare_vertices();
+    let (mesh, report) = mesh_checked(&input, options, false);
+    assert!(report.spare_vertices_removed > 0);
+    for (t, &r) in mesh.triangle_regions.iter().enumerate() {
+        let [a, b, c] = mesh.triangles[t].map(|v| mesh.vertices[v as usize]);
+        let area = 0.5 * (b - a).perp_dot(c - a);
+        assert!(
+            area <= areas[r as usize].min(0.1),
+            "triangle {t} of area {area}"
+        );
+        assert_eq!(mesh.triangle_attribute(t), 10.0 * (r + 1) as f64);
+    }
+}
+
+/// Triangle's examples with spare vertices taken out, at 30° and 33° (`la` with its regions'
+/// area bounds): valid, the same on two threads, and no larger than without.
+#[test]
+fn triangle_examples_with_spare_vertices_removed() {
+    let Some(dir) = common::triangle_examples() else {
+        eprintln!("skipped: the Python package `triangle` is not installed");
+        return;
+    };
+    for name in ["A", "face", "la", "double_hex", "square_circle_hole"] {
+        let input = quadmesh::io::read_input(&dir.join(format!("{name}.poly"))).unwrap();
+        for angle in [30.0, 33.0] {
+            let plain = Options::default().min_angle(angle);
+            let (before, _) = mesh_checked(&input, plain, false);
+            let (after, _) = mesh_checked(&input, plain.remove_spare_vertices(), false);
+            assert!(
+                after.triangles.len() <= before.triangles.len(),
+                "{name} {angle}"
+            );
+            for (t, &r) in after.triangle_regions.iter().enumerate() {
+                let Some(bound) = input.regions.get(r as usize).and_then(|g| g.max_area) else {
+                    continue;
+                };
+                let [a, b, c] = after.triangles[t].map(|v| after.vertices[v as usize]);
+                assert!(
+                    0.5 * (b - a).perp_dot(c - a) <= bound,
+                    "{name}: triangle {t}"
+                );
+            }
+        }
+    }
+}
+
 /// Seeds exactly on loose input points: a hole seed on a point inside a hole eats the hole,
 /// and a region seed on a point inside a room names the room.
 #[test]

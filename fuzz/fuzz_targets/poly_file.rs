@@ -1,5 +1,6 @@
 //! Any bytes as a `.poly` file: the reader answers with an input or a parse error; a small
-//! input is meshed at a bound the bytes choose, and a mesh must pass the independent check
+//! input is meshed at a bound the bytes choose (crossings split or not, spare vertices
+//! removed or not), and a mesh must pass the independent check
 //! (against the cleaned input when cleaning changed nothing, else the area and Delaunay
 //! checks).
 #![no_main]
@@ -24,6 +25,9 @@ fuzz_target!(|data: &[u8]| {
         .max_vertices(20_000);
     if choice & 0x80 != 0 {
         options = options.split_crossings();
+    }
+    if choice & 0x40 != 0 {
+        options = options.remove_spare_vertices();
     }
     match quadmesh::mesh(&input, &options) {
         Ok((mesh, report)) => {

@@ -171,6 +171,9 @@ pub struct MeshReport {
     /// diametral circles before splitting the segments, as Triangle does (a graph's Delaunay
     /// mode, in its sequential loop).
     pub free_vertices_deleted: usize,
+    /// Steiner vertices on no segment taken out after refinement where the mesh left still
+    /// met the bounds ([`crate::Options::remove_spare_vertices`]).
+    pub spare_vertices_removed: usize,
 }
 
 impl MeshReport {
@@ -218,6 +221,7 @@ pub(crate) fn report_of(
         stages: times.0,
         cleaning: None,
         free_vertices_deleted: 0,
+        spare_vertices_removed: 0,
     }
 }
 

@@ -343,32 +343,44 @@ impl Triangulation {
     /// `a` there) and triangle `u` (apex `w` at corner `j`) by the edge `a w`: `t` becomes
     /// `a b w` and `u` becomes `w c a`, each with the new edge opposite corner 1.
     pub(super) fn flip(&mut self, t: u32, i: usize, u: u32, j: usize) {
-        let [a, b, c] = [i, NEXT[i], PREV[i]].map(|k| self.corners[t as usize][k]);
-        let w = self.corners[u as usize][j];
-        // Across a b (opposite c in t), c a (opposite b in t), b w (opposite c in u, whose
-        // corners run c b w from corner NEXT[j]) and w c (opposite b in u).
-        let n_ab = self.across[t as usize][PREV[i]];
-        let n_ca = self.across[t as usize][NEXT[i]];
-        let n_bw = self.across[u as usize][NEXT[j]];
-        let n_wc = self.across[u as usize][PREV[j]];
-        self.corners[t as usize] = [a, b, w];
-        self.across[t as usize] = [n_bw, u, n_ab];
-        self.corners[u as usize] = [w, c, a];
-        self.across[u as usize] = [n_ca, t, n_wc];
-        self.relink(n_bw, u, t);
-        self.relink(n_ca, t, u);
+        flip_in(self, t, i, u, j);
     }
+}
 
-    /// Points triangle `n`'s link to `from` at `to` instead (`n` a link, which keeps its
-    /// segment mark).
-    fn relink(&mut self, n: u32, from: u32, to: u32) {
-        if n != NONE {
-            let n = beyond(n);
-            let k = self.corner_facing(n, from);
-            let link = &mut self.across[n as usize][k];
-            *link = to | (*link & SEGMENT);
-        }
+/// [`Triangulation::flip`] in any store.
+pub(super) fn flip_in<S: Store>(s: &mut S, t: u32, i: usize, u: u32, j: usize) {
+    let [a, b, c] = [i, NEXT[i], PREV[i]].map(|k| s.corners(t)[k]);
+    let w = s.corners(u)[j];
+    // Across a b (opposite c in t), c a (opposite b in t), b w (opposite c in u, whose
+    // corners run c b w from corner NEXT[j]) and w c (opposite b in u).
+    let n_ab = s.across(t)[PREV[i]];
+    let n_ca = s.across(t)[NEXT[i]];
+    let n_bw = s.across(u)[NEXT[j]];
+    let n_wc = s.across(u)[PREV[j]];
+    *s.corners_mut(t) = [a, b, w];
+    *s.across_mut(t) = [n_bw, u, n_ab];
+    *s.corners_mut(u) = [w, c, a];
+    *s.across_mut(u) = [n_ca, t, n_wc];
+    relink_in(s, n_bw, u, t);
+    relink_in(s, n_ca, t, u);
+}
+
+/// Points triangle `n`'s link to `from` at `to` instead (`n` a link, which keeps its segment
+/// mark).
+fn relink_in<S: Store>(s: &mut S, n: u32, from: u32, to: u32) {
+    if n != NONE {
+        let n = beyond(n);
+        let k = corner_facing_in(s, n, from);
+        let link = &mut s.across_mut(n)[k];
+        *link = to | (*link & SEGMENT);
     }
+}
+
+/// The corner of triangle `u` opposite its edge shared with triangle `t`.
+pub(super) fn corner_facing_in<S: Store>(s: &S, u: u32, t: u32) -> usize {
+    (0..3)
+        .find(|&j| beyond(s.across(u)[j]) == t)
+        .expect("neighbours link each other")
 }
 
 impl Store for Triangulation {

@@ -40,6 +40,7 @@
 
 mod delaunay;
 mod hull;
+mod improve;
 mod local_changes;
 mod ordered;
 mod queue;
@@ -217,6 +218,9 @@ pub struct PslgOptions {
     pub no_boundary_steiner: bool,
     /// Split crossing segments at their intersection instead of refusing them.
     pub split_crossings: bool,
+    /// After refinement, take out the Steiner vertices on no segment wherever what is left,
+    /// with free vertices beside them moved, still meets the bounds (see `improve.rs`).
+    pub remove_spare_vertices: bool,
 }
 
 /// The refined constrained Delaunay mesh of a planar straight-line graph: its points,
@@ -296,10 +300,19 @@ pub fn refine_pslg(
         !pslg.no_boundary_steiner,
     );
     let budget = options.budget(distinct);
+    let first_steiner = t.vertices.len() as u32;
     let unmet = times.time("refine", || {
         refine_to_budget(&mut t, &bounds, domain, distinct, budget)
     })?;
-    let deleted = t.vertices_deleted;
+    let mut spare_removed = 0;
+    if pslg.remove_spare_vertices && unmet.is_none() && !bounds.unbounded() {
+        spare_removed = times.time("spare", || {
+            let removed = improve::remove_spare_vertices(&mut t, &bounds, first_steiner);
+            t.pack();
+            removed
+        });
+    }
+    let deleted = t.vertices_deleted - spare_removed;
     let mesh = times.time("mesh", || {
         let walls = bounds.walls().expect("a graph's bounds have walls");
         let (mut pieces, boundary) = segments::segment_pieces(&t, walls, &clean);
@@ -326,6 +339,7 @@ pub fn refine_pslg(
     let mut report = report_of(&mesh, distinct, cleaning.merged_points, &quality, times);
     report.cleaning = Some(cleaning);
     report.free_vertices_deleted = deleted;
+    report.spare_vertices_removed = spare_removed;
     within_budget(mesh, report, unmet, budget)
 }
 

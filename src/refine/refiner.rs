@@ -49,7 +49,7 @@ struct Inspection {
 #[derive(Clone, Debug)]
 pub(crate) struct Bounds {
     /// sin² of the angle bound.
-    sin2: f64,
+    pub(super) sin2: f64,
     /// Twice the area bound (cross products give twice the area).
     max_area2: f64,
     /// Off-centers lie this many shortest-edge lengths from the edge's midpoint.
@@ -587,78 +587,16 @@ impl<'w, S: Store> Refiner<'w, S> {
         e
     }
 
-    /// Deletes the vertex at corner `k` of triangle `t0` where no wall meets it and its star
-    /// has at most [`MAX_DELETED_DEGREE`] triangles: the hole is filled by the Delaunay
-    /// triangulation of its rim (ears with no rim vertex strictly inside their circumcircles,
-    /// exact), in the star's slots, the last two freed. Returns the new triangles, or `None`
-    /// with nothing changed.
+    /// Deletes the vertex at corner `k0` of triangle `t0` as [`fill_star`] empties it, freeing
+    /// the two slots and the vertex left over. Returns the new triangles, or `None` with
+    /// nothing changed.
     fn delete_vertex(&mut self, t0: u32, k0: usize) -> Option<Vec<u32>> {
-        let v = self.s.corners(t0)[k0];
-        // The star counter-clockwise: triangle i is (v, rim[i], rim[i + 1]), and outer[i]
-        // the link across its edge opposite v.
-        let (mut star, mut rim, mut outer) = (Vec::new(), Vec::new(), Vec::new());
-        let (mut t, mut k) = (t0, k0);
-        loop {
-            let tri = self.s.triangle(t);
-            let around = tri.n[NEXT[k]];
-            if is_wall(around) || star.len() == MAX_DELETED_DEGREE {
-                return None;
-            }
-            star.push(t);
-            rim.push(tri.v[NEXT[k]]);
-            outer.push(tri.n[k]);
-            t = around;
-            k = self.s.corners(t).iter().position(|&c| c == v)?;
-            if t == t0 {
-                break;
-            }
-        }
-        let ears = delaunay_ears(&self.s, &rim)?;
-        let region = self.s.region(t0);
-        // The link across the rim edge from each position to the next one left: first the
-        // outer triangles, then, past a cut ear (p, q, r), the ear across the diagonal p–r.
-        let mut edge_link = outer;
-        let mut made: Vec<u32> = Vec::with_capacity(ears.len());
-        for (j, &(p, q, r)) in ears.iter().enumerate() {
-            let slot = star[j];
-            let last = j + 1 == ears.len();
-            let (pq, qr) = (edge_link[p], edge_link[q]);
-            let rp = if last { edge_link[r] } else { NONE };
-            *self.s.corners_mut(slot) = [rim[p], rim[q], rim[r]];
-            *self.s.across_mut(slot) = [qr, rp, pq];
-            self.s.set_region(slot, region);
-            for (link, corner) in [(qr, 0), (rp, 1), (pq, 2)] {
-                self.link_back(link, slot, corner, &made);
-            }
-            edge_link[p] = slot;
-            made.push(slot);
-        }
-        for &spare in &star[ears.len()..] {
+        let emptied = fill_star(&mut self.s, t0, k0)?;
+        for &spare in &emptied.spare {
             self.s.free_triangle(spare);
         }
-        self.s.free_vertex(v);
-        Some(made)
-    }
-
-    /// Points the triangle across `link` back at new triangle `slot`, whose edge opposite
-    /// `corner` they share: an earlier new triangle (`made`), whose diagonal is opposite its
-    /// corner 1, or an outer one, which pointed at a star triangle.
-    fn link_back(&mut self, link: u32, slot: u32, corner: usize, made: &[u32]) {
-        let other = beyond(link);
-        if other == NONE {
-            return;
-        }
-        if made.contains(&other) {
-            self.s.across_mut(other)[1] = slot;
-            return;
-        }
-        let (x, y) = self.s.triangle(slot).edge(corner);
-        let far = self.s.triangle(other);
-        let i = (0..3)
-            .find(|&i| far.edge(i) == (y, x))
-            .expect("the outer triangle shares the rim edge");
-        let old = far.n[i];
-        self.s.across_mut(other)[i] = slot | (old & SEGMENT);
+        self.s.free_vertex(emptied.vertex);
+        Some(emptied.made)
     }
 
     /// Whether `m`, splitting the wall `ends`, lies strictly left of every edge of the cavity's
@@ -683,6 +621,88 @@ impl<'w, S: Store> Refiner<'w, S> {
 
 /// Üngör's off-center of triangle `id` whose shortest edge is opposite `corner`, or its
 /// circumcenter when that is nearer the edge.
+/// A vertex taken out of its star by [`fill_star`]: the triangles that fill the hole, and the
+/// two slots of the star they left over.
+pub(super) struct Emptied {
+    pub vertex: u32,
+    pub made: Vec<u32>,
+    pub spare: Vec<u32>,
+}
+
+/// Takes the vertex at corner `k0` of triangle `t0` out of the triangulation where no wall
+/// meets it and its star has at most [`MAX_DELETED_DEGREE`] triangles: the hole is filled by
+/// the Delaunay triangulation of its rim (ears with no rim vertex strictly inside their
+/// circumcircles, exact), in the star's first slots. The two slots left over are returned
+/// unchanged for the caller to free; `None` with nothing changed.
+pub(super) fn fill_star<S: Store>(s: &mut S, t0: u32, k0: usize) -> Option<Emptied> {
+    let v = s.corners(t0)[k0];
+    // The star counter-clockwise: triangle i is (v, rim[i], rim[i + 1]), and outer[i]
+    // the link across its edge opposite v.
+    let (mut star, mut rim, mut outer) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut t, mut k) = (t0, k0);
+    loop {
+        let tri = s.triangle(t);
+        let around = tri.n[NEXT[k]];
+        if is_wall(around) || star.len() == MAX_DELETED_DEGREE {
+            return None;
+        }
+        star.push(t);
+        rim.push(tri.v[NEXT[k]]);
+        outer.push(tri.n[k]);
+        t = around;
+        k = s.corners(t).iter().position(|&c| c == v)?;
+        if t == t0 {
+            break;
+        }
+    }
+    let ears = delaunay_ears(s, &rim)?;
+    let region = s.region(t0);
+    // The link across the rim edge from each position to the next one left: first the
+    // outer triangles, then, past a cut ear (p, q, r), the ear across the diagonal p–r.
+    let mut edge_link = outer;
+    let mut made: Vec<u32> = Vec::with_capacity(ears.len());
+    for (j, &(p, q, r)) in ears.iter().enumerate() {
+        let slot = star[j];
+        let last = j + 1 == ears.len();
+        let (pq, qr) = (edge_link[p], edge_link[q]);
+        let rp = if last { edge_link[r] } else { NONE };
+        *s.corners_mut(slot) = [rim[p], rim[q], rim[r]];
+        *s.across_mut(slot) = [qr, rp, pq];
+        s.set_region(slot, region);
+        for (link, corner) in [(qr, 0), (rp, 1), (pq, 2)] {
+            link_back(s, link, slot, corner, &made);
+        }
+        edge_link[p] = slot;
+        made.push(slot);
+    }
+    Some(Emptied {
+        vertex: v,
+        made,
+        spare: star[ears.len()..].to_vec(),
+    })
+}
+
+/// Points the triangle across `link` back at new triangle `slot`, whose edge opposite
+/// `corner` they share: an earlier new triangle (`made`), whose diagonal is opposite its
+/// corner 1, or an outer one, which pointed at a star triangle.
+fn link_back<S: Store>(s: &mut S, link: u32, slot: u32, corner: usize, made: &[u32]) {
+    let other = beyond(link);
+    if other == NONE {
+        return;
+    }
+    if made.contains(&other) {
+        s.across_mut(other)[1] = slot;
+        return;
+    }
+    let (x, y) = s.triangle(slot).edge(corner);
+    let far = s.triangle(other);
+    let i = (0..3)
+        .find(|&i| far.edge(i) == (y, x))
+        .expect("the outer triangle shares the rim edge");
+    let old = far.n[i];
+    s.across_mut(other)[i] = slot | (old & SEGMENT);
+}
+
 pub(super) fn steiner_point<S: Store>(s: &S, bounds: &Bounds, id: u32, corner: usize) -> DVec2 {
     let tri = s.corners(id);
     let (p, q, r) = (
@@ -879,7 +899,27 @@ fn rank(sin2: f64, place: u64) -> u64 {
 }
 
 /// [`badness`], and the squared sine of the triangle's smallest angle.
+#[inline]
 fn measured_badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usize, f64, f64)> {
+    badness_against(s, bounds, id, bounds.sin2)
+}
+
+/// Whether triangle `id` meets the bounds with room against rounding: the squared sine of its
+/// smallest angle a relative 1e-9 above the bound's (about 1e-8° at 33°; an angle measured in
+/// degrees then meets the bound too), unless an input corner forces it; its area within its
+/// region's bound.
+pub(super) fn meets_bounds_firmly<S: Store>(s: &S, bounds: &Bounds, id: u32) -> bool {
+    badness_against(s, bounds, id, bounds.sin2 * (1.0 + 1e-9)).is_none()
+}
+
+/// [`measured_badness`] against a squared sine of `sin2`.
+#[inline]
+fn badness_against<S: Store>(
+    s: &S,
+    bounds: &Bounds,
+    id: u32,
+    sin2: f64,
+) -> Option<(usize, f64, f64)> {
     let c = s.corners(id);
     let v = [s.point(c[0]), s.point(c[1]), s.point(c[2])];
     let len2 = [
@@ -894,7 +934,7 @@ fn measured_badness<S: Store>(s: &S, bounds: &Bounds, id: u32) -> Option<(usize,
     // The smallest angle faces the shortest edge, and its sine is twice the area over the
     // product of the two other sides.
     let others = len2[NEXT[shortest]] * len2[PREV[shortest]];
-    let skinny = area2 * area2 < bounds.sin2 * others && !input_forced(s, bounds, c, v, shortest);
+    let skinny = area2 * area2 < sin2 * others && !input_forced(s, bounds, c, v, shortest);
     let max_area2 = if bounds.region_area2.is_empty() {
         bounds.max_area2
     } else {
