@@ -29,6 +29,7 @@ struct Asked {
     convex_hull: bool,
     no_boundary_steiner: bool,
     split_crossings: bool,
+    remove_spare_vertices: bool,
 }
 
 impl Asked {
@@ -50,6 +51,9 @@ impl Asked {
         }
         if self.split_crossings {
             options = options.split_crossings();
+        }
+        if self.remove_spare_vertices {
+            options = options.remove_spare_vertices();
         }
         options
     }
@@ -301,7 +305,8 @@ fn mesh_dict<'py>(
 #[pyo3(signature = (
     points, segments=None, segment_markers=None, holes=None, regions=None, *,
     min_angle=20.0, max_area=None, max_vertices=None, mode="delaunay", convex_hull=false,
-    no_boundary_steiner=false, split_crossings=false, threads=None, edges=false
+    no_boundary_steiner=false, split_crossings=false, remove_spare_vertices=false, threads=None,
+    edges=false
 ))]
 #[allow(clippy::too_many_arguments)]
 fn _mesh<'py>(
@@ -318,6 +323,7 @@ fn _mesh<'py>(
     convex_hull: bool,
     no_boundary_steiner: bool,
     split_crossings: bool,
+    remove_spare_vertices: bool,
     threads: Option<usize>,
     edges: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
@@ -352,6 +358,7 @@ fn _mesh<'py>(
         convex_hull,
         no_boundary_steiner,
         split_crossings,
+        remove_spare_vertices,
     };
     let options = asked.options();
     let (mesh, report) = py

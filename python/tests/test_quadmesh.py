@@ -145,6 +145,27 @@ def test_a_graph_is_warped_over_what_its_segments_enclose():
     assert np.array_equal(one.triangles, m.triangles)
 
 
+def test_spare_vertices_removed_leave_fewer_triangles_with_the_same_bounds():
+    # A square with a square hole at 33°: taking spare Steiner vertices out keeps the domain,
+    # the input points and the angle bound, with fewer triangles, the same on any thread count.
+    points = np.array([[0, 0], [4, 0], [4, 4], [0, 4], [1, 1], [2.3, 1], [2.3, 2.1], [1, 2.1]], float)
+    segments = np.array([[0, 1], [1, 2], [2, 3], [3, 0], [4, 5], [5, 6], [6, 7], [7, 4]])
+    kw = dict(segments=segments, holes=[[1.5, 1.5]], min_angle=33.0, max_area=0.05)
+    plain = quadmesh.mesh(points, **kw)
+    spare = quadmesh.mesh(points, remove_spare_vertices=True, **kw)
+    assert len(spare.triangles) < len(plain.triangles)
+    areas = area(spare.vertices, spare.triangles)
+    assert (areas > 0).all() and (areas <= 0.05).all()
+    assert np.isclose(areas.sum(), 16.0 - 1.3 * 1.1, rtol=1e-12)
+    assert min_angles(spare.vertices, spare.triangles).min() >= 33.0 - 1e-9
+    inputs = spare.vertex_input[spare.vertex_input >= 0]
+    assert sorted(inputs) == list(range(8))
+    assert (spare.vertices[spare.vertex_input >= 0] == points[inputs]).all()
+    one = quadmesh.mesh(points, remove_spare_vertices=True, threads=1, **kw)
+    assert np.array_equal(one.triangles, spare.triangles)
+    assert np.array_equal(one.vertices, spare.vertices)
+
+
 def test_the_same_arrays_on_any_thread_count():
     rng = np.random.default_rng(5)
     points = rng.random((40000, 2))

@@ -25,9 +25,9 @@ const MAX_REPAIR_ROUNDS: usize = 6;
 /// Flips that may follow one move before it is given up.
 const MAX_FLIPS_PER_MOVE: usize = 256;
 /// Halvings of the pattern search's step, from a quarter of the shortest spoke.
-const SEARCH_HALVINGS: usize = 8;
+const SEARCH_HALVINGS: usize = 5;
 /// Moves of the pattern search at one step size.
-const MOVES_PER_STEP: usize = 4;
+const MOVES_PER_STEP: usize = 2;
 /// The largest star a moved vertex may have.
 const MAX_STAR: usize = 32;
 
@@ -40,6 +40,8 @@ pub(super) fn remove_spare_vertices(
     first_steiner: u32,
 ) -> usize {
     let mut removed = 0;
+    // A vertex is tried again only once a removal has changed a triangle of it.
+    let mut changed = vec![true; t.vertices.len()];
     for _ in 0..MAX_PASSES {
         let mut home = homes(t);
         let mut gone = 0;
@@ -47,7 +49,7 @@ pub(super) fn remove_spare_vertices(
             let Some((t0, k0)) = home[v as usize] else {
                 continue;
             };
-            if t.segment_of(v) != NONE {
+            if t.segment_of(v) != NONE || !std::mem::take(&mut changed[v as usize]) {
                 continue;
             }
             let mut j = Journal::new(t);
@@ -58,6 +60,7 @@ pub(super) fn remove_spare_vertices(
                     if c[0] != FREE {
                         for (k, &x) in c.iter().enumerate() {
                             home[x as usize] = Some((slot, k));
+                            changed[x as usize] = true;
                         }
                     }
                 }
@@ -127,16 +130,19 @@ impl<'t> Journal<'t> {
         }
         self.spare = emptied.spare;
         self.vertex = Some(emptied.vertex);
-        for round in 0..=MAX_REPAIR_ROUNDS {
+        let mut last = (usize::MAX, f64::NEG_INFINITY);
+        for _ in 0..=MAX_REPAIR_ROUNDS {
             let bad = self.missing_bounds(bounds);
             if bad.is_empty() {
                 return true;
             }
             // Far below the bound, moves rarely repair it (half the squared sine: about
-            // 22.6° at 33°); trying costs five times the time for a few percent of vertices.
-            if round == 0 && self.worst_sine2(&bad) < HOPELESS * bounds.sin2 {
+            // 22.6° at 33°); nor do rounds that leave as many bad triangles, none better.
+            let now = (bad.len(), self.worst_sine2(&bad));
+            if now.1 < HOPELESS * bounds.sin2 || (now.0 >= last.0 && now.1 <= last.1) {
                 break;
             }
+            last = now;
             let movable = self.movable_corners(&bad, first_steiner);
             if movable.is_empty() || !self.move_all(&movable) {
                 break;

@@ -120,6 +120,7 @@ def mesh(
     convex_hull: bool = False,
     no_boundary_steiner: bool = False,
     split_crossings: bool = False,
+    remove_spare_vertices: bool = False,
     threads: Optional[int] = None,
     edges: bool = False,
 ) -> Mesh:
@@ -141,6 +142,9 @@ def mesh(
     ``mode="nonobtuse_split"``, the block warp's quadtree split into right triangles at the
     points (about 114 triangles per point, several times faster), coarsened with no new angle
     under 20°.
+    ``remove_spare_vertices=True`` (a graph, Delaunay mode) takes out, after refinement, the
+    Steiner vertices on no segment wherever the mesh left still meets every bound: a smaller
+    mesh, for more time.
     ``threads`` sets the number of threads
     for this call (by default, all cores). ``edges=True`` also lists every edge with its
     marker.
@@ -158,6 +162,7 @@ def mesh(
         convex_hull=convex_hull,
         no_boundary_steiner=no_boundary_steiner,
         split_crossings=split_crossings,
+        remove_spare_vertices=remove_spare_vertices,
         threads=threads,
         edges=edges,
     )

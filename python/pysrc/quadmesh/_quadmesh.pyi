@@ -20,6 +20,7 @@ def _mesh(
     convex_hull: bool = ...,
     no_boundary_steiner: bool = ...,
     split_crossings: bool = ...,
+    remove_spare_vertices: bool = ...,
     threads: Optional[int] = ...,
     edges: bool = ...,
 ) -> Dict[str, Any]: ...
