@@ -458,3 +458,99 @@ impl Store for Journal<'_> {
         self.t.corners[t as usize][0] == FREE
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::predicates::{InCircle, in_circle};
+
+    /// A Delaunay triangulation of the square [0, 8]² and 40 points spread over it by a
+    /// fixed sequence (no four cocircular).
+    fn scattered() -> Triangulation {
+        let mut t = Triangulation::rectangle(DVec2::ZERO, DVec2::splat(8.0));
+        let points = (1..=40).map(|k| {
+            let k = f64::from(k);
+            DVec2::new(
+                0.3 + (k * 0.618_034).fract() * 7.4,
+                0.3 + (k * 0.414_214).fract() * 7.4,
+            )
+        });
+        t.insert_all(points).expect("points inside the square");
+        t
+    }
+
+    /// Every link reciprocal, every triangle counter-clockwise, every edge locally Delaunay.
+    fn assert_delaunay(t: &Triangulation) {
+        for id in 0..t.len() as u32 {
+            let c = t.corners[id as usize];
+            if c[0] == FREE {
+                continue;
+            }
+            let [a, b, d] = c.map(|v| t.vertices[v as usize]);
+            assert_eq!(orientation(a, b, d), Orientation::Left, "triangle {id}");
+            for i in 0..3 {
+                let o = t.across[id as usize][i];
+                if o == NONE {
+                    continue;
+                }
+                let j = corner_facing_in(t, o, id);
+                let far = t.vertices[t.corners[o as usize][j] as usize];
+                assert_ne!(in_circle(a, b, d, far), InCircle::Inside, "edge {id}/{i}");
+            }
+        }
+    }
+
+    #[test]
+    fn an_undone_attempt_leaves_every_slot_and_vertex_as_it_was() {
+        let mut t = scattered();
+        let before = t.clone();
+        let home = homes(&t);
+        let mut moved = 0;
+        for v in 4..t.vertices.len() as u32 {
+            let (t0, k0) = home[v as usize].expect("every vertex has a triangle");
+            let mut j = Journal::new(&mut t);
+            let emptied = fill_star(&mut j, t0, k0).expect("an interior vertex's star fills");
+            // Move a corner of the fill as a repair would, with its flips, then undo it all.
+            let slot = emptied.made[0];
+            let corner = (0..3)
+                .find(|&k| j.t.corners[slot as usize][k] >= 4)
+                .unwrap_or(0);
+            let x = j.t.corners[slot as usize][corner];
+            assert!(j.move_all(&[(x, slot, corner)]));
+            moved += usize::from(!j.moves.is_empty());
+            j.undo();
+            assert_eq!(t.corners, before.corners, "vertex {v}");
+            assert_eq!(t.across, before.across, "vertex {v}");
+            assert_eq!(t.vertices, before.vertices, "vertex {v}");
+        }
+        assert!(moved > 20, "only {moved} attempts moved a vertex");
+    }
+
+    #[test]
+    fn a_kept_removal_and_its_moves_leave_a_delaunay_triangulation() {
+        let mut t = scattered();
+        let home = homes(&t);
+        let (t0, k0) = home[20].expect("vertex 20 has a triangle");
+        let mut j = Journal::new(&mut t);
+        let emptied = fill_star(&mut j, t0, k0).expect("an interior vertex's star fills");
+        for &slot in &emptied.spare {
+            *j.corners_mut(slot) = [FREE; 3];
+        }
+        j.spare = emptied.spare;
+        j.vertex = Some(emptied.vertex);
+        let movable: Vec<(u32, u32, usize)> = emptied
+            .made
+            .iter()
+            .flat_map(|&s| (0..3).map(move |k| (s, k)))
+            .map(|(s, k)| (j.t.corners[s as usize][k], s, k))
+            .filter(|&(x, _, _)| x >= 4)
+            .collect();
+        assert!(j.move_all(&movable));
+        j.commit();
+        assert_eq!(t.freed_vertices, [20]);
+        assert_delaunay(&t);
+        t.pack();
+        assert_eq!(t.vertices.len(), 44 - 1);
+        assert_delaunay(&t);
+    }
+}
