@@ -46,6 +46,30 @@ fn square(lo: DVec2, side: f64) -> [DVec2; 4] {
     ]
 }
 
+/// Three nested squares (sides 8, 4, 2 around the origin), each ring a region with attribute
+/// 10, 20, 30 and the area bound returned for it.
+fn nested_regions() -> (Input, [f64; 3]) {
+    let mut input = Input::default();
+    for (k, side) in [8.0, 4.0, 2.0].into_iter().enumerate() {
+        let lo = DVec2::splat(-side / 2.0);
+        closed_loop(
+            &mut input.points,
+            &mut input.segments,
+            &square(lo, side),
+            k as i32 + 1,
+        );
+    }
+    let areas = [0.5, 0.05, 0.005];
+    for (k, seed) in [3.5, 1.5, 0.0].into_iter().enumerate() {
+        input.regions.push(RegionSeed {
+            seed: DVec2::splat(seed),
+            attribute: 10.0 * (k + 1) as f64,
+            max_area: Some(areas[k]),
+        });
+    }
+    (input, areas)
+}
+
 #[test]
 fn triangle_examples_mesh_at_20_and_30_degrees() {
     let Some(dir) = common::triangle_examples() else {
@@ -167,24 +191,7 @@ fn spare_vertices_removed_leave_a_smaller_mesh_that_meets_the_bounds() {
 /// Regions' area bounds and a global one still hold after spare vertices are taken out.
 #[test]
 fn spare_vertices_removed_keep_the_area_bounds() {
-    let mut input = Input::default();
-    for (k, side) in [8.0, 4.0, 2.0].into_iter().enumerate() {
-        let lo = DVec2::splat(-side / 2.0);
-        closed_loop(
-            &mut input.points,
-            &mut input.segments,
-            &square(lo, side),
-            k as i32 + 1,
-        );
-    }
-    let areas = [0.5, 0.05, 0.005];
-    for (k, seed) in [3.5, 1.5, 0.0].into_iter().enumerate() {
-        input.regions.push(RegionSeed {
-            seed: DVec2::splat(seed),
-            attribute: 10.0 * (k + 1) as f64,
-            max_area: Some(areas[k]),
-        });
-    }
+    let (input, areas) = nested_regions();
     let options = Options::default()
         .min_angle(30.0)
         .max_area(0.1)
@@ -271,24 +278,7 @@ fn seeds_on_loose_points_find_their_holes_and_regions() {
 
 #[test]
 fn nested_regions_get_their_attributes_and_area_bounds() {
-    let mut input = Input::default();
-    for (k, side) in [8.0, 4.0, 2.0].into_iter().enumerate() {
-        let lo = DVec2::splat(-side / 2.0);
-        closed_loop(
-            &mut input.points,
-            &mut input.segments,
-            &square(lo, side),
-            k as i32 + 1,
-        );
-    }
-    let areas = [0.5, 0.05, 0.005];
-    for (k, seed) in [3.5, 1.5, 0.0].into_iter().enumerate() {
-        input.regions.push(RegionSeed {
-            seed: DVec2::splat(seed),
-            attribute: 10.0 * (k + 1) as f64,
-            max_area: Some(areas[k]),
-        });
-    }
+    let (input, areas) = nested_regions();
     let (mesh, _) = mesh_checked(&input, Options::default().min_angle(25.0), false);
     for (t, &r) in mesh.triangle_regions.iter().enumerate() {
         assert_ne!(r, quadmesh::NONE);
