@@ -241,6 +241,28 @@ fn triangle_examples_with_spare_vertices_removed() {
     }
 }
 
+/// A quadrilateral 4.4e63 long and 2 wide, with a spike 4.4e40 high (found by fuzzing): the
+/// check once found its domain's area 0, a fan of rounded triangles from the spike's tip
+/// cancelling it, and refused the mesh.
+#[test]
+fn a_domain_far_longer_than_wide_has_its_area_checked() {
+    let mut input = Input::default();
+    let corners = [
+        DVec2::ZERO,
+        DVec2::new(2.0, 4.444_444_444_444_404e40),
+        DVec2::new(3.0, 2.0),
+        DVec2::new(4.444_444_444_444_444e63, 2.0),
+    ];
+    closed_loop(&mut input.points, &mut input.segments, &corners, 7);
+    input.holes.push(DVec2::new(1.0, -1.0));
+    let (mesh, _) = mesh_checked(&input, Options::default().min_angle(16.0), false);
+    let area = common::mesh_area(&mesh);
+    assert!(
+        (area / 4.444_444_444_444_444e63 - 1.0).abs() < 1e-9,
+        "{area}"
+    );
+}
+
 /// Seeds exactly on loose input points: a hole seed on a point inside a hole eats the hole,
 /// and a region seed on a point inside a room names the room.
 #[test]

@@ -976,15 +976,54 @@ fn outer_half_edge(graph: &Graph, p: u32) -> u32 {
     star[if ups > 0 { ups - 1 } else { star.len() - 1 }]
 }
 
+/// The signed area inside `cycle`, exact but for its last rounding: the shoelace's products
+/// are split exactly (a fused multiply-add gives each one's rounding error) and summed in an
+/// expansion, after scaling by a power of two that keeps them from overflowing. A fan of
+/// rounded triangles from one corner loses a long thin cycle's area to cancellation (a cycle
+/// 4e63 long and 2 wide came out with area 0).
 fn cycle_area(graph: &Graph, cycle: &[u32]) -> f64 {
-    let o = graph.at(graph.origin(cycle[0]));
-    cycle
+    let largest = cycle
         .iter()
-        .fold(Sum::default(), |s, &h| {
-            let (a, b) = (graph.at(graph.origin(h)) - o, graph.at(graph.head(h)) - o);
-            s.add(0.5 * a.perp_dot(b))
-        })
-        .value()
+        .map(|&h| graph.at(graph.origin(h)).abs().max_element())
+        .fold(0.0, f64::max);
+    let scale = if largest > 0.0 && largest.is_finite() {
+        2f64.powi(-(largest.log2().ceil() as i32))
+    } else {
+        1.0
+    };
+    let mut expansion = Vec::new();
+    for &h in cycle {
+        let (a, b) = (
+            graph.at(graph.origin(h)) * scale,
+            graph.at(graph.head(h)) * scale,
+        );
+        for (x, y) in [(a.x, b.y), (-a.y, b.x)] {
+            let product = x * y;
+            grow_expansion(&mut expansion, product);
+            grow_expansion(&mut expansion, x.mul_add(y, -product));
+        }
+    }
+    0.5 * expansion.iter().sum::<f64>() / scale / scale
+}
+
+/// Adds `x` to `expansion` exactly (Shewchuk's grow-expansion: nonoverlapping components,
+/// smallest first, zeros dropped).
+fn grow_expansion(expansion: &mut Vec<f64>, x: f64) {
+    let mut q = x;
+    let mut kept = 0;
+    for k in 0..expansion.len() {
+        let c = expansion[k];
+        let s = q + c;
+        let bv = s - q;
+        let error = (q - (s - bv)) + (c - bv);
+        if error != 0.0 {
+            expansion[kept] = error;
+            kept += 1;
+        }
+        q = s;
+    }
+    expansion.truncate(kept);
+    expansion.push(q);
 }
 
 fn cycle_box(graph: &Graph, cycle: &[u32]) -> [DVec2; 2] {
