@@ -305,38 +305,19 @@ impl Triangulation {
     }
 
     /// As [`Self::flip_to_delaunay`], giving up (`false`) after `budget` flips.
-    pub fn flip_to_delaunay_within(&mut self, mut edges: Vec<(u32, usize)>, budget: usize) -> bool {
-        let mut flips = 0;
-        while let Some((t, i)) = edges.pop() {
-            let u = self.across[t as usize][i];
-            if is_wall(u) {
-                continue;
-            }
-            let j = self.corner_facing(u, t);
-            let far = self.vertices[self.corners[u as usize][j] as usize];
-            if !in_circumcircle(self, t, far) {
-                continue;
-            }
-            if flips == budget {
-                return false;
-            }
-            flips += 1;
-            self.flip(t, i, u, j);
-            edges.extend([(t, 0), (t, 2), (u, 0), (u, 2)]);
-        }
-        true
+    pub fn flip_to_delaunay_within(&mut self, edges: Vec<(u32, usize)>, budget: usize) -> bool {
+        flip_to_delaunay_in(self, edges, budget)
     }
 
     /// The corner of triangle `u` opposite its edge shared with triangle `t`.
     pub(super) fn corner_facing(&self, u: u32, t: u32) -> usize {
-        self.linked_corner(u, t)
-            .expect("neighbours link each other")
+        corner_facing_in(self, u, t)
     }
 
     /// The corner of triangle `u` opposite its edge shared with triangle `t`, if `u` links back
     /// to `t`.
     pub(super) fn linked_corner(&self, u: u32, t: u32) -> Option<usize> {
-        (0..3).find(|&j| beyond(self.across[u as usize][j]) == t)
+        linked_corner_in(self, u, t)
     }
 
     /// Replaces the edge between triangle `t` (corners `a b c`, the edge opposite corner `i`,
@@ -376,11 +357,43 @@ fn relink_in<S: Store>(s: &mut S, n: u32, from: u32, to: u32) {
     }
 }
 
+/// [`Triangulation::flip_to_delaunay_within`] in any store (a journaling one saves each
+/// triangle a flip changes).
+pub(super) fn flip_to_delaunay_in<S: Store>(
+    s: &mut S,
+    mut edges: Vec<(u32, usize)>,
+    budget: usize,
+) -> bool {
+    let mut flips = 0;
+    while let Some((t, i)) = edges.pop() {
+        let u = s.across(t)[i];
+        if is_wall(u) {
+            continue;
+        }
+        let j = corner_facing_in(s, u, t);
+        let far = s.point(s.corners(u)[j]);
+        if !in_circumcircle(s, t, far) {
+            continue;
+        }
+        if flips == budget {
+            return false;
+        }
+        flips += 1;
+        flip_in(s, t, i, u, j);
+        edges.extend([(t, 0), (t, 2), (u, 0), (u, 2)]);
+    }
+    true
+}
+
 /// The corner of triangle `u` opposite its edge shared with triangle `t`.
 pub(super) fn corner_facing_in<S: Store>(s: &S, u: u32, t: u32) -> usize {
-    (0..3)
-        .find(|&j| beyond(s.across(u)[j]) == t)
-        .expect("neighbours link each other")
+    linked_corner_in(s, u, t).expect("neighbours link each other")
+}
+
+/// The corner of triangle `u` opposite its edge shared with triangle `t`, if `u` links back to
+/// `t`.
+fn linked_corner_in<S: Store>(s: &S, u: u32, t: u32) -> Option<usize> {
+    (0..3).find(|&j| beyond(s.across(u)[j]) == t)
 }
 
 impl Store for Triangulation {

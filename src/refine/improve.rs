@@ -8,10 +8,8 @@
 
 use glam::DVec2;
 
-use super::delaunay::{
-    FREE, NEXT, PREV, Store, Triangulation, corner_facing_in, flip_in, in_circumcircle, is_wall,
-};
-use super::refiner::{Bounds, fill_star, meets_bounds_firmly};
+use super::delaunay::{FREE, NEXT, PREV, Store, Triangulation, flip_to_delaunay_in};
+use super::refiner::{Bounds, closed_star, fill_star, meets_bounds_firmly};
 use crate::mesh::NONE;
 use crate::predicates::{Orientation, orientation};
 
@@ -165,10 +163,7 @@ impl<'t> Journal<'t> {
 
     /// The changed triangles that miss the bounds.
     fn missing_bounds(&self, bounds: &Bounds) -> Vec<u32> {
-        let mut slots: Vec<u32> = self.triangles.iter().map(|e| e.0).collect();
-        slots.sort_unstable();
-        slots.dedup();
-        slots
+        self.changed_slots()
             .into_iter()
             .filter(|&s| self.t.corners[s as usize][0] != FREE)
             .filter(|&s| !meets_bounds_firmly(self, bounds, s))
@@ -203,7 +198,7 @@ impl<'t> Journal<'t> {
                     None => continue,
                 }
             };
-            let Some(star) = self.star(slot, k) else {
+            let Some(star) = closed_star(&*self, slot, k, MAX_STAR) else {
                 continue;
             };
             let from = self.t.vertices[x as usize];
@@ -222,7 +217,7 @@ impl<'t> Journal<'t> {
                 .iter()
                 .flat_map(|&s| [(s, 0), (s, 1), (s, 2)])
                 .collect();
-            if !self.flip_to_delaunay(edges) {
+            if !flip_to_delaunay_in(self, edges, MAX_FLIPS_PER_MOVE) {
                 return false;
             }
         }
@@ -237,51 +232,6 @@ impl<'t> Journal<'t> {
                 .then(|| c.iter().position(|&y| y == x).map(|k| (e.0, k)))
                 .flatten()
         })
-    }
-
-    /// The star of the vertex at corner `k0` of `t0` when it is closed, has no wall at the
-    /// vertex and at most [`MAX_STAR`] triangles.
-    fn star(&self, t0: u32, k0: usize) -> Option<StarOf> {
-        let v = self.t.corners[t0 as usize][k0];
-        let mut star = StarOf::default();
-        let (mut t, mut k) = (t0, k0);
-        loop {
-            let around = self.t.across[t as usize][NEXT[k]];
-            if is_wall(around) || star.triangles.len() == MAX_STAR {
-                return None;
-            }
-            star.triangles.push(t);
-            star.rim.push(self.t.corners[t as usize][NEXT[k]]);
-            t = around;
-            k = self.t.corners[t as usize].iter().position(|&c| c == v)?;
-            if t == t0 {
-                return Some(star);
-            }
-        }
-    }
-
-    /// Lawson's flips from `edges` (`(triangle, corner)`), saving each triangle first;
-    /// `false` after [`MAX_FLIPS_PER_MOVE`] flips.
-    fn flip_to_delaunay(&mut self, mut edges: Vec<(u32, usize)>) -> bool {
-        let mut flips = 0;
-        while let Some((t, i)) = edges.pop() {
-            let u = self.t.across[t as usize][i];
-            if is_wall(u) {
-                continue;
-            }
-            let j = corner_facing_in(&*self, u, t);
-            let far = self.point(self.t.corners[u as usize][j]);
-            if !in_circumcircle(&*self, t, far) {
-                continue;
-            }
-            if flips == MAX_FLIPS_PER_MOVE {
-                return false;
-            }
-            flips += 1;
-            flip_in(self, t, i, u, j);
-            edges.extend([(t, 0), (t, 2), (u, 0), (u, 2)]);
-        }
-        true
     }
 
     /// Puts every saved triangle and moved vertex back.
@@ -303,7 +253,7 @@ impl<'t> Journal<'t> {
 
     /// Keeps the changes: the spare slots and the vertex are freed. Returns the changed
     /// triangles' slots.
-    fn commit(mut self) -> Vec<u32> {
+    fn commit(self) -> Vec<u32> {
         for &slot in &self.spare {
             self.t.free_slots.push(slot);
         }
@@ -311,19 +261,16 @@ impl<'t> Journal<'t> {
             self.t.freed_vertices.push(v);
             self.t.vertices_deleted += 1;
         }
-        let mut slots: Vec<u32> = self.triangles.drain(..).map(|e| e.0).collect();
+        self.changed_slots()
+    }
+
+    /// The slots of the triangles saved so far, each once, in order.
+    fn changed_slots(&self) -> Vec<u32> {
+        let mut slots: Vec<u32> = self.triangles.iter().map(|e| e.0).collect();
         slots.sort_unstable();
         slots.dedup();
         slots
     }
-}
-
-/// A vertex's star: its triangles counter-clockwise, and the far side's vertices, triangle
-/// `i` being the vertex, `rim[i]` and `rim[i + 1]`.
-#[derive(Default)]
-struct StarOf {
-    triangles: Vec<u32>,
-    rim: Vec<u32>,
 }
 
 /// Where vertex `x` makes the smallest angle of the fan to its `rim` largest, every triangle
@@ -463,6 +410,7 @@ impl Store for Journal<'_> {
 mod tests {
     use super::*;
     use crate::predicates::{InCircle, in_circle};
+    use crate::refine::delaunay::corner_facing_in;
 
     /// A Delaunay triangulation of the square [0, 8]² and 40 points spread over it by a
     /// fixed sequence (no four cocircular).

@@ -304,6 +304,7 @@ pub fn refine_pslg(
     let unmet = times.time("refine", || {
         refine_to_budget(&mut t, &bounds, domain, distinct, budget)
     })?;
+    let deleted = t.vertices_deleted;
     let mut spare_removed = 0;
     if pslg.remove_spare_vertices && unmet.is_none() && !bounds.unbounded() {
         spare_removed = times.time("spare", || {
@@ -312,7 +313,6 @@ pub fn refine_pslg(
             removed
         });
     }
-    let deleted = t.vertices_deleted - spare_removed;
     let mesh = times.time("mesh", || {
         let walls = bounds.walls().expect("a graph's bounds have walls");
         let (mut pieces, boundary) = segments::segment_pieces(&t, walls, &clean);

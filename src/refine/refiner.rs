@@ -636,25 +636,11 @@ pub(super) struct Emptied {
 /// unchanged for the caller to free; `None` with nothing changed.
 pub(super) fn fill_star<S: Store>(s: &mut S, t0: u32, k0: usize) -> Option<Emptied> {
     let v = s.corners(t0)[k0];
-    // The star counter-clockwise: triangle i is (v, rim[i], rim[i + 1]), and outer[i]
-    // the link across its edge opposite v.
-    let (mut star, mut rim, mut outer) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut t, mut k) = (t0, k0);
-    loop {
-        let tri = s.triangle(t);
-        let around = tri.n[NEXT[k]];
-        if is_wall(around) || star.len() == MAX_DELETED_DEGREE {
-            return None;
-        }
-        star.push(t);
-        rim.push(tri.v[NEXT[k]]);
-        outer.push(tri.n[k]);
-        t = around;
-        k = s.corners(t).iter().position(|&c| c == v)?;
-        if t == t0 {
-            break;
-        }
-    }
+    let ClosedStar {
+        triangles: star,
+        rim,
+        outer,
+    } = closed_star(s, t0, k0, MAX_DELETED_DEGREE)?;
     let ears = delaunay_ears(s, &rim)?;
     let region = s.region(t0);
     // The link across the rim edge from each position to the next one left: first the
@@ -680,6 +666,41 @@ pub(super) fn fill_star<S: Store>(s: &mut S, t0: u32, k0: usize) -> Option<Empti
         made,
         spare: star[ears.len()..].to_vec(),
     })
+}
+
+/// The star of a vertex walked counter-clockwise: triangle `i` is the vertex, `rim[i]` and
+/// `rim[i + 1]`, and `outer[i]` the link across its edge opposite the vertex.
+pub(super) struct ClosedStar {
+    pub triangles: Vec<u32>,
+    pub rim: Vec<u32>,
+    pub outer: Vec<u32>,
+}
+
+/// The star of the vertex at corner `k0` of triangle `t0` when it closes around the vertex
+/// with no wall at it and at most `max` triangles.
+pub(super) fn closed_star<S: Store>(s: &S, t0: u32, k0: usize, max: usize) -> Option<ClosedStar> {
+    let v = s.corners(t0)[k0];
+    let mut star = ClosedStar {
+        triangles: Vec::new(),
+        rim: Vec::new(),
+        outer: Vec::new(),
+    };
+    let (mut t, mut k) = (t0, k0);
+    loop {
+        let tri = s.triangle(t);
+        let around = tri.n[NEXT[k]];
+        if is_wall(around) || star.triangles.len() == max {
+            return None;
+        }
+        star.triangles.push(t);
+        star.rim.push(tri.v[NEXT[k]]);
+        star.outer.push(tri.n[k]);
+        t = around;
+        k = s.corners(t).iter().position(|&c| c == v)?;
+        if t == t0 {
+            return Some(star);
+        }
+    }
 }
 
 /// Points the triangle across `link` back at new triangle `slot`, whose edge opposite
