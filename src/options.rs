@@ -6,7 +6,9 @@ use crate::error::Error;
 use crate::mesh::{AngleBounds, Domain};
 use crate::morton::SortAlgorithm;
 use crate::refine::{GUARANTEED_MIN_ANGLE_DEG, MAX_MIN_ANGLE_DEG};
-use crate::warp::{ANGLE_BOUNDS, COARSE_ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS, NONOBTUSE_MAX_DEG};
+use crate::warp::{
+    ANGLE_BOUNDS, COARSE_ANGLE_BOUNDS, COMPACT_ANGLE_BOUNDS, GRAPH_ANGLE_BOUNDS, NONOBTUSE_MAX_DEG,
+};
 
 /// The geometry to mesh: a point set, or a planar straight-line graph (points, segments, holes
 /// and regions, as in Triangle's `.poly` files).
@@ -88,14 +90,16 @@ pub enum Mode {
     /// bent onto it (see [`crate::warp::triangulate_graph`]), its poor triangles' Steiner
     /// corners then moved (see [`crate::warp::smooth_steiner_vertices`]) and the mesh
     /// coarsened as a point set's (a vertex inside a segment goes only along it, and where
-    /// segments end or meet vertices stay), with no angle bound proven yet:
-    /// [`Options::angle_bounds`] does not apply to it, and the report gives the angles reached.
+    /// segments end or meet vertices stay), then the triangles left below 20° refined by
+    /// off-centers: every angle in [`crate::warp::GRAPH_ANGLE_BOUNDS`], [20°, 140°], outside
+    /// input corners narrower than 20° ([`Options::angle_bounds_of`]).
     Warp,
     /// The compact warp, not coarsened: every angle in [26°, 120°], about 36 triangles per
     /// point (points separated by the blocks around their leaves' nearest corners), on any
     /// rectangle: a given one ([`Region::Rectangle`], [`Region::BoundingBox`]) is cut into
     /// cells within [`crate::morton::CELL_ANISOTROPY`] of square. The mesh the dynamic mesh
-    /// keeps by default. For a planar straight-line graph, the warp without coarsening.
+    /// keeps by default. For a planar straight-line graph, the warp without coarsening, refined
+    /// as in [`Mode::Warp`].
     CompactWarp,
     /// The block warp: every angle in [22.5°, 112.5°], about 104 triangles per point (each
     /// point's leaf centred in a 5×5 block of empty leaves); the tree the dynamic mesh keeps.
@@ -325,13 +329,13 @@ impl Options {
         self.sort
     }
 
-    /// [`Self::angle_bounds`] for meshes of `input`: none in the warp modes when it is a graph
-    /// (whose warp proves no bound yet; the report gives the angles reached).
+    /// [`Self::angle_bounds`] for meshes of `input`: in the warp modes, a graph's
+    /// [`GRAPH_ANGLE_BOUNDS`] (outside input corners narrower than the smallest).
     pub fn angle_bounds_of(&self, input: &Input) -> AngleBounds {
         if matches!(self.mode, Mode::Warp | Mode::CompactWarp) && input.is_graph() {
             AngleBounds {
-                min_deg: 0.0,
-                max_deg: 180.0,
+                min_deg: GRAPH_ANGLE_BOUNDS.0,
+                max_deg: GRAPH_ANGLE_BOUNDS.1,
             }
         } else {
             self.angle_bounds()

@@ -19,13 +19,16 @@ use crate::morton::{
 use crate::options::{Input, Mode, Options, Region};
 use crate::pslg::{CornerCut, carve_warped};
 use crate::quadtree::{Quadtree, expand};
-use crate::refine::{PslgOptions, RefineDomain, RefineOptions, refine_points, refine_pslg};
+use crate::refine::{
+    PslgOptions, RefineDomain, RefineOptions, refine_graph_mesh, refine_points, refine_pslg,
+    within_budget,
+};
 pub use crate::warp::placement::domain_reflections;
 use crate::warp::placement::{GradedColumns, graded_columns, mirrored};
 use crate::warp::{
-    COARSE_ANGLE_BOUNDS, EdgePieces, GraphLeaves, NONOBTUSE_COARSE_BOUNDS, coarsen, edge_pieces,
-    finest_resolved_level, leaves_in_domain, point_finer_than_grid, smooth_steiner_vertices, split,
-    triangulate_graph, unresolvable, warp,
+    COARSE_ANGLE_BOUNDS, EdgePieces, GRAPH_ANGLE_BOUNDS, GraphLeaves, NONOBTUSE_COARSE_BOUNDS,
+    coarsen, edge_pieces, finest_resolved_level, leaves_in_domain, point_finer_than_grid,
+    smooth_steiner_vertices, split, triangulate_graph, unresolvable, warp,
 };
 
 /// The trees of one input on one grid width.
@@ -470,6 +473,13 @@ fn deepest_point_leaf<K: MortonKey>(build: &TreeBuild<K>, separation: Separation
 /// returns the mesh reached in [`Error::VertexBudget`].
 pub fn mesh(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
     options.check()?;
+    let (mesh, mut report) = mesh_of_mode(input, options)?;
+    report.angle_bounds = Some(options.angle_bounds_of(input));
+    Ok((mesh, report))
+}
+
+/// [`mesh`] in the mode the options name.
+fn mesh_of_mode(input: &Input, options: &Options) -> Result<(Mesh, MeshReport), Error> {
     if input.is_graph() {
         return mesh_graph(input, options);
     }
@@ -619,6 +629,14 @@ fn mesh_graph_warp(input: &Input, options: &Options) -> Result<(Mesh, MeshReport
         // to 20° at worst, the largest rises to 120° at worst.
         times.time("coarsen", || coarsen(&mut mesh, COARSE_ANGLE_BOUNDS));
     }
+    // The few triangles the bending and the moves leave below the bound are refined away
+    // (after the coarsening, which takes many of them away and leaves a sixth of the
+    // triangles to flip); the budget only guards against a runaway (the warp modes take none
+    // from the user).
+    let budget = 2 * mesh.vertices.len() + 10_000;
+    let (_, unfinished) = times.time("finish", || {
+        refine_graph_mesh(&mut mesh, &clean, GRAPH_ANGLE_BOUNDS.0, budget)
+    })?;
     for piece in &mut mesh.segments {
         piece.segment = cleaning.segment_origin[piece.segment as usize];
     }
@@ -639,7 +657,7 @@ fn mesh_graph_warp(input: &Input, options: &Options) -> Result<(Mesh, MeshReport
         times,
     );
     report.cleaning = Some(cleaning);
-    Ok((mesh, report))
+    within_budget(mesh, report, unfinished, budget)
 }
 
 /// The warp of a graph's separated tree and the domain cut out of it: the mesh of the cleaned

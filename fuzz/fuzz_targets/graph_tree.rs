@@ -5,6 +5,8 @@
 //! every edge's pieces must run from end to end without a gap. The tree is then bent onto the
 //! graph and the domain cut out (the warp mode's stages): a mesh must pass the PSLG check, and
 //! so must the mesh coarsened, with no angle beyond both the warp's and the coarsening's bounds.
+//! At the warp's clearance, the front door's warp of the graph (its thin triangles refined)
+//! must pass the check with the mode's angle bounds, or stop with a typed error.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -12,11 +14,12 @@ use quadmesh::balance::reference::graph_crowded_squares;
 use quadmesh::mesh::{AngleBounds, angles_deg, validate_pslg};
 use quadmesh::morton::MortonKey;
 use quadmesh::pipeline::{
-    GraphTree, GraphTreeBuild, GraphTreeOptions, StageTimes, graph_tree, warped_graph,
+    GraphTree, GraphTreeBuild, GraphTreeOptions, StageTimes, WARP_CLEARANCE, graph_tree,
+    warped_graph,
 };
 use quadmesh::pslg::{CleanOptions, CornerCut, clean, cut_acute_corners};
 use quadmesh::warp::{COARSE_ANGLE_BOUNDS, coarsen, finest_resolved_level};
-use quadmesh::{DVec2, Input, Segment};
+use quadmesh::{DVec2, Error, Input, Options, Segment};
 
 /// Points from 4 bytes each (two i16 on a 1/64 grid), or from 16 (raw f64 bits) when `raw`.
 fn points_of(bytes: &[u8], count: usize, raw: bool) -> Vec<DVec2> {
@@ -106,6 +109,26 @@ fn check_warp<K: MortonKey>(graph: &Input, cut: &CornerCut, build: &GraphTreeBui
     }
 }
 
+/// The front door's warp and compact warp of `graph`: a typed error, or a mesh that passes the
+/// check with the bounds the options state.
+fn check_front_door(graph: &Input) {
+    for options in [Options::default().warp(), Options::default().compact_warp()] {
+        match quadmesh::mesh(graph, &options) {
+            Ok((mesh, report)) => {
+                let bounds = options.angle_bounds_of(graph);
+                assert_eq!(report.angle_bounds, Some(bounds));
+                validate_pslg(&mesh, graph, bounds)
+                    .unwrap_or_else(|e| panic!("invalid front door warp: {e}"));
+            }
+            Err(Error::VertexBudget(partial)) => panic!(
+                "the warp's refinement ran away: {} vertices",
+                partial.mesh.vertices.len()
+            ),
+            Err(_) => {}
+        }
+    }
+}
+
 /// The smallest and largest angle of `mesh`'s triangles, in degrees.
 fn angle_range(mesh: &quadmesh::Mesh) -> (f64, f64) {
     (mesh.triangles.iter())
@@ -176,15 +199,20 @@ fuzz_target!(|data: &[u8]| {
         clearance,
         max_squares: Some(MAX_SQUARES),
     };
-    match graph_tree(&cut, options, &mut StageTimes::default()) {
+    let leaves = match graph_tree(&cut, options, &mut StageTimes::default()) {
         Ok(GraphTree::Narrow(build)) => {
             check(&cut, &build);
             check_warp(&graph, &cut, &build);
+            build.tree.tree.leaves.len()
         }
         Ok(GraphTree::Wide(build)) => {
             check(&cut, &build);
             check_warp(&graph, &cut, &build);
+            build.tree.tree.leaves.len()
         }
-        Err(_) => {}
+        Err(_) => return,
+    };
+    if clearance == WARP_CLEARANCE && leaves <= WARP_LEAVES {
+        check_front_door(&graph);
     }
 });

@@ -291,6 +291,8 @@ fn mesh_dict<'py>(
     r.set_item("triangles", report.triangles)?;
     r.set_item("min_angle", report.min_angle)?;
     r.set_item("max_angle", report.max_angle)?;
+    let bounds = report.angle_bounds.map(|b| (b.min_deg, b.max_deg));
+    r.set_item("angle_bounds", bounds)?;
     let stages = PyDict::new(py);
     for (stage, d) in &report.stages {
         stages.set_item(*stage, d.as_secs_f64())?;

@@ -140,7 +140,11 @@ def test_a_graph_is_warped_over_what_its_segments_enclose():
     inputs = m.vertex_input[m.vertex_input >= 0]
     assert sorted(inputs) == list(range(8))
     assert (m.vertices[m.vertex_input >= 0] == points[inputs]).all()
-    assert m.report["min_angle"] > 0
+    # No input corner is narrower than the bound: every angle lies within it.
+    assert m.report["angle_bounds"] == (20.0, 140.0)
+    angles = min_angles(m.vertices, m.triangles)
+    assert angles.min() >= 20 - 1e-9 and m.report["min_angle"] >= 20 - 1e-9
+    assert m.report["max_angle"] <= 140 + 1e-9
     one = quadmesh.mesh(points, segments=segments, holes=[[1.5, 1.5]], mode="warp", threads=1)
     assert np.array_equal(one.triangles, m.triangles)
 

@@ -241,14 +241,15 @@ enum Command {
 struct QualityArgs {
     /// The warped quadtree mesh instead: the compact warp coarsened, every angle in [20°, 120°],
     /// about 7 triangles per point, on the points' bounding box centred in a square twice its
-    /// larger side, or on a `--domain` rectangle (`bbox` or given). For a `.poly` graph: what its segments enclose, from a
-    /// quadtree bent onto the graph and its thin triangles' Steiner corners moved, with no
-    /// angle bound proven yet (the report gives the angles reached).
+    /// larger side, or on a `--domain` rectangle (`bbox` or given). For a `.poly` graph: what
+    /// its segments enclose, from a quadtree bent onto the graph, its thin triangles' Steiner
+    /// corners moved, coarsened, and what is left under 20° refined: every angle in
+    /// [20°, 140°] outside input corners narrower than 20°.
     #[arg(long, conflicts_with_all = ["min_angle", "max_area", "max_vertices"])]
     warp: bool,
     /// The compact warp, not coarsened: every angle in [26°, 120°], about 36 triangles per
     /// point, on a rectangle as for `--warp`; several times faster than `--warp`. For a `.poly`
-    /// graph, the warp before coarsening.
+    /// graph, the warp before coarsening, refined as `--warp` is: every angle in [20°, 140°].
     #[arg(long, conflicts_with_all = ["warp", "min_angle", "max_area", "max_vertices"])]
     compact_warp: bool,
     /// The block warp instead: every angle in [22.5°, 112.5°], about 104 triangles per point,
@@ -1014,7 +1015,7 @@ fn write_file(
 /// Counts, angles and stage times, one per line.
 fn print_report(err: &mut dyn Write, report: &MeshReport, mesh: &Mesh) {
     let domain = mesh.domain;
-    let lines = [
+    let mut lines = vec![
         ("distinct points", report.points.to_string()),
         ("duplicates merged", report.duplicates.to_string()),
         (
@@ -1039,6 +1040,10 @@ fn print_report(err: &mut dyn Write, report: &MeshReport, mesh: &Mesh) {
         ),
         ("angle histogram", histogram_line(&report.histogram)),
     ];
+    if let Some(b) = report.angle_bounds {
+        let bounds = format!("{:.2}° .. {:.2}° guaranteed", b.min_deg, b.max_deg);
+        lines.insert(6, ("angle bounds", bounds));
+    }
     for (label, value) in lines {
         let _ = writeln!(err, "{label:<24}{value}");
     }

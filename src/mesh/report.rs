@@ -174,6 +174,9 @@ pub struct MeshReport {
     /// Steiner vertices on no segment taken out after refinement where the mesh left still
     /// met the bounds ([`crate::Options::remove_spare_vertices`]).
     pub spare_vertices_removed: usize,
+    /// The angles the mode guarantees, outside input corners narrower than the smallest
+    /// ([`crate::Options::angle_bounds_of`]); `None` from the stages called on their own.
+    pub angle_bounds: Option<super::AngleBounds>,
 }
 
 impl MeshReport {
@@ -222,6 +225,7 @@ pub(crate) fn report_of(
         cleaning: None,
         free_vertices_deleted: 0,
         spare_vertices_removed: 0,
+        angle_bounds: None,
     }
 }
 

@@ -39,6 +39,7 @@
 //! ```
 
 mod delaunay;
+mod finish;
 mod hull;
 mod improve;
 mod local_changes;
@@ -51,6 +52,7 @@ mod sides;
 mod strips;
 mod tiles;
 
+pub(crate) use finish::refine_graph_mesh;
 pub(crate) use local_changes::{local_changes, point_bits};
 pub use ordered::refine_points_in_order;
 pub(crate) use ordered::{Stamp, canonical_delaunay, run_in_order};
@@ -657,7 +659,7 @@ fn refine_to_budget(
 
 /// The finished mesh, or, where refinement stopped short, the error that carries the mesh it
 /// reached.
-fn within_budget(
+pub(crate) fn within_budget(
     mesh: Mesh,
     report: MeshReport,
     unfinished: Option<Unfinished>,

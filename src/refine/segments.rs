@@ -248,6 +248,20 @@ pub(super) fn constrain(
     Ok(Constrained { walls, regions })
 }
 
+/// The walls of a triangulation made elsewhere whose wall links are marked already: the
+/// segment of each wall by its ends (`by_ends`, the smaller end first, one entry per pair of
+/// ends), and the corners between walls as [`constrain`] finds them.
+pub(super) fn walls_of(
+    t: &Triangulation,
+    mut by_ends: Vec<((u32, u32), u32)>,
+    min_angle_deg: f64,
+) -> Walls {
+    by_ends.par_sort_unstable();
+    let mut walls = Walls::new(by_ends, t.vertices.len());
+    find_corners(t, &mut walls, min_angle_deg);
+    walls
+}
+
 /// Marks the edges opposite corner `i` of triangle `id`, for each `(id, i)` of `edges`
 /// (distinct edges), as segments on both their sides, in parallel: each link is one side of
 /// one edge, so has one writer, and the links read to find the far side only gain the mark.

@@ -25,8 +25,8 @@ pub use cut::{leaves_below, leaves_in_domain};
 pub use edges::{EdgePiece, EdgePieces, edge_pieces, leaf_at, square_box};
 pub(crate) use graph::best_triangulation;
 pub use graph::{
-    Angles, EDGE_SNAP, GraphLeaves, GraphTriangulation, SMOOTH_ABOVE_DEG, SMOOTH_BELOW_DEG,
-    Smoothed, smooth_steiner_vertices, triangulate_graph,
+    Angles, EDGE_SNAP, GRAPH_ANGLE_BOUNDS, GraphLeaves, GraphTriangulation, SMOOTH_ABOVE_DEG,
+    SMOOTH_BELOW_DEG, Smoothed, smooth_steiner_vertices, triangulate_graph,
 };
 pub use split::{NONOBTUSE_MAX_DEG, split};
 

@@ -133,9 +133,9 @@ def mesh(
     ``max_area``; a point set's domain is its convex hull, a graph's what its segments enclose
     (``convex_hull=True``: the hull minus the holes). ``mode="warp"`` gives the warped quadtree
     mesh of a point set coarsened, every angle in [20°, 120°] (about 7 triangles per point),
-    or of what a graph's segments enclose (a quadtree bent onto the graph; no angle bound
-    proven yet, the report gives the angles reached); ``mode="compact_warp"`` the warp before
-    coarsening, every angle in [26°, 120°] (about 36 triangles per point, several times
+    or of what a graph's segments enclose (a quadtree bent onto the graph, every angle in
+    [20°, 140°] outside input corners narrower than 20°); ``mode="compact_warp"`` the warp
+    before coarsening, every angle in [26°, 120°] (a graph's: [20°, 140°]) (about 36 triangles per point, several times
     faster); ``mode="block_warp"`` the older warp, every angle in [22.5°, 112.5°] (about 104 triangles
     per point); ``mode="nonobtuse"`` a mesh with every angle at most 90° (none bounded below:
     a point near a grid line of its leaf makes thin triangles; about 47–57 triangles per point):
@@ -145,6 +145,8 @@ def mesh(
     ``remove_spare_vertices=True`` (a graph, Delaunay mode) takes out, after refinement, the
     Steiner vertices on no segment wherever the mesh left still meets every bound: a smaller
     mesh, for more time.
+    The ``report`` gives counts, the angles reached, the bounds the mode guarantees
+    (``angle_bounds``) and stage times.
     ``threads`` sets the number of threads
     for this call (by default, all cores). ``edges=True`` also lists every edge with its
     marker.

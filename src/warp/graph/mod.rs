@@ -40,6 +40,12 @@ use super::{EdgePieces, leaf_at};
 /// side an edge still crosses then meets it at asin(0.4) ≈ 23.6° or more.
 pub const EDGE_SNAP: f64 = 0.4;
 
+/// The angles of a graph's warped mesh, degrees, outside input corners narrower than the
+/// first: the mesh the stages leave is refined by off-centers to the smallest angle (which
+/// [`crate::refine`] proves terminates up to about 20.7°), and a triangle whose smallest angle
+/// is that has none above 180° less twice it.
+pub const GRAPH_ANGLE_BOUNDS: (f64, f64) = (20.0, 140.0);
+
 /// A graph in its separated tree: what [`triangulate_graph`] reads.
 #[derive(Clone, Copy, Debug)]
 pub struct GraphLeaves<'a, K: Copy> {
