@@ -41,9 +41,11 @@ pub(crate) struct Finished {
 /// segments narrower than that, or until `max_vertices` vertices. Input points, regions,
 /// holes and markers are kept; new vertices on a segment piece split it.
 ///
+/// Where the budget or f64's resolution stops it, the mesh reached is kept and the
+/// [`Unfinished`] returned says where and why.
+///
 /// # Errors
-/// [`Error::InvalidOption`] for a bound out of range, [`Error::RefinementResolution`] where
-/// f64 cannot place a vertex (the mesh is then left as it was).
+/// [`Error::InvalidOption`] for a bound out of range.
 pub(crate) fn refine_graph_mesh(
     mesh: &mut Mesh,
     clean: &Input,
@@ -75,11 +77,17 @@ pub(crate) fn refine_graph_mesh(
     let mut work = Work::new();
     work.queue_all(&bad, &edges);
     let budget = max_vertices.max(first_added);
-    let unfinished = match Refiner::new(&mut t, &mut work, &bounds, budget).run() {
+    // Stopped where f64 cannot place a vertex, the triangulation is whole all the same.
+    let unresolved = match Refiner::new(&mut t, &mut work, &bounds, budget).run() {
         Ok(Finish::Done) => None,
-        Ok(Finish::OutOfBudget) => Some(Unfinished::at_budget(unmet_triangles(&t, &bounds))),
+        Ok(Finish::OutOfBudget) => Some(None),
+        Err(Error::RefinementResolution { x, y, .. }) => Some(Some(DVec2::new(x, y))),
         Err(e) => return Err(e),
     };
+    let unfinished = unresolved.map(|unresolved| Unfinished {
+        unmet: unmet_triangles(&t, &bounds),
+        unresolved,
+    });
     t.pack();
     let finished = Finished {
         bad_before,
@@ -103,8 +111,8 @@ pub(crate) fn refine_graph_mesh(
 
 /// Flips edges where the larger of the two triangles' largest angles drops by more than
 /// rounding and both new triangles meet the bound firmly, until none does: the Delaunay flips
-/// maximize the smallest angles and can open the largest ones (to 136° where the warp had
-/// 125°); these flips take most of that back and keep the bound. Each flip lowers the largest
+/// maximize the smallest angles and can open the largest ones (from 120.0° to 136.4° on
+/// rings of 20 000 segments); these flips take most of that back (130.6°) and keep the bound. Each flip lowers the largest
 /// angle of the pair it replaces, so the flips end. Returns their number.
 fn lower_largest_angles(t: &mut Triangulation, bounds: &Bounds) -> usize {
     let mut edges = edges_where(t, |t, side, far| lowers_largest_angle(t, bounds, side, far));
