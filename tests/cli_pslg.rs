@@ -256,9 +256,10 @@ fn tree_graph_writes_the_leaves_of_the_separated_tree() {
 }
 
 #[test]
-fn a_graphs_warp_is_checked_without_the_point_sets_angle_bounds() {
-    // The warp of a graph proves no angle bound; `--check` holds it to the graph's check alone
-    // (it used to apply the point-set warp's [26°, 120°] and fail).
+fn a_graphs_warp_is_checked_with_its_own_angle_bounds() {
+    // `--check` holds the warp of a graph to its bounds, [20°, 140°] outside narrower input
+    // corners (it once applied the point-set warp's [26°, 120°] and failed), and the report
+    // states them.
     let dir = TempDir::new("pslg-warp-check");
     let input = dir.file("rooms.poly");
     std::fs::write(&input, TWO_ROOMS).unwrap();
@@ -266,4 +267,9 @@ fn a_graphs_warp_is_checked_without_the_point_sets_angle_bounds() {
     let out = quadmesh(&["mesh", s(&input), "-o", s(&prefix), "--warp", "--check"]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(!rows(&dir.file("out.ele")).is_empty());
+    let report = stderr(&out);
+    assert!(
+        report.contains("angle bounds            20.00° .. 140.00° guaranteed"),
+        "{report}"
+    );
 }

@@ -706,15 +706,11 @@ fn a_segment_split_where_rounding_leaves_a_thin_triangle_beyond_it() {
     }
 }
 
-/// Every case above in the warp mode (which takes graphs with no angle bound): within the
-/// time limit, a mesh that passes the PSLG check, or a typed error
-/// that names the input's fault; never a panic or a hang.
+/// Every case above in the warp mode: within the time limit, a mesh that passes the PSLG check
+/// with the graph warp's angle bounds, or a typed error that names the input's fault; never a
+/// panic or a hang.
 #[test]
 fn every_case_in_the_warp_mode_ends_in_a_checked_mesh_or_a_named_error() {
-    let any_angle = AngleBounds {
-        min_deg: 0.0,
-        max_deg: 180.0,
-    };
     let mut meshed = Vec::new();
     for case in peer_cases::peer_failure_cases() {
         let mut options = Options::default().warp();
@@ -736,7 +732,8 @@ fn every_case_in_the_warp_mode_ends_in_a_checked_mesh_or_a_named_error() {
                     assert_eq!(of_cleaned.triangles.len(), mesh.triangles.len());
                     of_cleaned
                 };
-                validate_pslg_with(&checked, &graph, any_angle, false)
+                let bounds = options.angle_bounds_of(&graph);
+                validate_pslg_with(&checked, &graph, bounds, false)
                     .unwrap_or_else(|e| panic!("{}: invalid mesh: {e}", case.name));
                 meshed.push(case.name);
             }
