@@ -1038,12 +1038,12 @@ fn print_report(err: &mut dyn Write, report: &MeshReport, mesh: &Mesh) {
             "angles",
             format!("{:.2}° .. {:.2}°", report.min_angle, report.max_angle),
         ),
-        ("angle histogram", histogram_line(&report.histogram)),
     ];
     if let Some(b) = report.angle_bounds {
         let bounds = format!("{:.2}° .. {:.2}° guaranteed", b.min_deg, b.max_deg);
-        lines.insert(6, ("angle bounds", bounds));
+        lines.push(("angle bounds", bounds));
     }
+    lines.push(("angle histogram", histogram_line(&report.histogram)));
     for (label, value) in lines {
         let _ = writeln!(err, "{label:<24}{value}");
     }

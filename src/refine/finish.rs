@@ -16,6 +16,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use super::delaunay::{NEXT, PREV, SEGMENT, Triangulation, in_circumcircle, is_wall};
+use super::improve::smallest_sine2;
 use super::refiner::{Bounds, Finish, Refiner, Work, inspect_all};
 use super::{RefineOptions, Unfinished, segments, unmet_triangles};
 use crate::error::Error;
@@ -57,8 +58,8 @@ pub(crate) fn refine_graph_mesh(
         ..RefineOptions::default()
     };
     options.check()?;
-    let mut t = triangulation_of(mesh);
     let by_ends = wall_segments(mesh);
+    let mut t = triangulation_of(mesh, &by_ends);
     let walls = segments::walls_of(&t, by_ends, min_angle_deg);
     let (lo, hi) = bounding_box(&t.vertices);
     let no_region_areas = vec![None; mesh.region_attributes.len()];
@@ -176,7 +177,7 @@ fn lowers_largest_angle(
     let before = smallest_cosine(a, b, cc).min(smallest_cosine(w, cc, b));
     let after = smallest_cosine(a, b, w).min(smallest_cosine(w, cc, a));
     let firm = bounds.sin2 * (1.0 + 1e-9);
-    after > before + 1e-12 && smallest_sin2(a, b, w) >= firm && smallest_sin2(w, cc, a) >= firm
+    after > before + 1e-12 && smallest_sine2(a, b, w) >= firm && smallest_sine2(w, cc, a) >= firm
 }
 
 /// The cosine of the largest angle of triangle `a b c`.
@@ -186,28 +187,9 @@ fn smallest_cosine(a: DVec2, b: DVec2, c: DVec2) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// The squared sine of the smallest angle of counter-clockwise triangle `a b c`: twice its
-/// area squared over the product of its two longest sides squared.
-fn smallest_sin2(a: DVec2, b: DVec2, c: DVec2) -> f64 {
-    let mut len2 = [
-        b.distance_squared(c),
-        c.distance_squared(a),
-        a.distance_squared(b),
-    ];
-    len2.sort_by(f64::total_cmp);
-    let area2 = (b - a).perp_dot(c - a);
-    area2 * area2 / (len2[1] * len2[2])
-}
-
-/// The mesh as a triangulation whose links across segment pieces carry the wall mark (links
-/// across the boundary are [`NONE`], which has it).
-fn triangulation_of(mesh: &Mesh) -> Triangulation {
-    let mut pieces: Vec<(u32, u32)> = mesh
-        .segments
-        .par_iter()
-        .map(|s| ordered(s.vertices[0], s.vertices[1]))
-        .collect();
-    pieces.par_sort_unstable();
+/// The mesh as a triangulation whose links across its segment pieces (`by_ends`, sorted)
+/// carry the wall mark (links across the boundary are [`NONE`], which has it).
+fn triangulation_of(mesh: &Mesh, by_ends: &[((u32, u32), u32)]) -> Triangulation {
     let across = mesh
         .triangles
         .par_iter()
@@ -216,7 +198,7 @@ fn triangulation_of(mesh: &Mesh) -> Triangulation {
             let mut links = *n;
             for (i, link) in links.iter_mut().enumerate() {
                 let ends = ordered(c[NEXT[i]], c[PREV[i]]);
-                if *link != NONE && pieces.binary_search(&ends).is_ok() {
+                if *link != NONE && by_ends.binary_search_by_key(&ends, |e| e.0).is_ok() {
                     *link |= SEGMENT;
                 }
             }
@@ -241,12 +223,15 @@ fn triangulation_of(mesh: &Mesh) -> Triangulation {
     t
 }
 
-/// Each segment piece's ends, the smaller first, with its segment.
+/// Each segment piece's ends, the smaller first, with its segment, sorted.
 fn wall_segments(mesh: &Mesh) -> Vec<((u32, u32), u32)> {
-    mesh.segments
+    let mut by_ends: Vec<_> = mesh
+        .segments
         .par_iter()
         .map(|s| (ordered(s.vertices[0], s.vertices[1]), s.segment))
-        .collect()
+        .collect();
+    by_ends.par_sort_unstable();
+    by_ends
 }
 
 fn ordered(a: u32, b: u32) -> (u32, u32) {

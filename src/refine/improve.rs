@@ -334,7 +334,7 @@ fn fan_quality(p: DVec2, ring: &[DVec2]) -> f64 {
 
 /// The squared sine of the smallest angle of triangle `p a b`: twice its area squared over
 /// the product of the squares of the two sides beside that angle.
-fn smallest_sine2(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+pub(super) fn smallest_sine2(p: DVec2, a: DVec2, b: DVec2) -> f64 {
     let len2 = [
         a.distance_squared(b),
         b.distance_squared(p),

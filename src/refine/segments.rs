@@ -250,13 +250,12 @@ pub(super) fn constrain(
 
 /// The walls of a triangulation made elsewhere whose wall links are marked already: the
 /// segment of each wall by its ends (`by_ends`, the smaller end first, one entry per pair of
-/// ends), and the corners between walls as [`constrain`] finds them.
+/// ends, sorted), and the corners between walls as [`constrain`] finds them.
 pub(super) fn walls_of(
     t: &Triangulation,
-    mut by_ends: Vec<((u32, u32), u32)>,
+    by_ends: Vec<((u32, u32), u32)>,
     min_angle_deg: f64,
 ) -> Walls {
-    by_ends.par_sort_unstable();
     let mut walls = Walls::new(by_ends, t.vertices.len());
     find_corners(t, &mut walls, min_angle_deg);
     walls
